@@ -1,0 +1,31 @@
+"""Every numerical tolerance synth uses, in one documented place.
+
+All values are dimensionless unless stated. Change them here, never inline.
+
+Scorer (Trinkle's linear programs)
+----------------------------------
+RANK_RTOL
+    A singular value ``s`` of a wrench matrix counts towards its rank when
+    ``s > RANK_RTOL * s_max``. Torque rows are first scaled by the contact set's size (see
+    :func:`synth.scores.wrench.scaled_wrench`) so the test does not depend on units.
+    1e-9 sits far above double-precision noise of a 6 x n SVD (about 1e-15 relative) and far
+    below the conditioning of any grasp a planner would want to return.
+D_STAR_TOL
+    d* is reported as exactly 0 when the LP optimum is at most this. A grasp is form closure
+    when ``d* > D_STAR_TOL`` and the wrench matrix has full row rank. 1e-9 is above the
+    LP solvers' feasibility tolerance (HiGHS: 1e-7 primal feasibility on a problem of
+    scale 1 is an absolute bound on residuals, and our optimum is recomputed exactly from the
+    optimal basis), so a reported positive d* is a real positive margin.
+LP_FEAS_TOL
+    Primal and dual feasibility tolerance used to accept the batched simplex's certificate.
+"""
+
+from __future__ import annotations
+
+__all__ = ["RANK_RTOL", "D_STAR_TOL", "LP_FEAS_TOL", "NORMAL_NORM_TOL"]
+
+RANK_RTOL: float = 1e-9
+D_STAR_TOL: float = 1e-9
+LP_FEAS_TOL: float = 1e-9
+#: A supplied contact normal is accepted when its length is above this (it is then normalised).
+NORMAL_NORM_TOL: float = 1e-12

@@ -1,0 +1,125 @@
+"""Reproducible sampling of contacts on a part's surface, edges and corners."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from synth.contacts.contacts import Contacts
+from synth.errors import InputError
+
+if TYPE_CHECKING:
+    from synth.part.model import Part
+
+__all__ = ["SAMPLE_METHODS", "sample_contacts"]
+
+#: Sampling methods of :func:`sample_contacts`.
+SAMPLE_METHODS: tuple[str, ...] = ("uniform", "even", "edges", "corners")
+
+_EVEN_OVERSAMPLE = 8
+
+
+def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    area = np.asarray(part.mesh.area_faces, float)[faces]
+    if area.sum() <= 0:
+        raise InputError("sample_contacts: the chosen faces have zero area")
+    f = faces[rng.choice(len(faces), size=n, p=area / area.sum())]
+    u = rng.random((n, 2))
+    flip = u.sum(axis=1) > 1.0
+    u[flip] = 1.0 - u[flip]
+    tri = part._triangles[f]
+    pts = tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0])
+    return pts, f
+
+
+def _farthest(points: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of ``n`` points chosen by farthest-point sampling (greedy max-min)."""
+    chosen = np.empty(n, np.int64)
+    chosen[0] = rng.integers(len(points))
+    d = np.linalg.norm(points - points[chosen[0]], axis=1)
+    for i in range(1, n):
+        chosen[i] = int(np.argmax(d))
+        d = np.minimum(d, np.linalg.norm(points - points[chosen[i]], axis=1))
+    return chosen
+
+
+def sample_contacts(
+    part: Part,
+    n: int,
+    seed: int | np.random.Generator | None = None,
+    method: str = "uniform",
+    regions: Sequence[int] | np.ndarray | None = None,
+) -> Contacts:
+    """Sample fingertip placements on a part and resolve them into contacts.
+
+    Parameters
+    ----------
+    part : Part
+    n : int
+        Number of fingertip placements. Each gives one contact, except on concave edges
+        and in concave corners (2 or 3 contacts sharing a ``finger`` id), so
+        ``contacts.n_fingers == n`` and ``len(contacts) >= n``.
+    seed : int or numpy.random.Generator, optional
+        Seed of ``np.random.default_rng``; the same seed gives the same contacts.
+    method : {"uniform", "even", "edges", "corners"}
+        ``"uniform"``: area-uniform on the surface. ``"even"``: an even spread
+        (farthest-point subset of 8 n area-uniform samples). ``"edges"``: uniform along
+        the sharp (convex and concave) edges, by length. ``"corners"``: corner and saddle
+        vertices, without replacement while there are enough, with replacement beyond.
+    regions : sequence of int, optional
+        Restrict ``"uniform"`` and ``"even"`` to these face regions.
+
+    Returns
+    -------
+    Contacts
+
+    Examples
+    --------
+    >>> c = sample_contacts(part, 100, seed=0, method="even")  # doctest: +SKIP
+    """
+    n = int(n)
+    if n < 0:
+        raise InputError(f"n: expected a non-negative count, got {n}")
+    if method not in SAMPLE_METHODS:
+        raise InputError(f"method: expected one of {SAMPLE_METHODS}, got {method!r}")
+    rng = np.random.default_rng(seed)
+    if method in ("uniform", "even"):
+        if regions is None:
+            faces = np.arange(len(part.mesh.faces))
+        else:
+            r = np.atleast_1d(np.asarray(regions, np.int64))
+            if len(r) == 0 or r.min() < 0 or r.max() >= len(part.regions):
+                raise InputError(
+                    f"regions: expected ids in [0, {len(part.regions)}), got {r.tolist()}"
+                )
+            faces = np.flatnonzero(np.isin(part.face_region, r))
+        if method == "uniform":
+            pts, f = _faces_points(part, rng, n, faces)
+        else:
+            pts, f = _faces_points(part, rng, max(n, 1) * _EVEN_OVERSAMPLE, faces)
+            keep = _farthest(pts, n, rng) if n else np.zeros(0, np.int64)
+            pts, f = pts[keep], f[keep]
+        return part.resolve(pts, f)
+    if regions is not None:
+        raise InputError(f"regions: only used by 'uniform' and 'even', not {method!r}")
+    feats = part.features
+    if method == "edges":
+        e = feats.sharp_edges
+        if len(e) == 0:
+            raise InputError("sample_contacts: the part has no sharp edges (method='edges')")
+        length = feats.edge_length[e]
+        pick = e[rng.choice(len(e), size=n, p=length / length.sum())]
+        t = rng.random(n)[:, None]
+        v = np.asarray(part.mesh.vertices, float)
+        a, b = v[feats.edges[pick, 0]], v[feats.edges[pick, 1]]
+        return part.resolve(a + t * (b - a), feats.edge_faces[pick, 0])
+    corners = np.flatnonzero(feats.vertex_kind >= 2)
+    corners = corners[feats.vertex_kind[corners] <= 4]
+    if len(corners) == 0:
+        raise InputError("sample_contacts: the part has no corners (method='corners')")
+    pick = rng.choice(corners, size=n, replace=n > len(corners))
+    vf = np.asarray(part.mesh.vertex_faces)[pick, 0]
+    return part.resolve(np.asarray(part.mesh.vertices, float)[pick], vf)

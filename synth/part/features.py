@@ -1,0 +1,178 @@
+"""Sharp and smooth edges and vertex classes of a mesh, computed once.
+
+An edge is *sharp* when the normals of its two faces differ by more than ``sharp_angle``;
+a sharp edge is *convex* (material angle below 180 deg, like a cube edge) or *concave*
+(a groove, like the inside edge of an L bracket). An edge with one face is a *boundary*
+edge (open mesh). A vertex is
+
+``smooth``
+    no sharp edge meets it;
+``edge``
+    it lies inside a chain of sharp edges (one sharp edge, or two of the same kind that
+    continue each other within ``sharp_angle``): a point there behaves as an edge point;
+``convex_corner`` / ``concave_corner``
+    two or more sharp edges of one kind meet there, turning (a cube corner; an inside corner);
+``saddle``
+    convex and concave sharp edges meet there (the end of a groove on an outer face);
+``boundary``
+    an open boundary edge meets it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+__all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features"]
+
+#: Names of the codes in ``Features.edge_kind``.
+EDGE_KINDS: tuple[str, ...] = ("smooth", "convex", "concave", "boundary")
+#: Names of the codes in ``Features.vertex_kind``.
+VERTEX_KINDS: tuple[str, ...] = (
+    "smooth",
+    "edge",
+    "convex_corner",
+    "concave_corner",
+    "saddle",
+    "boundary",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Features:
+    """Edge and vertex features of a mesh.
+
+    Attributes
+    ----------
+    sharp_angle : float
+        Dihedral threshold in radians used to classify the edges.
+    edges : (e, 2) int
+        Unique edges as sorted vertex index pairs (``mesh.edges_unique``).
+    edge_faces : (e, 2) int
+        The two faces of each edge; -1 in the second column for a boundary edge.
+    edge_angle : (e,) float
+        Angle between the two face normals in radians (0 for flat); NaN on the boundary.
+    edge_kind : (e,) int
+        Index into :data:`EDGE_KINDS`.
+    edge_length : (e,) float
+    face_edges : (f, 3) int
+        Unique edge of face corner pairs (0, 1), (1, 2), (2, 0).
+    vertex_kind : (v,) int
+        Index into :data:`VERTEX_KINDS`.
+    vertex_edge : (v,) int
+        One sharp (or boundary) edge at each vertex, -1 if none.
+    """
+
+    sharp_angle: float
+    edges: np.ndarray
+    edge_faces: np.ndarray
+    edge_angle: np.ndarray
+    edge_kind: np.ndarray
+    edge_length: np.ndarray
+    face_edges: np.ndarray
+    vertex_kind: np.ndarray
+    vertex_edge: np.ndarray
+
+    def edges_of_kind(self, kind: str) -> np.ndarray:
+        """Indices of the edges of one kind (``"smooth"``, ``"convex"``, ...), (k,) int."""
+        return np.flatnonzero(self.edge_kind == EDGE_KINDS.index(kind))
+
+    def vertices_of_kind(self, kind: str) -> np.ndarray:
+        """Indices of the vertices of one kind (``"convex_corner"``, ...), (k,) int."""
+        return np.flatnonzero(self.vertex_kind == VERTEX_KINDS.index(kind))
+
+    @property
+    def sharp_edges(self) -> np.ndarray:
+        """Indices of convex and concave edges, (k,) int."""
+        return np.flatnonzero((self.edge_kind == 1) | (self.edge_kind == 2))
+
+
+def compute_features(mesh: trimesh.Trimesh, sharp_angle: float) -> Features:
+    """Classify the edges and vertices of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Welded, consistently wound mesh with outward normals.
+    sharp_angle : float
+        Dihedral threshold in radians.
+
+    Returns
+    -------
+    Features
+    """
+    edges = np.asarray(mesh.edges_unique, np.int64)
+    n_e, n_v = len(edges), len(mesh.vertices)
+    face_edges = np.asarray(mesh.faces_unique_edges, np.int64)
+    inverse = np.asarray(mesh.edges_unique_inverse, np.int64)
+    edge_faces = np.full((n_e, 2), -1, np.int64)
+    owner = np.asarray(mesh.edges_face, np.int64)
+    # first and last face of each edge (for a manifold edge: its two faces)
+    order = np.argsort(inverse, kind="stable")
+    counts = np.bincount(inverse, minlength=n_e)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    edge_faces[:, 0] = owner[order[starts]]
+    two = counts >= 2
+    edge_faces[two, 1] = owner[order[starts[two] + 1]]
+
+    normals = np.asarray(mesh.face_normals, float)
+    verts = np.asarray(mesh.vertices, float)
+    angle = np.full(n_e, np.nan)
+    fa, fb = edge_faces[two, 0], edge_faces[two, 1]
+    cos = np.clip(np.einsum("ij,ij->i", normals[fa], normals[fb]), -1.0, 1.0)
+    angle[two] = np.arccos(cos)
+    # convexity: the far vertex of face b lies below the plane of face a
+    fb_verts = np.asarray(mesh.faces, np.int64)[fb]
+    e2 = edges[two]
+    far = fb_verts[(fb_verts != e2[:, :1]) & (fb_verts != e2[:, 1:])]
+    if len(far) != len(fb):  # degenerate faces were removed upstream; be safe
+        far = fb_verts[:, 0]
+    proj = np.einsum("ij,ij->i", normals[fa], verts[far] - verts[e2[:, 0]])
+    kind = np.full(n_e, 3, np.int8)
+    sharp = angle[two] > sharp_angle
+    kind[two] = np.where(sharp, np.where(proj < 0, 1, 2), 0)
+
+    length = np.linalg.norm(verts[edges[:, 1]] - verts[edges[:, 0]], axis=1)
+    vertex_kind, vertex_edge = _classify_vertices(verts, edges, kind, length, n_v, sharp_angle)
+    arrays = (edges, edge_faces, angle, kind, length, face_edges, vertex_kind, vertex_edge)
+    for a in arrays:
+        a.flags.writeable = False
+    return Features(float(sharp_angle), *arrays)
+
+
+def _classify_vertices(
+    verts: np.ndarray,
+    edges: np.ndarray,
+    kind: np.ndarray,
+    length: np.ndarray,
+    n_v: int,
+    sharp_angle: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    ends = edges.ravel()
+    k2 = np.repeat(kind, 2)
+
+    def _count(mask: np.ndarray) -> np.ndarray:
+        return np.bincount(ends[mask], minlength=n_v)
+
+    n_cvx, n_ccv, n_bnd = _count(k2 == 1), _count(k2 == 2), _count(k2 == 3)
+    # unit directions of sharp edges pointing away from each end vertex
+    d = (verts[edges[:, 1]] - verts[edges[:, 0]]) / np.maximum(length, 1e-300)[:, None]
+    dirs = np.stack([d, -d], axis=1).reshape(-1, 3)
+    sharp2 = (k2 == 1) | (k2 == 2)
+    dsum = np.zeros((n_v, 3))
+    np.add.at(dsum, ends[sharp2], dirs[sharp2])
+    straight = np.linalg.norm(dsum, axis=1) < 2.0 * np.sin(sharp_angle / 2.0)
+    n_sharp = n_cvx + n_ccv
+    vk = np.zeros(n_v, np.int8)
+    vk[(n_sharp >= 2) & (n_ccv == 0)] = 2
+    vk[(n_sharp >= 2) & (n_cvx == 0)] = 3
+    vk[(n_cvx > 0) & (n_ccv > 0)] = 4
+    is_edge = (n_sharp == 1) | ((n_sharp == 2) & straight & ((n_cvx == 2) | (n_ccv == 2)))
+    vk[is_edge] = 1
+    vk[n_bnd > 0] = 5
+    vertex_edge = np.full(n_v, -1, np.int64)
+    special = np.flatnonzero(k2 != 0)
+    vertex_edge[ends[special]] = special // 2
+    return vk, vertex_edge

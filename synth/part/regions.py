@@ -1,0 +1,268 @@
+"""Face regions: planar facets and smooth curved patches, and per-corner normals.
+
+A *planar facet* is a connected set of coplanar faces (normals within ``COPLANAR_ANGLE``)
+at least half of whose outline (by length) is sharp; such a region's normal is exact. The
+other faces form *smooth components* (connected across smooth edges); a component whose
+normals spread more than ``PATCH_HALF_ANGLE`` from their mean is split into *patches* along
+the cells of an icosahedron. Regions are the planar facets and the patches.
+
+Interpolated normals are continuous inside a smooth component: the normal at a vertex is
+the angle-weighted mean of the normals of the faces of the same smooth component around it
+(patch borders inside a component do not break it; sharp edges do).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from synth.part.features import Features
+
+__all__ = ["Region", "RegionSet", "compute_regions"]
+
+
+@dataclass(frozen=True, eq=False)
+class Region:
+    """One face region of a part.
+
+    Attributes
+    ----------
+    index : int
+        Region id (``Part.regions[index]``).
+    faces : (k,) int
+        Faces of the region.
+    area : float
+    planar : bool
+        True for a planar facet (exact normal), False for a smooth curved patch.
+    normal : (3,) float
+        Inward unit normal of a planar facet; for a smooth patch the inward axis of its
+        normal cone (area-weighted mean direction).
+    half_angle : float
+        Half-angle in radians of the normal cone around ``normal`` (0 for a planar facet).
+    boundary_edges : (b,) int
+        Unique-edge indices of the region's outline.
+    boundary : (b, 2) int
+        The outline as vertex index pairs.
+    outline : tuple of (m, 3) float
+        Ordered closed loops of the outline of a planar facet (empty for smooth patches).
+    """
+
+    index: int
+    faces: np.ndarray
+    area: float
+    planar: bool
+    normal: np.ndarray
+    half_angle: float
+    boundary_edges: np.ndarray
+    boundary: np.ndarray
+    outline: tuple[np.ndarray, ...]
+
+    @property
+    def normal_cone(self) -> tuple[np.ndarray, float]:
+        """``(axis, half_angle)`` of the inward normals of the region."""
+        return self.normal, self.half_angle
+
+
+@dataclass(frozen=True, eq=False)
+class RegionSet:
+    """Region labelling of a mesh (internal to :class:`synth.part.Part`).
+
+    Attributes
+    ----------
+    regions : tuple of Region
+    face_region : (f,) int
+        Region id of each face.
+    face_group : (f,) int
+        Normal group of each face: faces in one group share interpolated vertex normals
+        (a planar facet, or a smooth component).
+    corner_normals : (f, 3, 3) float
+        Inward unit normal at each corner of each face (``[f, j]`` for vertex
+        ``faces[f, j]``), exact face normal on planar facets.
+    """
+
+    regions: tuple[Region, ...]
+    face_region: np.ndarray
+    face_group: np.ndarray
+    corner_normals: np.ndarray
+
+
+def _components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _icosahedron() -> np.ndarray:
+    return np.asarray(trimesh.creation.icosahedron().vertices, float)
+
+
+def compute_regions(
+    mesh: trimesh.Trimesh,
+    features: Features,
+    coplanar_angle: float,
+    patch_half_angle: float,
+) -> RegionSet:
+    """Split the faces of ``mesh`` into planar facets and smooth patches.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    features : Features
+        Edge classification of ``mesh``.
+    coplanar_angle, patch_half_angle : float
+        Radians; see :mod:`synth.part.tolerances`.
+
+    Returns
+    -------
+    RegionSet
+    """
+    n_f = len(mesh.faces)
+    normals = np.asarray(mesh.face_normals, float)
+    areas = np.asarray(mesh.area_faces, float)
+    ef, kind, angle = features.edge_faces, features.edge_kind, features.edge_angle
+    inner = ef[:, 1] >= 0
+    fa, fb = ef[inner, 0], ef[inner, 1]
+    ang_in, kind_in = angle[inner], kind[inner]
+
+    # 1. coplanar components and which of them are planar facets
+    cop = ang_in < coplanar_angle
+    lab_cp = _components(n_f, fa[cop], fb[cop])
+    n_cp = lab_cp.max() + 1
+    length = features.edge_length
+    la = lab_cp[ef[:, 0]]
+    lb = np.where(ef[:, 1] >= 0, lab_cp[np.maximum(ef[:, 1], 0)], -1)
+    on_outline = la != lb
+    sharp = kind != 0
+    total = np.zeros(n_cp)
+    sharp_len = np.zeros(n_cp)
+    for side in (la, lb):
+        m = on_outline & (side >= 0)
+        np.add.at(total, side[m], length[m])
+        np.add.at(sharp_len, side[m], np.where(sharp[m], length[m], 0.0))
+    planar_cp = sharp_len >= 0.5 * total
+    face_planar = planar_cp[lab_cp]
+
+    # 2. smooth components over the remaining faces
+    both = ~face_planar[fa] & ~face_planar[fb] & (kind_in == 0)
+    lab_sm = _components(n_f, fa[both], fb[both])
+
+    # 3. patches of bounded spread
+    patch = lab_sm.copy()
+    sm_faces = np.flatnonzero(~face_planar)
+    if len(sm_faces):
+        n_sm = lab_sm.max() + 1
+        mean = np.zeros((n_sm, 3))
+        np.add.at(mean, lab_sm[sm_faces], normals[sm_faces] * areas[sm_faces, None])
+        mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
+        cosf = np.einsum("ij,ij->i", normals[sm_faces], mean[lab_sm[sm_faces]])
+        min_cos = np.ones(n_sm)
+        np.minimum.at(min_cos, lab_sm[sm_faces], cosf)
+        wide = min_cos < np.cos(patch_half_angle)
+        if wide.any():
+            cell = np.argmax(normals @ _icosahedron().T, axis=1)
+            keep = both & (cell[fa] == cell[fb]) | (both & ~wide[lab_sm[fa]])
+            patch = _components(n_f, fa[keep], fb[keep])
+    key = np.where(face_planar, lab_cp, n_f + patch)
+    _, face_region = np.unique(key, return_inverse=True)
+    face_region = face_region.astype(np.int64)
+    _, face_group = np.unique(np.where(face_planar, lab_cp, n_f + lab_sm), return_inverse=True)
+    face_group = face_group.astype(np.int64)
+
+    corner = _corner_normals(mesh, face_group, face_planar, normals)
+    regions = _build_regions(mesh, features, face_region, face_planar, normals, areas)
+    for arr in (face_region, face_group, corner):
+        arr.flags.writeable = False
+    return RegionSet(regions, face_region, face_group, corner)
+
+
+def _corner_normals(
+    mesh: trimesh.Trimesh, group: np.ndarray, planar: np.ndarray, normals: np.ndarray
+) -> np.ndarray:
+    faces = np.asarray(mesh.faces, np.int64)
+    n_v = len(mesh.vertices)
+    key = (group[:, None] * n_v + faces).ravel()
+    uniq, inv = np.unique(key, return_inverse=True)
+    w = np.asarray(mesh.face_angles, float).ravel()
+    acc = np.zeros((len(uniq), 3))
+    np.add.at(acc, inv, np.repeat(normals, 3, axis=0) * w[:, None])
+    acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
+    corner = acc[inv].reshape(-1, 3, 3)
+    corner[planar] = normals[planar][:, None, :]
+    return -corner
+
+
+def _build_regions(
+    mesh: trimesh.Trimesh,
+    features: Features,
+    face_region: np.ndarray,
+    face_planar: np.ndarray,
+    normals: np.ndarray,
+    areas: np.ndarray,
+) -> tuple[Region, ...]:
+    n_r = int(face_region.max()) + 1
+    order = np.argsort(face_region, kind="stable")
+    bounds = np.searchsorted(face_region[order], np.arange(n_r + 1))
+    area = np.bincount(face_region, weights=areas, minlength=n_r)
+    axis = np.zeros((n_r, 3))
+    np.add.at(axis, face_region, normals * areas[:, None])
+    axis /= np.maximum(np.linalg.norm(axis, axis=1), 1e-300)[:, None]
+    cosf = np.einsum("ij,ij->i", normals, axis[face_region])
+    min_cos = np.ones(n_r)
+    np.minimum.at(min_cos, face_region, cosf)
+    planar_r = np.zeros(n_r, bool)
+    planar_r[face_region] = face_planar
+
+    ef = features.edge_faces
+    ra = face_region[ef[:, 0]]
+    rb = np.where(ef[:, 1] >= 0, face_region[np.maximum(ef[:, 1], 0)], -1)
+    out = np.flatnonzero(ra != rb)
+    owner = np.concatenate([ra[out], rb[out]])
+    edge_ids = np.concatenate([out, out])
+    m = owner >= 0
+    owner, edge_ids = owner[m], edge_ids[m]
+    b_order = np.argsort(owner, kind="stable")
+    b_bounds = np.searchsorted(owner[b_order], np.arange(n_r + 1))
+    verts = np.asarray(mesh.vertices, float)
+
+    regions = []
+    for r in range(n_r):
+        faces_r = order[bounds[r] : bounds[r + 1]].copy()
+        be = edge_ids[b_order[b_bounds[r] : b_bounds[r + 1]]].copy()
+        bv = features.edges[be].copy()
+        outline = tuple(verts[loop] for loop in _loops(bv)) if planar_r[r] else ()
+        normal = -axis[r]
+        half = 0.0 if planar_r[r] else float(np.arccos(np.clip(min_cos[r], -1.0, 1.0)))
+        for a in (faces_r, be, bv, normal, *outline):
+            a.flags.writeable = False
+        regions.append(
+            Region(r, faces_r, float(area[r]), bool(planar_r[r]), normal, half, be, bv, outline)
+        )
+    return tuple(regions)
+
+
+def _loops(edges: np.ndarray) -> list[np.ndarray]:
+    """Order boundary edges (b, 2) into closed vertex loops (best effort at junctions)."""
+    adj: dict[int, list[int]] = {}
+    for a, b in edges.tolist():
+        adj.setdefault(a, []).append(b)
+        adj.setdefault(b, []).append(a)
+    seen: set[tuple[int, int]] = set()
+    loops = []
+    for a, b in edges.tolist():
+        if (a, b) in seen:
+            continue
+        loop = [a]
+        prev, cur = a, b
+        seen.update({(a, b), (b, a)})
+        while cur != a:
+            loop.append(cur)
+            nxt = [n for n in adj[cur] if (cur, n) not in seen]
+            if not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            seen.update({(prev, cur), (cur, prev)})
+        loops.append(np.asarray(loop, np.int64))
+    return loops

@@ -1,0 +1,574 @@
+"""Build a grasp database: find the mesh files, plan the ones not done yet, store each result.
+
+The parent process is the only writer. It hashes every file, decides what to plan (a mesh is
+skipped when a row with the same path, SHA-256 and parameters is ``done`` -- or ``failed``,
+unless ``retry_failed``), inserts the new meshes as ``pending`` in sorted path order (so ids do
+not depend on the engine), then hands one task per mesh to an engine and writes each result in
+one transaction with its status. A run killed at any moment leaves only whole meshes; running
+the same command again finishes the rest.
+
+Engines: ``local`` (a :class:`concurrent.futures.ProcessPoolExecutor`; ``workers=0`` plans in
+this process) and ``dask`` (a Dask distributed cluster, optional extra ``synth[dask]``; use
+dask-jobqueue's ``SLURMCluster``/``PBSCluster`` and pass its scheduler address to reach a batch
+system). The planner is deterministic given ``seed`` and the evaluation budget ``evals``; there
+is deliberately no wall-clock budget, so results are identical, grasp for grasp, whatever the
+engine and the number of workers. (``timeout`` only turns a runaway mesh into a failure.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+from synth.database.progress import ProgressBar, format_duration
+from synth.database.schema import canonical_json
+from synth.database.store import GraspDatabase
+from synth.database.worker import PlanOutcome, load_planner, resolve_planner, run_one
+from synth.errors import InputError
+
+__all__ = [
+    "MESH_EXTENSIONS",
+    "DEFAULT_PARAMS",
+    "MeshInputs",
+    "BuildReport",
+    "normalize_params",
+    "collect_mesh_files",
+    "build_database",
+]
+
+MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
+DEFAULT_PARAMS: dict[str, Any] = {
+    "contacts": 7,
+    "mu": 0.0,
+    "top": 10,
+    "seed": 0,
+    "finger_radius": None,
+    "evals": 5000,
+}
+_Task = tuple[int, str]  # (mesh id, path)
+
+
+@dataclass(frozen=True)
+class MeshInputs:
+    """Mesh files found from the command-line sources.
+
+    Attributes
+    ----------
+    paths : tuple of str
+        Absolute paths of the mesh files (by extension), sorted, without repeats.
+    ignored : tuple of str
+        Files met in directories that are not meshes (by extension).
+    not_mesh : tuple of str
+        Entries of list files that are not mesh files (recorded as failed).
+    missing : tuple of str
+        Entries of list files that do not exist (recorded as failed).
+    """
+
+    paths: tuple[str, ...]
+    ignored: tuple[str, ...]
+    not_mesh: tuple[str, ...]
+    missing: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class BuildReport:
+    """What one ``build_database`` run did.
+
+    Attributes
+    ----------
+    database : str
+        The database file.
+    found : int
+        Mesh files found in the sources (including list entries that failed).
+    planned : int
+        Meshes handed to the planner in this run.
+    done, failed : int
+        Of those (plus files that failed before planning, in ``failed``).
+    duplicates : int
+        New files recorded as duplicates of a mesh with the same content.
+    skipped : int
+        Meshes already in the database with the same content and parameters.
+    grasps : int
+        Grasps stored in this run.
+    ignored : tuple of str
+        Non-mesh files met in directories.
+    failures : tuple of (str, str)
+        ``(path, reason)`` of the meshes that failed in this run.
+    elapsed_s : float
+        Wall time of the run.
+    engine : str
+        ``local`` or ``dask``.
+    workers : int
+        Worker processes (local) or worker threads seen on the cluster (dask).
+    """
+
+    database: str
+    found: int
+    planned: int
+    done: int
+    failed: int
+    duplicates: int
+    skipped: int
+    grasps: int
+    ignored: tuple[str, ...]
+    failures: tuple[tuple[str, str], ...]
+    elapsed_s: float
+    engine: str
+    workers: int
+
+    def summary(self) -> str:
+        """A few readable lines for the end of a run."""
+        lines = [
+            f"{self.database}: {self.found} mesh files, {self.planned} planned "
+            f"({self.done} done, {self.failed} failed), {self.skipped} already recorded, "
+            f"{self.duplicates} duplicates; {self.grasps} grasps stored in "
+            f"{format_duration(self.elapsed_s)} ({self.engine}, {self.workers} workers)"
+        ]
+        for path, reason in self.failures[:20]:
+            lines.append(f"  failed: {path}: {reason}")
+        if len(self.failures) > 20:
+            lines.append(f"  ... and {len(self.failures) - 20} more (see 'synth db info')")
+        if self.ignored:
+            shown = ", ".join(self.ignored[:5]) + (", ..." if len(self.ignored) > 5 else "")
+            lines.append(f"  ignored {len(self.ignored)} non-mesh files: {shown}")
+        return "\n".join(lines)
+
+
+def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Planner parameters with defaults filled in and types checked.
+
+    Raises
+    ------
+    InputError
+        On an unknown key or a value of the wrong type or range.
+    """
+    out = dict(DEFAULT_PARAMS)
+    for key, value in (params or {}).items():
+        if key not in DEFAULT_PARAMS:
+            raise InputError(f"unknown planner parameter {key!r}; valid: {sorted(DEFAULT_PARAMS)}")
+        out[key] = value
+    for key in ("contacts", "top", "seed", "evals"):
+        if isinstance(out[key], bool) or not isinstance(out[key], int):
+            raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
+    if out["contacts"] < 1 or out["top"] < 1 or out["evals"] < 1:
+        raise InputError("planner parameters contacts, top and evals must be at least 1")
+    out["mu"] = float(out["mu"])
+    if not out["mu"] >= 0.0:
+        raise InputError(f"planner parameter 'mu' must be >= 0, got {out['mu']!r}")
+    if out["finger_radius"] is not None:
+        out["finger_radius"] = float(out["finger_radius"])
+        if not out["finger_radius"] > 0.0:
+            raise InputError(f"finger_radius must be > 0, got {out['finger_radius']!r}")
+    return out
+
+
+def _is_mesh(path: str) -> bool:
+    return os.path.splitext(path)[1].lower().lstrip(".") in MESH_EXTENSIONS
+
+
+def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
+    """Find mesh files: directories (recursively), mesh files, or text files listing paths.
+
+    A source that is a directory contributes every file under it with a mesh extension
+    (``stl obj ply off glb gltf 3mf``, any case); a file with a mesh extension is itself; any
+    other file is read as a list of paths, one per line (blank lines and ``#`` comments
+    skipped; relative paths are relative to the list file's folder).
+
+    Raises
+    ------
+    InputError
+        If a source does not exist, a list file is not text, or no mesh file is found.
+    """
+    paths: set[str] = set()
+    ignored: list[str] = []
+    not_mesh: set[str] = set()
+    missing: set[str] = set()
+    if not sources:
+        raise InputError("no mesh source given (a folder, mesh files or a list file)")
+    for src in map(os.fspath, sources):
+        if os.path.isdir(src):
+            for root, dirs, files in os.walk(src):
+                dirs.sort()
+                for name in files:
+                    full = os.path.abspath(os.path.join(root, name))
+                    (paths.add(full) if _is_mesh(name) else ignored.append(full))
+        elif not os.path.exists(src):
+            raise InputError(f"{src}: no such file or folder")
+        elif _is_mesh(src):
+            paths.add(os.path.abspath(src))
+        else:
+            base = os.path.dirname(os.path.abspath(src))
+            try:
+                with open(src, encoding="utf-8") as fh:
+                    lines = fh.read().splitlines()
+            except (OSError, UnicodeDecodeError) as e:
+                raise InputError(
+                    f"{src}: not a mesh file ({', '.join(MESH_EXTENSIONS)}) nor a readable text "
+                    f"list of paths: {e}"
+                ) from e
+            for line in lines:
+                entry = line.strip()
+                if not entry or entry.startswith("#"):
+                    continue
+                full = os.path.abspath(os.path.join(base, os.path.expanduser(entry)))
+                if not os.path.exists(full):
+                    missing.add(full)
+                elif not _is_mesh(full):
+                    not_mesh.add(full)
+                else:
+                    paths.add(full)
+    if not paths and not not_mesh and not missing:
+        raise InputError(
+            f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in {', '.join(map(str, sources))}"
+        )
+    return MeshInputs(
+        tuple(sorted(paths)), tuple(sorted(ignored)), tuple(sorted(not_mesh)), tuple(sorted(missing))
+    )
+
+
+def _hash_file(path: str) -> tuple[str, int]:
+    h = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    return h.hexdigest(), size
+
+
+def _prepare(
+    db: GraspDatabase, inputs: MeshInputs, params_text: str, planner: str, retry_failed: bool
+) -> tuple[list[_Task], dict[int, tuple[str, int]], int, int, list[tuple[str, str]]]:
+    """Decide what to plan and record what needs no planning, in one transaction.
+
+    Returns the tasks, the (sha256, size) of each task's mesh id, the skipped and duplicate
+    counts, and the failures recorded before planning.
+    """
+    hashes: dict[str, tuple[str, int] | str] = {}
+    for p in inputs.paths:
+        try:
+            hashes[p] = _hash_file(p)
+        except OSError as e:
+            hashes[p] = f"cannot read file: {e.strerror or e}"
+    for p in inputs.missing:
+        hashes[p] = "no such file (listed in a list file)"
+    for p in inputs.not_mesh:
+        hashes[p] = f"not a mesh file (extension not one of {', '.join(MESH_EXTENSIONS)})"
+    existing = db.rows_by_path(hashes)
+    now = db.now()
+    tasks: list[str] = []
+    planned_sha: dict[str, int] = {}  # sha256 -> id of the mesh planned for it in this run
+    skipped = duplicates = 0
+    failures: list[tuple[str, str]] = []
+    with db.transaction() as cur:
+        for path in sorted(hashes):
+            h, row = hashes[path], existing.get(path)
+            if isinstance(h, str):  # unreadable, missing or not a mesh: record once
+                kind = "not_mesh" if path in inputs.not_mesh else "unreadable"
+                if row is not None and row["status"] == "failed" and row["error"] == h:
+                    skipped += 1
+                    continue
+                failures.append((path, h))
+                cur.execute("DELETE FROM grasps WHERE mesh_id = (SELECT id FROM meshes WHERE "
+                            "path = ?)", (path,))  # fmt: skip
+                cur.execute(
+                    "INSERT INTO meshes(path, name, status, error_kind, error, params, planner, "
+                    "finished_at) VALUES (?, ?, 'failed', ?, ?, ?, ?, ?) ON CONFLICT(path) DO "
+                    "UPDATE SET status='failed', error_kind=excluded.error_kind, "
+                    "error=excluded.error, sha256=NULL, size=NULL, n_grasps=0, duplicate_of=NULL, "
+                    "finished_at=excluded.finished_at",
+                    (path, os.path.basename(path), kind, h, params_text, planner, now),
+                )
+                continue
+            sha, size = h
+            if row is not None and row["sha256"] == sha:
+                status = row["status"]
+                if status == "done" or status == "duplicate" or (
+                    status == "failed" and not retry_failed
+                ):
+                    skipped += 1
+                    continue
+            own = row["id"] if row is not None else -1
+            primary = planned_sha.get(sha)
+            if primary is None:
+                found = cur.execute(
+                    "SELECT id, path FROM meshes WHERE sha256 = ? AND status IN ('done', 'failed') "
+                    "AND id != ? ORDER BY id LIMIT 1",
+                    (sha, own),
+                ).fetchone()
+                primary = None if found is None else int(found[0])
+            if primary is not None:
+                first = cur.execute("SELECT path FROM meshes WHERE id = ?", (primary,)).fetchone()
+                duplicates += 1
+                cur.execute("DELETE FROM grasps WHERE mesh_id = ?", (own,))
+                cur.execute(
+                    "INSERT INTO meshes(path, name, sha256, size, status, error, duplicate_of, "
+                    "params, planner, finished_at) VALUES (?, ?, ?, ?, 'duplicate', ?, ?, ?, ?, ?) "
+                    "ON CONFLICT(path) DO UPDATE SET sha256=excluded.sha256, size=excluded.size, "
+                    "status='duplicate', error_kind=NULL, error=excluded.error, n_grasps=0, "
+                    "duplicate_of=excluded.duplicate_of, finished_at=excluded.finished_at",
+                    (path, os.path.basename(path), sha, size, f"same content as {first[0]}",
+                     primary, params_text, planner, now),
+                )  # fmt: skip
+                continue
+            if row is None:
+                cur.execute(
+                    "INSERT INTO meshes(path, name, sha256, size, status, params, planner) "
+                    "VALUES (?, ?, ?, ?, 'pending', ?, ?)",
+                    (path, os.path.basename(path), sha, size, params_text, planner),
+                )
+                mesh_id = int(cur.lastrowid or 0)
+            else:
+                mesh_id = int(row["id"])  # stays as it is until its new result is stored
+            planned_sha[sha] = mesh_id
+            tasks.append(path)
+    ids = {p: int(r["id"]) for p, r in db.rows_by_path(tasks).items()}
+    task_list = [(ids[p], p) for p in tasks]
+    sizes = {ids[p]: hashes[p] for p in tasks}
+    return task_list, sizes, skipped, duplicates, failures  # type: ignore[return-value]
+
+
+def _crash(path: str, reason: str) -> PlanOutcome:
+    return PlanOutcome(path, False, "crash", reason, None, None, None, None, (), None, 0.0)
+
+
+def _run_inline(
+    tasks: list[_Task], params: dict[str, Any], planner: str, timeout: float | None
+) -> Iterator[tuple[int, PlanOutcome]]:
+    for mesh_id, path in tasks:
+        yield mesh_id, run_one(path, params, planner, timeout)
+
+
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+
+
+def _run_local(
+    tasks: list[_Task], params: dict[str, Any], planner: str, timeout: float | None, workers: int
+) -> Iterator[tuple[int, PlanOutcome]]:
+    """One task per mesh on a process pool; a crashed worker fails only the mesh that crashes."""
+    from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    def new_pool(n: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=n, initializer=_ignore_sigint)
+
+    queue = list(reversed(tasks))
+    suspects: list[_Task] = []  # in flight when a worker died: rerun alone, one at a time
+    pool = new_pool(workers)
+    running: dict[Future[PlanOutcome], _Task] = {}
+    try:
+        while queue or running or suspects:
+            if suspects and not running:
+                task = suspects.pop()
+                solo = new_pool(1)
+                try:
+                    yield task[0], solo.submit(run_one, task[1], params, planner, timeout).result()
+                except BrokenProcessPool:
+                    yield task[0], _crash(task[1], "worker process died (crash or out of memory)")
+                finally:
+                    solo.shutdown(wait=True)
+                continue
+            while queue and not suspects and len(running) < 2 * workers:
+                task = queue.pop()
+                running[pool.submit(run_one, task[1], params, planner, timeout)] = task
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            broken = False
+            for fut in finished:
+                task = running.pop(fut)
+                try:
+                    yield task[0], fut.result()
+                except BrokenProcessPool:
+                    broken = True
+                    suspects.append(task)
+            if broken:
+                suspects.extend(running.values())
+                running.clear()
+                pool.shutdown(wait=True)
+                pool = new_pool(workers)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _run_dask(
+    tasks: list[_Task],
+    params: dict[str, Any],
+    planner: str,
+    workers: int,
+    scheduler: str | None,
+    on_workers: Callable[[int], None],
+) -> Iterator[tuple[int, PlanOutcome]]:
+    """One task per mesh on a Dask distributed cluster (or a new local one)."""
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError as e:
+        raise InputError(
+            'the Dask engine needs dask.distributed, which is not installed: pip install "synth[dask]"'
+        ) from e
+    cluster = None
+    try:
+        if scheduler:
+            client = Client(scheduler, timeout=30)
+        else:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
+            client = Client(cluster)
+    except (OSError, TimeoutError) as e:
+        raise InputError(f"cannot connect to the Dask scheduler {scheduler!r}: {e}") from e
+    try:
+        nthreads = max(1, sum(client.nthreads().values()))
+        on_workers(nthreads)
+        queue = list(reversed(tasks))
+        pending: dict[str, _Task] = {}
+        ac = as_completed()
+
+        def submit() -> None:
+            task = queue.pop()
+            fut = client.submit(run_one, task[1], params, planner, None, pure=False)
+            pending[fut.key] = task
+            ac.add(fut)
+
+        while queue and len(pending) < 2 * nthreads:
+            submit()
+        for fut in ac:
+            task = pending.pop(fut.key)
+            try:
+                outcome = fut.result()
+            except Exception as e:  # noqa: BLE001 - KilledWorker and the like
+                outcome = _crash(task[1], f"Dask task failed: {type(e).__name__}: {e}")
+            fut.release()
+            yield task[0], outcome
+            if queue:
+                submit()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def build_database(
+    sources: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str],
+    params: dict[str, Any] | None = None,
+    *,
+    workers: int | None = None,
+    engine: str = "local",
+    scheduler: str | None = None,
+    planner: str | None = None,
+    retry_failed: bool = False,
+    timeout: float | None = None,
+    quiet: bool = False,
+    stream: TextIO | None = None,
+) -> BuildReport:
+    """Plan grasps for every mesh of ``sources`` and store them in the database ``out``.
+
+    Parameters
+    ----------
+    sources : sequence of path
+        Folders (searched recursively), mesh files, or text files listing mesh paths.
+    out : path
+        The database file, created if missing, resumed if it exists.
+    params : dict, optional
+        Planner parameters (see :data:`DEFAULT_PARAMS`); must equal those of an existing file.
+    workers : int, optional
+        Worker processes (default: the CPUs available); ``0`` plans in this process (local).
+    engine : {"local", "dask"}
+        Where tasks run.
+    scheduler : str, optional
+        Dask scheduler address (``tcp://host:8786``); without it a local Dask cluster is made.
+    planner : str, optional
+        ``"module:function"``; default ``$SYNTH_DB_PLANNER`` or ``synth.plan:plan_mesh_file``.
+    retry_failed : bool
+        Plan again the meshes recorded as failed.
+    timeout : float, optional
+        Seconds per mesh before it is recorded as timed out (local engine only).
+    quiet : bool
+        No progress bar.
+    stream : file, optional
+        Where the progress bar goes (default ``sys.stderr``; drawn only on a TTY).
+
+    Returns
+    -------
+    BuildReport
+        Counts of this run.
+
+    Raises
+    ------
+    InputError
+        On bad sources, parameters, engine or planner (nothing is written then).
+    DatabaseError
+        If ``out`` is not a synth database of this version or was built with other parameters.
+
+    Examples
+    --------
+    >>> report = build_database(["meshes/"], "grasps.sqlite", {"seed": 1})  # doctest: +SKIP
+    >>> print(report.summary())  # doctest: +SKIP
+    """
+    start = time.perf_counter()
+    if engine not in ("local", "dask"):
+        raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
+    n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
+    if n_workers < 0 or (engine == "dask" and n_workers == 0):
+        raise InputError(f"workers must be >= 1 (or 0 for the local engine), got {workers}")
+    if timeout is not None and not timeout > 0:
+        raise InputError(f"timeout must be > 0 seconds, got {timeout!r}")
+    run_params = normalize_params(params)
+    planner_name = resolve_planner(planner)
+    load_planner(planner_name)  # fail now, not once per mesh
+    inputs = collect_mesh_files(sources)
+    params_text = canonical_json(run_params)
+    seen_workers = [n_workers]
+    with GraspDatabase(out, mode="w") as db:
+        db.bind(run_params, planner_name)
+        tasks, hashes, skipped, duplicates, failures = _prepare(
+            db, inputs, params_text, planner_name, retry_failed
+        )
+        n_failed_before = len(failures)
+        done = failed = grasps = 0
+        bar = ProgressBar(len(tasks), stream=stream, quiet=quiet)
+        if engine == "dask":
+            results = _run_dask(
+                tasks, run_params, planner_name, n_workers, scheduler,
+                lambda n: seen_workers.__setitem__(0, n),
+            )  # fmt: skip
+        elif n_workers == 0:
+            results = _run_inline(tasks, run_params, planner_name, timeout)
+        else:
+            results = _run_local(tasks, run_params, planner_name, timeout, n_workers)
+        try:
+            bar.update(0, 0, 0, force=True)
+            for mesh_id, outcome in results:
+                sha, size = hashes[mesh_id]
+                db.store_outcome(mesh_id, sha, size, outcome)
+                if outcome.ok:
+                    done += 1
+                    grasps += len(outcome.rows)
+                else:
+                    failed += 1
+                    failures.append((outcome.path, outcome.error or outcome.error_kind or ""))
+                bar.update(done + failed, failed, grasps, force=done + failed == len(tasks))
+        finally:
+            close = getattr(results, "close", None)
+            if close is not None:
+                close()
+            bar.close()
+    return BuildReport(
+        database=os.fspath(out),
+        found=len(inputs.paths) + len(inputs.missing) + len(inputs.not_mesh),
+        planned=len(tasks),
+        done=done,
+        failed=failed + n_failed_before,
+        duplicates=duplicates,
+        skipped=skipped,
+        grasps=grasps,
+        ignored=inputs.ignored,
+        failures=tuple(failures),
+        elapsed_s=time.perf_counter() - start,
+        engine=engine,
+        workers=seen_workers[0],
+    )

@@ -1,0 +1,168 @@
+"""The ``synth db`` command: ``build``, ``info``, ``top`` and ``export``.
+
+``add_db_parser(subparsers)`` adds the ``db`` command to the main parser; ``run_db(args)`` runs
+it and returns the exit status (errors print one ``synth: error: ...`` line, no traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from synth.errors import SynthError
+
+__all__ = ["add_db_parser", "run_db"]
+
+_EPILOG = """\
+planner hook: set SYNTH_DB_PLANNER=module:function (or --planner) to plan with any function
+plan_mesh_file(path, params) -> dict returning synth's grasp document.
+"""
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add the ``db`` command (and its subcommands) to an argparse ``subparsers`` object."""
+    db = subparsers.add_parser(
+        "db", help="build and query offline grasp databases", description=__doc__.splitlines()[0]
+    )
+    sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}")
+    sub.required = True
+
+    b = sub.add_parser(
+        "build",
+        help="plan grasps for many meshes into an SQLite database (resumable)",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    b.add_argument("sources", nargs="+", metavar="MESH_DIR_OR_LIST",
+                   help="folders (recursive), mesh files, or text files listing mesh paths")
+    b.add_argument("--out", required=True, help="database file (created or resumed)")
+    b.add_argument("--contacts", type=int, default=7, help="contacts per grasp (default 7)")
+    b.add_argument("--mu", type=float, default=0.0, help="friction coefficient (default 0)")
+    b.add_argument("--top", type=int, default=10, help="grasps kept per mesh (default 10)")
+    b.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    b.add_argument("--finger-radius", type=float, default=None, help="fingertip radius")
+    b.add_argument("--evals", type=int, default=5000,
+                   help="deterministic evaluation budget per mesh (default 5000)")
+    b.add_argument("--workers", type=_positive_int, default=None,
+                   help="worker processes (default: all CPUs; 0 = plan in this process)")
+    b.add_argument("--engine", choices=("local", "dask"), default="local")
+    b.add_argument("--scheduler", default=None,
+                   help="Dask scheduler address (engine dask; default: a local Dask cluster)")
+    b.add_argument("--planner", default=None, help="planner 'module:function'")
+    b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
+    b.add_argument("--timeout", type=float, default=None,
+                   help="seconds per mesh before it is recorded as timed out (local engine)")
+    b.add_argument("--quiet", action="store_true", help="no progress bar nor summary")
+
+    i = sub.add_parser("info", help="counts, failures and parameters of a database")
+    i.add_argument("database")
+    i.add_argument("--json", action="store_true", help="print a JSON object")
+
+    t = sub.add_parser("top", help="best grasps of one mesh")
+    t.add_argument("database")
+    t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
+    t.add_argument("-k", type=int, default=5, help="number of grasps (default 5)")
+    t.add_argument("--json", action="store_true", help="print the grasps as JSON")
+
+    e = sub.add_parser("export", help="export a database to HDF5, NPZ or JSON")
+    e.add_argument("database")
+    e.add_argument("--format", choices=("h5", "npz", "json"), default=None,
+                   help="default: from the extension of --out")
+    e.add_argument("--out", required=True)
+    return db  # type: ignore[no-any-return]
+
+
+def _build(args: argparse.Namespace) -> int:
+    from synth.database.build import build_database
+
+    params = {
+        "contacts": args.contacts, "mu": args.mu, "top": args.top, "seed": args.seed,
+        "finger_radius": args.finger_radius, "evals": args.evals,
+    }  # fmt: skip
+    report = build_database(
+        args.sources, args.out, params, workers=args.workers, engine=args.engine,
+        scheduler=args.scheduler, planner=args.planner, retry_failed=args.retry_failed,
+        timeout=args.timeout, quiet=args.quiet,
+    )  # fmt: skip
+    if not args.quiet:
+        print(report.summary(), file=sys.stderr)
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    from synth.database.store import GraspDatabase
+
+    with GraspDatabase(args.database) as db:
+        info = db.info()
+    if args.json:
+        print(json.dumps(info.to_dict(), indent=1))
+        return 0
+    params = " ".join(f"{k}={v}" for k, v in sorted(info.params.items()))
+    print(f"{info.path}: synth grasp database, schema {info.schema_version}, "
+          f"created by synth {info.synth_version}")  # fmt: skip
+    print(f"planner: {info.planner}\nparams: {params}")
+    print(f"meshes: {info.meshes} ({info.done} done, {info.failed} failed, "
+          f"{info.duplicates} duplicates, {info.pending} pending)")  # fmt: skip
+    print(f"grasps: {info.grasps}\nplanner time: {info.plan_s:.1f} s")
+    if info.failures:
+        print("failures:")
+        for path, kind, error in info.failures:
+            print(f"  {path}: [{kind}] {error}")
+    return 0
+
+
+def _top(args: argparse.Namespace) -> int:
+    from synth.database.store import GraspDatabase
+
+    with GraspDatabase(args.database) as db:
+        mesh = db.mesh(args.mesh)
+        grasps = db.top(args.mesh, args.k)
+    if args.json:
+        print(json.dumps({"mesh": mesh.path, "grasps": [g.to_dict() for g in grasps]}, indent=1))
+        return 0
+    note = f" ({mesh.error})" if mesh.status != "done" and mesh.error else ""
+    print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} grasps")
+    if grasps:
+        print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  closure")
+        for g in grasps:
+            print(f"{g.rank:>4}  {g.d_star:8.4f}  {g.conditioning:8.4f}  {g.epsilon:8.4f}  "
+                  f"{g.closure}")  # fmt: skip
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from synth.database.export import export_database
+
+    fmt = export_database(args.database, args.out, args.format)
+    print(f"exported {args.database} to {args.out} ({fmt})", file=sys.stderr)
+    return 0
+
+
+def run_db(args: argparse.Namespace) -> int:
+    """Run a parsed ``synth db`` command; returns the exit status.
+
+    0 on success (a build that records failed meshes still succeeds), 1 on an error (printed as
+    one ``synth: error: ...`` line), 130 when interrupted (what is stored is kept).
+    """
+    commands = {"build": _build, "info": _info, "top": _top, "export": _export}
+    try:
+        return commands[args.db_command](args)
+    except SynthError as e:
+        print(f"synth: error: {e}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("synth: interrupted; finished meshes are stored, run the same command to resume",
+              file=sys.stderr)  # fmt: skip
+        return 130
+    except OSError as e:
+        print(f"synth: error: {e}", file=sys.stderr)
+        return 1

@@ -1,0 +1,225 @@
+"""Export a grasp database to HDF5, NPZ or JSON.
+
+HDF5 and NPZ hold the same columns, one array per field (never one group per grasp). Contacts
+and fingers are ragged, so they are stored flat with offsets (CSR style): the contacts of grasp
+``i`` are rows ``contact_start[i]:contact_start[i+1]`` of ``points``, ``normals``, ``features``
+and ``regions``; its fingers rows ``finger_start[i]:finger_start[i+1]`` of ``tip_centers`` and
+``approach``.
+
+=====================  ============  ==========================================================
+field                  shape         meaning
+=====================  ============  ==========================================================
+mesh_id                (m,) int64    id of each mesh row (every status)
+mesh_path, mesh_name   (m,) str      absolute path and file name
+mesh_sha256            (m,) str      SHA-256, ``""`` if unknown
+mesh_size              (m,) int64    bytes, -1 if unknown
+mesh_status            (m,) str      pending / done / failed / duplicate
+mesh_error             (m,) str      failure reason or duplicate note, ``""`` if none
+mesh_units             (m,) str      units, ``""`` if unknown
+mesh_length            (m,) float64  characteristic length, NaN if unknown
+mesh_n_grasps          (m,) int64    grasps stored
+mesh_duplicate_of      (m,) int64    id of the original of a duplicate, -1 otherwise
+grasp_mesh_id, rank    (n,) int64    mesh of each grasp and its rank (1 = best)
+d_star, conditioning,  (n,) float64  quality figures
+epsilon
+closure                (n,) str      closure class
+contact_start          (n+1,) int64  offsets into the contact arrays
+points, normals        (c, 3) f8     contact points and normals
+features               (c,) str      feature kind of each contact
+regions                (c,) int64    region of each contact
+finger_start           (n+1,) int64  offsets into the finger arrays
+tip_centers, approach  (g, 3) f8     finger tip centres and approach directions
+tip_radius,            (n,) float64  finger geometry of each grasp
+body_length,
+body_radius
+=====================  ============  ==========================================================
+
+In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix) and
+the others of the group ``grasps``; datasets are chunked and gzip-compressed; the file's
+attributes hold ``format``, ``schema_version``, ``params`` (JSON) and ``planner``. NPZ uses the
+flat names above plus ``params`` and ``planner`` (0-d strings). JSON is one object with
+``meshes``, each carrying its ``grasps`` in the planner's format.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+import numpy as np
+
+from synth.database.schema import SCHEMA_VERSION
+from synth.database.store import GraspDatabase
+from synth.errors import InputError
+
+__all__ = ["EXPORT_FORMATS", "export_columns", "export_database"]
+
+EXPORT_FORMATS = ("h5", "npz", "json")
+_FORMAT_TAG = "synth.grasps.db-export"
+
+
+def _str_array(values: list[str]) -> np.ndarray:
+    return np.array(values, dtype=str) if values else np.zeros(0, dtype="<U1")
+
+
+def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
+    """All meshes and grasps of ``db`` as flat columns (see the module docstring)."""
+    meshes = list(db.meshes())
+    cols: dict[str, Any] = {
+        "mesh_id": np.array([m.id for m in meshes], dtype=np.int64),
+        "mesh_path": _str_array([m.path for m in meshes]),
+        "mesh_name": _str_array([m.name for m in meshes]),
+        "mesh_sha256": _str_array([m.sha256 or "" for m in meshes]),
+        "mesh_size": np.array([-1 if m.size is None else m.size for m in meshes], dtype=np.int64),
+        "mesh_status": _str_array([m.status for m in meshes]),
+        "mesh_error": _str_array([m.error or "" for m in meshes]),
+        "mesh_units": _str_array([m.units or "" for m in meshes]),
+        "mesh_length": np.array(
+            [np.nan if m.length is None else m.length for m in meshes], dtype=np.float64
+        ),
+        "mesh_n_grasps": np.array([m.n_grasps for m in meshes], dtype=np.int64),
+        "mesh_duplicate_of": np.array(
+            [-1 if m.duplicate_of is None else m.duplicate_of for m in meshes], dtype=np.int64
+        ),
+    }
+    lists: dict[str, list[Any]] = {
+        k: []
+        for k in (
+            "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
+            "regions tip_centers approach tip_radius body_length body_radius"
+        ).split()
+    }
+    contact_start, finger_start = [0], [0]
+    for g in db.grasps():
+        lists["grasp_mesh_id"].append(g.mesh_id)
+        for name in ("rank", "d_star", "closure", "conditioning", "epsilon", "tip_radius",
+                     "body_length", "body_radius"):  # fmt: skip
+            lists[name].append(getattr(g, name))
+        lists["points"].append(g.points)
+        lists["normals"].append(g.normals)
+        lists["features"].extend(g.features)
+        lists["regions"].append(g.regions)
+        lists["tip_centers"].append(g.tip_centers)
+        lists["approach"].append(g.approach)
+        contact_start.append(contact_start[-1] + g.n_contacts)
+        finger_start.append(finger_start[-1] + g.tip_centers.shape[0])
+    for name in ("grasp_mesh_id", "rank"):
+        cols[name] = np.array(lists[name], dtype=np.int64)
+    for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius"):
+        cols[name] = np.array(lists[name], dtype=np.float64)
+    cols["closure"] = _str_array(lists["closure"])
+    cols["features"] = _str_array(lists["features"])
+    for name in ("points", "normals", "tip_centers", "approach"):
+        cols[name] = np.concatenate(lists[name]) if lists[name] else np.zeros((0, 3))
+    cols["regions"] = (
+        np.concatenate(lists["regions"]).astype(np.int64) if lists["regions"] else
+        np.zeros(0, dtype=np.int64)
+    )  # fmt: skip
+    cols["contact_start"] = np.array(contact_start, dtype=np.int64)
+    cols["finger_start"] = np.array(finger_start, dtype=np.int64)
+    return cols
+
+
+def _write_h5(db: GraspDatabase, out: str) -> None:
+    try:
+        import h5py
+    except ImportError as e:
+        raise InputError(
+            'HDF5 export needs h5py, which is not installed: pip install "synth[h5]"'
+        ) from e
+    cols = export_columns(db)
+    with h5py.File(out, "w") as f:
+        f.attrs["format"] = _FORMAT_TAG
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["params"] = json.dumps(db.params, sort_keys=True)
+        f.attrs["planner"] = db.planner
+        groups = {"meshes": f.create_group("meshes"), "grasps": f.create_group("grasps")}
+        for name, arr in cols.items():
+            group, key = (
+                (groups["meshes"], name[5:]) if name.startswith("mesh_") else (groups["grasps"], name)
+            )
+            if arr.dtype.kind == "U":
+                data: Any = arr.astype(object)
+                dtype: Any = h5py.string_dtype("utf-8")
+            else:
+                data, dtype = arr, arr.dtype
+            opts = {"chunks": True, "compression": "gzip"} if arr.size else {}
+            group.create_dataset(key, data=data, dtype=dtype, **opts)
+
+
+def _write_json(db: GraspDatabase, out: str) -> None:
+    by_mesh: dict[int, list[dict[str, Any]]] = {}
+    for g in db.grasps():
+        by_mesh.setdefault(g.mesh_id, []).append(g.to_dict())
+    meshes = []
+    for m in db.meshes():
+        meshes.append(
+            {
+                "id": m.id, "path": m.path, "name": m.name, "sha256": m.sha256, "size": m.size,
+                "status": m.status, "error_kind": m.error_kind, "error": m.error,
+                "duplicate_of": m.duplicate_of, "units": m.units, "length": m.length,
+                "synth_version": m.synth_version, "n_grasps": m.n_grasps,
+                "grasps": by_mesh.get(m.id, []),
+            }
+        )  # fmt: skip
+    doc = {
+        "format": _FORMAT_TAG,
+        "version": 1,
+        "schema_version": SCHEMA_VERSION,
+        "params": db.params,
+        "planner": db.planner,
+        "meshes": meshes,
+    }
+    with open(out, "w", encoding="utf-8") as fh:
+        json.dump(doc, fh, indent=1)
+
+
+def export_database(
+    database: str | os.PathLike[str], out: str | os.PathLike[str], fmt: str | None = None
+) -> str:
+    """Export every mesh and grasp of ``database`` to ``out``.
+
+    Parameters
+    ----------
+    database : path
+        A grasp database.
+    out : path
+        The file to write (replaced if it exists).
+    fmt : {"h5", "npz", "json"}, optional
+        Default: from the extension of ``out`` (``.h5``/``.hdf5``, ``.npz``, ``.json``).
+
+    Returns
+    -------
+    str
+        The format written.
+
+    Raises
+    ------
+    InputError
+        On an unknown format, or h5py missing for ``h5``.
+    DatabaseError
+        If ``database`` is not a synth grasp database.
+
+    Examples
+    --------
+    >>> export_database("grasps.sqlite", "grasps.h5")  # doctest: +SKIP
+    'h5'
+    """
+    out = os.fspath(out)
+    if fmt is None:
+        ext = os.path.splitext(out)[1].lower().lstrip(".")
+        fmt = {"hdf5": "h5"}.get(ext, ext)
+    if fmt not in EXPORT_FORMATS:
+        raise InputError(f"export format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+    with GraspDatabase(database) as db:
+        if fmt == "h5":
+            _write_h5(db, out)
+        elif fmt == "npz":
+            cols = export_columns(db)
+            cols["params"] = np.array(json.dumps(db.params, sort_keys=True))
+            cols["planner"] = np.array(db.planner)
+            np.savez_compressed(out, **cols)
+        else:
+            _write_json(db, out)
+    return fmt

@@ -1,0 +1,425 @@
+"""The SQLite schema of a synth grasp database (schema version 1) and its record types.
+
+A grasp database is one SQLite file in WAL mode, written by ``synth db build`` (one writer, the
+parent process) and readable by anyone while it is written. It holds three tables.
+
+``meta`` -- one row per key, text values:
+
+=================  ===========================================================================
+key                value
+=================  ===========================================================================
+application        ``synth.grasps.db`` (also ``PRAGMA application_id = 0x53594E54``)
+schema_version     ``1`` (also ``PRAGMA user_version = 1``)
+synth_version      the library version that created the file
+params             canonical JSON of the planner parameters every mesh of this file is planned with
+planner            the planner used, ``"module:function"``
+created_at         UTC ISO 8601 time of creation
+=================  ===========================================================================
+
+``meshes`` -- one row per mesh file seen (unique by absolute ``path``):
+
+=============  =========  ======================================================================
+column         type       meaning
+=============  =========  ======================================================================
+id             INTEGER    primary key; assigned in sorted path order when a build starts
+path           TEXT       absolute path of the file (unique)
+name           TEXT       file name (``box.stl``), for lookups by name
+sha256         TEXT       SHA-256 of the file's bytes (hex), NULL if the file could not be read
+size           INTEGER    file size in bytes, NULL if unknown
+status         TEXT       ``pending``, ``done``, ``failed`` or ``duplicate``
+error_kind     TEXT       for ``failed``: ``mesh``, ``not_mesh``, ``unreadable``, ``no_grasp``,
+                          ``planner``, ``invalid_result``, ``timeout`` or ``crash``; else NULL
+error          TEXT       readable reason of a failure, or the note of a duplicate
+duplicate_of   INTEGER    for ``duplicate``: id of the mesh with the same SHA-256 that is planned
+units          TEXT       units reported by the planner (``mm``, ``m``, ...)
+length         REAL       characteristic length reported by the planner, in those units
+params         TEXT       canonical JSON of the requested planner parameters (identity of a run)
+planner_params TEXT       JSON of the full parameter set the planner reported
+planner        TEXT       ``"module:function"`` of the planner
+synth_version  TEXT       version of the planner library that planned the mesh
+n_grasps       INTEGER    number of grasps stored for the mesh
+plan_s         REAL       planner-reported time (``timing.total_s``), seconds
+worker_s       REAL       wall time of the whole task on the worker (load, plan, pack), seconds
+finished_at    TEXT       UTC ISO 8601 time the row reached its status
+=============  =========  ======================================================================
+
+``grasps`` -- one row per grasp, ``PRIMARY KEY (mesh_id, rank)``, ``WITHOUT ROWID``:
+
+=============  =========  ======================================================================
+column         type       meaning
+=============  =========  ======================================================================
+mesh_id        INTEGER    ``meshes.id``
+rank           INTEGER    1 = best, in the planner's order
+d_star         REAL       Trinkle's d*
+closure        TEXT       closure class in the paper's words (see the README mapping)
+conditioning   REAL       conditioning of the wrench matrix
+epsilon        REAL       epsilon quality (friction), as the planner reports it
+n_contacts     INTEGER    k
+points         BLOB       (k, 3) float64 little-endian, row-major: contact points
+normals        BLOB       (k, 3) float64 little-endian: contact normals as the planner gives them
+features       TEXT       JSON list of k strings (``face``, ``edge``, ``vertex``, ...)
+regions        BLOB       (k,) int64 little-endian: region index of each contact
+n_fingers      INTEGER    f
+tip_centers    BLOB       (f, 3) float64 little-endian
+tip_radius     REAL       fingertip radius
+approach       BLOB       (f, 3) float64 little-endian: approach direction of each finger
+body_length    REAL       finger body length
+body_radius    REAL       finger body radius
+=============  =========  ======================================================================
+
+Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)`` and
+``grasps(d_star)``; the primary key of ``grasps`` serves "the best k grasps of a mesh".
+
+A mesh's grasps are written in the same transaction as its ``done`` status, so a reader never
+sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``done``.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from synth.errors import DatabaseError
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "APPLICATION",
+    "APPLICATION_ID",
+    "MESH_STATUSES",
+    "MeshRecord",
+    "GraspRecord",
+    "canonical_json",
+    "create_schema",
+    "check_schema",
+    "pack_array",
+    "unpack_array",
+]
+
+SCHEMA_VERSION = 1
+APPLICATION = "synth.grasps.db"
+APPLICATION_ID = 0x53594E54  # "SYNT"
+MESH_STATUSES = ("pending", "done", "failed", "duplicate")
+
+_DDL = """
+CREATE TABLE meta (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+CREATE TABLE meshes (
+    id             INTEGER PRIMARY KEY,
+    path           TEXT NOT NULL UNIQUE,
+    name           TEXT NOT NULL,
+    sha256         TEXT,
+    size           INTEGER,
+    status         TEXT NOT NULL CHECK (status IN ('pending', 'done', 'failed', 'duplicate')),
+    error_kind     TEXT,
+    error          TEXT,
+    duplicate_of   INTEGER REFERENCES meshes(id),
+    units          TEXT,
+    length         REAL,
+    params         TEXT NOT NULL,
+    planner_params TEXT,
+    planner        TEXT NOT NULL,
+    synth_version  TEXT,
+    n_grasps       INTEGER NOT NULL DEFAULT 0,
+    plan_s         REAL,
+    worker_s       REAL,
+    finished_at    TEXT
+);
+CREATE INDEX meshes_sha256 ON meshes(sha256);
+CREATE INDEX meshes_name ON meshes(name);
+CREATE INDEX meshes_status ON meshes(status);
+CREATE TABLE grasps (
+    mesh_id      INTEGER NOT NULL REFERENCES meshes(id),
+    rank         INTEGER NOT NULL,
+    d_star       REAL NOT NULL,
+    closure      TEXT NOT NULL,
+    conditioning REAL NOT NULL,
+    epsilon      REAL NOT NULL,
+    n_contacts   INTEGER NOT NULL,
+    points       BLOB NOT NULL,
+    normals      BLOB NOT NULL,
+    features     TEXT NOT NULL,
+    regions      BLOB NOT NULL,
+    n_fingers    INTEGER NOT NULL,
+    tip_centers  BLOB NOT NULL,
+    tip_radius   REAL NOT NULL,
+    approach     BLOB NOT NULL,
+    body_length  REAL NOT NULL,
+    body_radius  REAL NOT NULL,
+    PRIMARY KEY (mesh_id, rank)
+) WITHOUT ROWID;
+CREATE INDEX grasps_d_star ON grasps(d_star);
+"""
+
+
+@dataclass(frozen=True)
+class MeshRecord:
+    """One row of the ``meshes`` table.
+
+    Attributes
+    ----------
+    id : int
+        Row id.
+    path, name : str
+        Absolute path and file name.
+    sha256 : str or None
+        SHA-256 of the file (hex), None if it could not be read.
+    size : int or None
+        File size in bytes.
+    status : str
+        ``pending``, ``done``, ``failed`` or ``duplicate``.
+    error_kind, error : str or None
+        Failure category and readable reason (``error`` also notes duplicates).
+    duplicate_of : int or None
+        Id of the mesh with the same content, for duplicates.
+    units : str or None
+        Units the planner reported.
+    length : float or None
+        Characteristic length the planner reported.
+    params : dict
+        Requested planner parameters.
+    planner : str
+        ``"module:function"`` of the planner.
+    synth_version : str or None
+        Version of the library that planned it.
+    n_grasps : int
+        Number of grasps stored.
+    plan_s, worker_s : float or None
+        Planner time and whole-task time, seconds.
+    finished_at : str or None
+        UTC ISO 8601 time of the status.
+    """
+
+    id: int
+    path: str
+    name: str
+    sha256: str | None
+    size: int | None
+    status: str
+    error_kind: str | None
+    error: str | None
+    duplicate_of: int | None
+    units: str | None
+    length: float | None
+    params: dict[str, Any]
+    planner: str
+    synth_version: str | None
+    n_grasps: int
+    plan_s: float | None
+    worker_s: float | None
+    finished_at: str | None
+
+    @classmethod
+    def from_row(cls, row: sqlite3.Row) -> MeshRecord:
+        """Build a record from a ``SELECT * FROM meshes`` row."""
+        return cls(
+            id=row["id"],
+            path=row["path"],
+            name=row["name"],
+            sha256=row["sha256"],
+            size=row["size"],
+            status=row["status"],
+            error_kind=row["error_kind"],
+            error=row["error"],
+            duplicate_of=row["duplicate_of"],
+            units=row["units"],
+            length=row["length"],
+            params=json.loads(row["params"]),
+            planner=row["planner"],
+            synth_version=row["synth_version"],
+            n_grasps=row["n_grasps"],
+            plan_s=row["plan_s"],
+            worker_s=row["worker_s"],
+            finished_at=row["finished_at"],
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class GraspRecord:
+    """One stored grasp (a row of ``grasps``), arrays decoded.
+
+    Attributes
+    ----------
+    mesh_id : int
+        Id of its mesh.
+    rank : int
+        1 = best.
+    d_star, conditioning, epsilon : float
+        Quality figures as the planner gave them.
+    closure : str
+        Closure class in the paper's words.
+    points, normals : (k, 3) float
+        Contact points and normals.
+    features : tuple of str
+        Feature kind of each contact, length k.
+    regions : (k,) int
+        Region index of each contact.
+    tip_centers, approach : (f, 3) float
+        Finger tip centres and approach directions.
+    tip_radius, body_length, body_radius : float
+        Finger geometry.
+    """
+
+    mesh_id: int
+    rank: int
+    d_star: float
+    closure: str
+    conditioning: float
+    epsilon: float
+    points: np.ndarray
+    normals: np.ndarray
+    features: tuple[str, ...]
+    regions: np.ndarray
+    tip_centers: np.ndarray
+    tip_radius: float
+    approach: np.ndarray
+    body_length: float
+    body_radius: float
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts k."""
+        return int(self.points.shape[0])
+
+    def __eq__(self, other: object) -> bool:
+        """Field-by-field equality, arrays compared exactly."""
+        if not isinstance(other, GraspRecord):
+            return NotImplemented
+        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
+
+    def to_dict(self) -> dict[str, Any]:
+        """The grasp in the planner's JSON format (format version 1), plus ``rank``."""
+        return {
+            "rank": self.rank,
+            "points": self.points.tolist(),
+            "normals": self.normals.tolist(),
+            "features": list(self.features),
+            "regions": self.regions.tolist(),
+            "d_star": self.d_star,
+            "closure": self.closure,
+            "conditioning": self.conditioning,
+            "epsilon": self.epsilon,
+            "fingers": {
+                "tip_centers": self.tip_centers.tolist(),
+                "tip_radius": self.tip_radius,
+                "approach": self.approach.tolist(),
+                "body_length": self.body_length,
+                "body_radius": self.body_radius,
+            },
+        }
+
+    @classmethod
+    def from_row(cls, row: sqlite3.Row) -> GraspRecord:
+        """Build a record from a ``SELECT * FROM grasps`` row."""
+        k, f = row["n_contacts"], row["n_fingers"]
+        return cls(
+            mesh_id=row["mesh_id"],
+            rank=row["rank"],
+            d_star=row["d_star"],
+            closure=row["closure"],
+            conditioning=row["conditioning"],
+            epsilon=row["epsilon"],
+            points=unpack_array(row["points"], (k, 3)),
+            normals=unpack_array(row["normals"], (k, 3)),
+            features=tuple(json.loads(row["features"])),
+            regions=unpack_array(row["regions"], (k,), dtype="<i8"),
+            tip_centers=unpack_array(row["tip_centers"], (f, 3)),
+            tip_radius=row["tip_radius"],
+            approach=unpack_array(row["approach"], (f, 3)),
+            body_length=row["body_length"],
+            body_radius=row["body_radius"],
+        )
+
+
+def canonical_json(value: Any) -> str:
+    """JSON text with sorted keys and no spaces, so equal parameters give equal text."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"))
+
+
+def pack_array(values: Any, shape: tuple[int, ...], dtype: str = "<f8") -> bytes:
+    """Encode an array as little-endian bytes after checking its shape.
+
+    Parameters
+    ----------
+    values : array_like
+        The values.
+    shape : tuple of int
+        The shape expected.
+    dtype : str
+        ``"<f8"`` (float64) or ``"<i8"`` (int64), little-endian.
+
+    Returns
+    -------
+    bytes
+        The row-major bytes.
+
+    Raises
+    ------
+    ValueError
+        If the shape differs or a float is not finite.
+    """
+    arr = np.asarray(values, dtype=dtype)
+    if arr.shape != shape:
+        raise ValueError(f"expected shape {shape}, got {arr.shape}")
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise ValueError(f"array of shape {shape} has non-finite values")
+    return np.ascontiguousarray(arr).tobytes()
+
+
+def unpack_array(blob: bytes, shape: tuple[int, ...], dtype: str = "<f8") -> np.ndarray:
+    """Decode bytes written by :func:`pack_array` into a native-endian array of ``shape``."""
+    return np.frombuffer(blob, dtype=dtype).reshape(shape).astype(dtype[1:])
+
+
+def create_schema(conn: sqlite3.Connection, meta: dict[str, str]) -> None:
+    """Create the tables of an empty database and write its ``meta`` rows (one transaction)."""
+    conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+    conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+    rows = {"application": APPLICATION, "schema_version": str(SCHEMA_VERSION), **meta}
+    conn.executescript("BEGIN IMMEDIATE;" + _DDL)
+    try:
+        conn.executemany("INSERT INTO meta(key, value) VALUES (?, ?)", sorted(rows.items()))
+        conn.execute("COMMIT")
+    except BaseException:
+        conn.execute("ROLLBACK")
+        raise
+
+
+def check_schema(conn: sqlite3.Connection, path: str) -> dict[str, str]:
+    """Check that ``conn`` is a synth grasp database of this schema version; return its meta.
+
+    Raises
+    ------
+    DatabaseError
+        Naming ``path``, if the file is not SQLite, not a synth database, or of another version.
+    """
+    try:
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    except sqlite3.DatabaseError as e:
+        raise DatabaseError(f"{path}: not a synth grasp database (not SQLite: {e})") from e
+    if "meta" not in tables:
+        raise DatabaseError(
+            f"{path}: not a synth grasp database (an SQLite file without a 'meta' table; "
+            f"tables found: {sorted(tables) or 'none'})"
+        )
+    meta = dict(conn.execute("SELECT key, value FROM meta").fetchall())
+    if meta.get("application") != APPLICATION:
+        raise DatabaseError(
+            f"{path}: not a synth grasp database (meta.application is "
+            f"{meta.get('application')!r}, expected {APPLICATION!r})"
+        )
+    if meta.get("schema_version") != str(SCHEMA_VERSION):
+        raise DatabaseError(
+            f"{path}: grasp database of schema version {meta.get('schema_version')}, this synth "
+            f"reads version {SCHEMA_VERSION}; rebuild it with this version of synth or use the "
+            "version that wrote it"
+        )
+    missing = {"meshes", "grasps"} - tables
+    if missing:
+        raise DatabaseError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
+    return meta

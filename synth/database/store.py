@@ -1,0 +1,426 @@
+"""Open, read and write a grasp database: :class:`GraspDatabase`.
+
+Reading is the public side (``synth.GraspDatabase(path)``); the writing methods are used by
+:mod:`synth.database.build`, the only writer, which keeps every mesh's grasps and its status in one
+transaction.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import sqlite3
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
+from types import TracebackType
+from typing import Any
+from urllib.parse import quote
+
+from synth.database.schema import (
+    SCHEMA_VERSION,
+    GraspRecord,
+    MeshRecord,
+    canonical_json,
+    check_schema,
+    create_schema,
+)
+from synth.database.worker import PlanOutcome
+from synth.errors import DatabaseError, InputError
+
+__all__ = ["GraspDatabase", "DatabaseInfo"]
+
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+_BUSY_TIMEOUT_MS = 30_000
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+@dataclass(frozen=True)
+class DatabaseInfo:
+    """Summary of a grasp database.
+
+    Attributes
+    ----------
+    path : str
+        The database file.
+    schema_version : int
+        Schema version of the file.
+    synth_version : str
+        Version of synth that created it.
+    params : dict
+        Planner parameters of every mesh.
+    planner : str
+        ``"module:function"`` of the planner.
+    meshes, done, failed, duplicates, pending, grasps : int
+        Row counts (``meshes`` counts every status).
+    failures : tuple of (str, str, str)
+        ``(path, error_kind, error)`` of every failed mesh, by path.
+    plan_s : float
+        Sum of the planner times of the done meshes, seconds.
+    """
+
+    path: str
+    schema_version: int
+    synth_version: str
+    params: dict[str, Any]
+    planner: str
+    meshes: int
+    done: int
+    failed: int
+    duplicates: int
+    pending: int
+    grasps: int
+    failures: tuple[tuple[str, str, str], ...]
+    plan_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (``failures`` as a list of objects)."""
+        d = asdict(self)
+        d["failures"] = [{"path": p, "kind": k, "error": e} for p, k, e in self.failures]
+        return d
+
+
+class GraspDatabase:
+    """A synth grasp database (SQLite), opened for reading unless ``mode="w"``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The database file.
+    mode : {"r", "w"}
+        ``"r"`` opens an existing database read-only (safe while a build writes it); ``"w"``
+        opens or creates it for writing (used by ``synth db build``).
+    meta : dict, optional
+        For ``mode="w"`` on a new file: the ``params`` and ``planner`` meta values to store.
+
+    Raises
+    ------
+    DatabaseError
+        Naming the file, if it is missing (``"r"``), not SQLite, not a synth database, or of
+        another schema version. A file that is not a synth database is never modified.
+
+    Examples
+    --------
+    >>> with GraspDatabase("grasps.sqlite") as db:  # doctest: +SKIP
+    ...     best = db.top("box.stl", k=3)
+    ...     print(db.info().done, [g.d_star for g in best])
+    """
+
+    def __init__(
+        self, path: str | os.PathLike[str], mode: str = "r", meta: dict[str, str] | None = None
+    ) -> None:
+        if mode not in ("r", "w"):
+            raise InputError(f"mode must be 'r' or 'w', got {mode!r}")
+        self.path = os.fspath(path)
+        self.mode = mode
+        self._conn = self._connect(meta)
+        self.meta: dict[str, str] = check_schema(self._conn, self.path)
+
+    # -- opening --------------------------------------------------------------------------
+    def _connect(self, meta: dict[str, str] | None) -> sqlite3.Connection:
+        path = self.path
+        if os.path.isdir(path):
+            raise DatabaseError(f"{path}: is a directory, not a grasp database")
+        exists = os.path.exists(path)
+        if self.mode == "r" and not exists:
+            raise DatabaseError(f"{path}: no such grasp database")
+        if exists and os.path.getsize(path) > 0:
+            try:
+                with open(path, "rb") as fh:
+                    head = fh.read(len(_SQLITE_MAGIC))
+            except OSError as e:
+                raise DatabaseError(f"{path}: cannot read grasp database: {e}") from e
+            if head != _SQLITE_MAGIC:
+                raise DatabaseError(f"{path}: not a synth grasp database (not an SQLite file)")
+        try:
+            if self.mode == "r":
+                conn = sqlite3.connect(
+                    f"file:{quote(os.path.abspath(path))}?mode=ro", uri=True, isolation_level=None
+                )
+            else:
+                parent = os.path.dirname(os.path.abspath(path))
+                if not os.path.isdir(parent):
+                    raise DatabaseError(f"{path}: folder {parent} does not exist")
+                conn = sqlite3.connect(path, isolation_level=None)
+        except sqlite3.Error as e:
+            raise DatabaseError(f"{path}: cannot open grasp database: {e}") from e
+        conn.row_factory = sqlite3.Row
+        try:
+            conn.execute(f"PRAGMA busy_timeout = {_BUSY_TIMEOUT_MS}")
+            if self.mode == "w":
+                tables = conn.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]
+                if tables == 0:
+                    conn.execute("PRAGMA journal_mode = WAL")
+                    from synth import __version__
+
+                    create_schema(
+                        conn, {"synth_version": __version__, "created_at": _now(), **(meta or {})}
+                    )
+                else:
+                    check_schema(conn, path)  # before anything that would write to it
+                    conn.execute("PRAGMA journal_mode = WAL")
+                conn.execute("PRAGMA synchronous = FULL")
+                conn.execute("PRAGMA foreign_keys = ON")
+        except sqlite3.DatabaseError as e:
+            conn.close()
+            raise DatabaseError(f"{path}: not a synth grasp database ({e})") from e
+        except DatabaseError:
+            conn.close()
+            raise
+        return conn
+
+    def close(self) -> None:
+        """Close the connection (idempotent)."""
+        self._conn.close()
+
+    def __enter__(self) -> GraspDatabase:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- reading --------------------------------------------------------------------------
+    @property
+    def params(self) -> dict[str, Any]:
+        """Planner parameters of this database (empty before the first build)."""
+        import json
+
+        return dict(json.loads(self.meta.get("params", "{}")))
+
+    @property
+    def planner(self) -> str:
+        """``"module:function"`` of the planner of this database."""
+        return self.meta.get("planner", "")
+
+    def _query(self, sql: str, args: Iterable[Any] = ()) -> list[sqlite3.Row]:
+        try:
+            return self._conn.execute(sql, tuple(args)).fetchall()
+        except sqlite3.Error as e:
+            raise DatabaseError(f"{self.path}: query failed: {e}") from e
+
+    def info(self) -> DatabaseInfo:
+        """Counts, failures and parameters of the database."""
+        counts = dict(self._query("SELECT status, count(*) FROM meshes GROUP BY status"))
+        n_grasps = self._query("SELECT count(*) FROM grasps")[0][0]
+        plan_s = self._query("SELECT total(plan_s) FROM meshes WHERE status = 'done'")[0][0]
+        failures = self._query(
+            "SELECT path, error_kind, error FROM meshes WHERE status = 'failed' ORDER BY path"
+        )
+        return DatabaseInfo(
+            path=self.path,
+            schema_version=SCHEMA_VERSION,
+            synth_version=self.meta.get("synth_version", ""),
+            params=self.params,
+            planner=self.planner,
+            meshes=sum(counts.values()),
+            done=counts.get("done", 0),
+            failed=counts.get("failed", 0),
+            duplicates=counts.get("duplicate", 0),
+            pending=counts.get("pending", 0),
+            grasps=int(n_grasps),
+            failures=tuple((r[0], r[1] or "", r[2] or "") for r in failures),
+            plan_s=float(plan_s),
+        )
+
+    def meshes(self, status: str | None = None) -> Iterator[MeshRecord]:
+        """Iterate over mesh records in id order, optionally only those of one ``status``."""
+        if status is None:
+            rows = self._conn.execute("SELECT * FROM meshes ORDER BY id")
+        else:
+            rows = self._conn.execute("SELECT * FROM meshes WHERE status = ? ORDER BY id", (status,))
+        for row in rows:
+            yield MeshRecord.from_row(row)
+
+    def __iter__(self) -> Iterator[MeshRecord]:
+        return self.meshes()
+
+    def __len__(self) -> int:
+        return int(self._query("SELECT count(*) FROM meshes")[0][0])
+
+    def grasps(self, mesh: str | int | None = None) -> Iterator[GraspRecord]:
+        """Iterate over grasps by (mesh id, rank): all of them, or those of one mesh.
+
+        Parameters
+        ----------
+        mesh : str or int, optional
+            A mesh id, name, path or SHA-256 (see :meth:`mesh`); duplicates give the grasps
+            of the mesh they duplicate.
+        """
+        if mesh is None:
+            rows = self._conn.execute("SELECT * FROM grasps ORDER BY mesh_id, rank")
+        else:
+            rows = self._conn.execute(
+                "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank", (self._grasp_owner(mesh),)
+            )
+        for row in rows:
+            yield GraspRecord.from_row(row)
+
+    def top(self, mesh: str | int, k: int = 5) -> list[GraspRecord]:
+        """The best ``k`` grasps of a mesh (by rank), following duplicates to their original."""
+        if k < 1:
+            raise InputError(f"k must be at least 1, got {k}")
+        rows = self._query(
+            "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank LIMIT ?",
+            (self._grasp_owner(mesh), int(k)),
+        )
+        return [GraspRecord.from_row(r) for r in rows]
+
+    def _grasp_owner(self, mesh: str | int) -> int:
+        rec = self.mesh(mesh)
+        return rec.duplicate_of if rec.duplicate_of is not None else rec.id
+
+    def mesh(self, key: str | int) -> MeshRecord:
+        """Look a mesh up by id, path, SHA-256 (or a prefix of 8+ hex digits), name or stem.
+
+        Raises
+        ------
+        InputError
+            If nothing matches, or several meshes do (their paths are listed).
+        """
+        if isinstance(key, int):
+            rows = self._query("SELECT * FROM meshes WHERE id = ?", (key,))
+        else:
+            rows = self._query(
+                "SELECT * FROM meshes WHERE path = ? OR path = ?", (key, os.path.abspath(key))
+            )
+            low = key.lower()
+            if not rows and len(low) >= 8 and all(c in "0123456789abcdef" for c in low):
+                rows = self._query(
+                    "SELECT * FROM meshes WHERE sha256 >= ? AND sha256 < ? ORDER BY id",
+                    (low, low + "g"),
+                )
+            if not rows:
+                rows = self._query("SELECT * FROM meshes WHERE name = ? ORDER BY id", (key,))
+            if not rows:  # the stem: 'box' finds 'box.stl'
+                rows = self._query(
+                    "SELECT * FROM meshes WHERE name > ? AND name < ? ORDER BY id",
+                    (key + ".", key + "/"),
+                )
+                rows = [r for r in rows if os.path.splitext(r["name"])[0] == key]
+        if not rows:
+            raise InputError(f"{self.path}: no mesh matching {key!r} (try a path, name or sha256)")
+        if len(rows) > 1:
+            paths = ", ".join(r["path"] for r in rows[:5]) + (", ..." if len(rows) > 5 else "")
+            raise InputError(
+                f"{self.path}: {len(rows)} meshes match {key!r} ({paths}); give a path instead"
+            )
+        return MeshRecord.from_row(rows[0])
+
+    # -- writing (synth.database.build) ---------------------------------------------------
+    def _require_write(self) -> None:
+        if self.mode != "w":
+            raise DatabaseError(f"{self.path}: opened read-only")
+
+    def bind(self, params: dict[str, Any], planner: str) -> None:
+        """Fix this database's parameters and planner, or check they match the stored ones.
+
+        Raises
+        ------
+        DatabaseError
+            If the database was built with other parameters or another planner.
+        """
+        self._require_write()
+        text = canonical_json(params)
+        stored = self.meta.get("params")
+        if stored is None:
+            with self._conn:
+                self._conn.execute("BEGIN IMMEDIATE")
+                self._conn.executemany(
+                    "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
+                    [("params", text), ("planner", planner)],
+                )
+            self.meta.update(params=text, planner=planner)
+            return
+        if stored != text:
+            import json
+
+            old = json.loads(stored)
+            diff = {k: (old.get(k), params.get(k)) for k in sorted(set(old) | set(params))}
+            diff = {k: v for k, v in diff.items() if v[0] != v[1]}
+            shown = ", ".join(f"{k}: stored {a!r}, asked {b!r}" for k, (a, b) in diff.items())
+            raise DatabaseError(
+                f"{self.path}: this database was built with other planner parameters ({shown}); "
+                "use the same parameters to resume, or another --out file"
+            )
+        if self.meta.get("planner") != planner:
+            raise DatabaseError(
+                f"{self.path}: this database was built with planner {self.meta.get('planner')!r}, "
+                f"not {planner!r}; use the same planner to resume, or another --out file"
+            )
+
+    @contextmanager
+    def transaction(self) -> Iterator[sqlite3.Cursor]:
+        """An immediate transaction: everything done with the cursor is committed or nothing."""
+        self._require_write()
+        try:
+            with self._conn:
+                self._conn.execute("BEGIN IMMEDIATE")
+                yield self._conn.cursor()
+        except sqlite3.Error as e:
+            raise DatabaseError(f"{self.path}: write failed: {e}") from e
+
+    def store_outcome(
+        self, mesh_id: int, sha256: str | None, size: int | None, outcome: PlanOutcome
+    ) -> None:
+        """Write one mesh's grasps and its final status in a single transaction."""
+        self._require_write()
+        cols = ", ".join(("mesh_id",) + PlanOutcome.GRASP_COLUMNS)
+        marks = ", ".join("?" * (len(PlanOutcome.GRASP_COLUMNS) + 1))
+        try:
+            with self._conn:
+                self._conn.execute("BEGIN IMMEDIATE")
+                self._conn.execute("DELETE FROM grasps WHERE mesh_id = ?", (mesh_id,))
+                self._conn.executemany(
+                    f"INSERT INTO grasps({cols}) VALUES ({marks})",
+                    [(mesh_id,) + row for row in outcome.rows],
+                )
+                self._conn.execute(
+                    "UPDATE meshes SET sha256 = ?, size = ?, status = ?, error_kind = ?, "
+                    "error = ?, duplicate_of = NULL, units = ?, length = ?, planner_params = ?, "
+                    "synth_version = ?, n_grasps = ?, plan_s = ?, worker_s = ?, finished_at = ? "
+                    "WHERE id = ?",
+                    (
+                        sha256, size, "done" if outcome.ok else "failed", outcome.error_kind,
+                        outcome.error, outcome.units, outcome.length, outcome.planner_params,
+                        outcome.synth_version, len(outcome.rows), outcome.plan_s,
+                        outcome.worker_s, _now(), mesh_id,
+                    ),
+                )  # fmt: skip
+        except sqlite3.Error as e:
+            raise DatabaseError(f"{self.path}: write failed: {e}") from e
+
+    def rows_by_path(self, paths: Iterable[str]) -> dict[str, sqlite3.Row]:
+        """Existing ``meshes`` rows of these paths."""
+        out: dict[str, sqlite3.Row] = {}
+        paths = list(paths)
+        for i in range(0, len(paths), 500):
+            chunk = paths[i : i + 500]
+            marks = ", ".join("?" * len(chunk))
+            for row in self._query(f"SELECT * FROM meshes WHERE path IN ({marks})", chunk):
+                out[row["path"]] = row
+        return out
+
+    def primary_by_sha(self, sha256: str) -> int | None:
+        """Id of the non-duplicate mesh with this content, if any."""
+        rows = self._query(
+            "SELECT id FROM meshes WHERE sha256 = ? AND status != 'duplicate' ORDER BY id LIMIT 1",
+            (sha256,),
+        )
+        return int(rows[0][0]) if rows else None
+
+    def id_of(self, path: str) -> int:
+        """Id of the mesh row of ``path``."""
+        return int(self._query("SELECT id FROM meshes WHERE path = ?", (path,))[0][0])
+
+    @staticmethod
+    def now() -> str:
+        """UTC ISO 8601 time stamp, as stored in ``finished_at``."""
+        return _now()

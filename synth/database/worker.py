@@ -1,0 +1,295 @@
+"""What runs on a worker: plan one mesh file and pack the result for the database writer.
+
+The database calls the planner through one function, ``plan_mesh_file(path, params) -> dict``,
+found by :func:`resolve_planner`:
+
+* by default ``synth.plan:plan_mesh_file`` (imported lazily, on the worker);
+* or the ``"module:function"`` named by the environment variable ``SYNTH_DB_PLANNER`` (or the
+  ``--planner`` option of ``synth db build``). This is the plug-in point for custom planners: any
+  importable function with that signature that returns the planner's JSON document (format
+  ``synth.grasps`` version 1) works, on local workers and on Dask workers alike (the parent
+  resolves the name once and passes it with every task, so workers need the module importable,
+  not the environment variable).
+
+A planner must be deterministic given ``params`` (notably ``seed`` and the evaluation budget
+``evals``): that is what makes a database identical whatever the engine and the number of workers.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from synth.database.schema import pack_array
+from synth.errors import InputError, MeshError, SynthError
+
+__all__ = [
+    "PLANNER_ENV",
+    "DEFAULT_PLANNER",
+    "PlanOutcome",
+    "resolve_planner",
+    "load_planner",
+    "plan_one",
+    "run_one",
+]
+
+PLANNER_ENV = "SYNTH_DB_PLANNER"
+DEFAULT_PLANNER = "synth.plan:plan_mesh_file"
+
+_GRASP_COLUMNS = (
+    "rank", "d_star", "closure", "conditioning", "epsilon", "n_contacts", "points", "normals",
+    "features", "regions", "n_fingers", "tip_centers", "tip_radius", "approach", "body_length",
+    "body_radius",
+)  # fmt: skip
+
+
+class _Timeout(Exception):
+    """Raised inside a task when its time limit is reached."""
+
+
+@dataclass(frozen=True)
+class PlanOutcome:
+    """The packed result of planning one mesh, ready for one database transaction.
+
+    Attributes
+    ----------
+    path : str
+        The mesh file.
+    ok : bool
+        True if grasps were found.
+    error_kind, error : str or None
+        Failure category and reason when ``ok`` is False.
+    units : str or None
+        Units the planner reported.
+    length : float or None
+        Characteristic length the planner reported.
+    planner_params : str or None
+        JSON of the planner's full parameter set.
+    synth_version : str or None
+        Version reported by the planner.
+    rows : tuple of tuple
+        One tuple per grasp, in the column order of ``GRASP_COLUMNS`` (rank first).
+    plan_s : float or None
+        Planner-reported time.
+    worker_s : float
+        Wall time of the task on the worker.
+    """
+
+    path: str
+    ok: bool
+    error_kind: str | None
+    error: str | None
+    units: str | None
+    length: float | None
+    planner_params: str | None
+    synth_version: str | None
+    rows: tuple[tuple[Any, ...], ...]
+    plan_s: float | None
+    worker_s: float
+
+    GRASP_COLUMNS = _GRASP_COLUMNS
+
+
+def resolve_planner(spec: str | None = None) -> str:
+    """The planner name to use: ``spec``, else ``$SYNTH_DB_PLANNER``, else the synth planner.
+
+    Parameters
+    ----------
+    spec : str, optional
+        ``"module:function"``.
+
+    Returns
+    -------
+    str
+        A ``"module:function"`` name (checked for form, not imported).
+
+    Raises
+    ------
+    InputError
+        If the name is not of the form ``module:function``.
+    """
+    name = spec or os.environ.get(PLANNER_ENV) or DEFAULT_PLANNER
+    module, sep, func = name.partition(":")
+    if not sep or not module or not func:
+        raise InputError(
+            f"planner {name!r} (from {'--planner' if spec else PLANNER_ENV}) must be "
+            "'module:function', e.g. 'synth.plan:plan_mesh_file'"
+        )
+    return name
+
+
+def load_planner(name: str) -> Callable[[str, dict[str, Any]], dict[str, Any]]:
+    """Import and return the planner function named ``"module:function"``.
+
+    Raises
+    ------
+    InputError
+        If the module cannot be imported or has no such function.
+    """
+    module, _, func = name.partition(":")
+    try:
+        mod = importlib.import_module(module)
+    except ImportError as e:
+        raise InputError(f"cannot import planner module {module!r} (planner {name!r}): {e}") from e
+    fn = getattr(mod, func, None)
+    if not callable(fn):
+        raise InputError(f"planner {name!r}: module {module!r} has no function {func!r}")
+    return fn  # type: ignore[no-any-return]
+
+
+def plan_one(path: str, params: dict[str, Any], planner: str | None = None) -> dict[str, Any]:
+    """Plan grasps for one mesh file with the configured planner.
+
+    Parameters
+    ----------
+    path : str
+        Mesh file.
+    params : dict
+        Planner parameters (``contacts``, ``mu``, ``top``, ``seed``, ``finger_radius``, ``evals``).
+    planner : str, optional
+        ``"module:function"``; default from :func:`resolve_planner`.
+
+    Returns
+    -------
+    dict
+        The planner's JSON document (format ``synth.grasps`` version 1).
+
+    Examples
+    --------
+    >>> doc = plan_one("box.stl", {"contacts": 7, "seed": 0, "evals": 2000})  # doctest: +SKIP
+    """
+    return load_planner(resolve_planner(planner))(path, dict(params))
+
+
+@contextmanager
+def _time_limit(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`_Timeout` after ``seconds``, when the task runs in a main thread (SIGALRM)."""
+    usable = (
+        seconds is not None
+        and hasattr(signal, "setitimer")
+        and threading.current_thread() is threading.main_thread()
+    )
+    if not usable:
+        yield
+        return
+
+    def _raise(signum: int, frame: object) -> None:
+        raise _Timeout
+
+    previous = signal.signal(signal.SIGALRM, _raise)
+    signal.setitimer(signal.ITIMER_REAL, float(seconds))  # type: ignore[arg-type]
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
+    points = g["points"]
+    k = len(points)
+    fingers = g["fingers"]
+    f = len(fingers["tip_centers"])
+    features = [str(s) for s in g["features"]]
+    if len(features) != k:
+        raise ValueError(f"features has {len(features)} entries, expected {k}")
+    return (
+        rank,
+        float(g["d_star"]),
+        str(g["closure"]),
+        float(g["conditioning"]),
+        float(g["epsilon"]),
+        k,
+        pack_array(points, (k, 3)),
+        pack_array(g["normals"], (k, 3)),
+        json.dumps(features),
+        pack_array(g["regions"], (k,), dtype="<i8"),
+        f,
+        pack_array(fingers["tip_centers"], (f, 3)),
+        float(fingers["tip_radius"]),
+        pack_array(fingers["approach"], (f, 3)),
+        float(fingers["body_length"]),
+        float(fingers["body_radius"]),
+    )
+
+
+def _failure(path: str, kind: str, error: str, start: float) -> PlanOutcome:
+    return PlanOutcome(
+        path, False, kind, error, None, None, None, None, (), None, time.perf_counter() - start
+    )
+
+
+def run_one(
+    path: str, params: dict[str, Any], planner: str, timeout: float | None = None
+) -> PlanOutcome:
+    """Plan one mesh and pack the result; never raises for a bad mesh or a planner failure.
+
+    Parameters
+    ----------
+    path : str
+        Mesh file.
+    params : dict
+        Planner parameters.
+    planner : str
+        ``"module:function"`` (resolved by the parent).
+    timeout : float, optional
+        Seconds before the task is recorded as timed out. Enforced with SIGALRM when the task
+        runs in a process's main thread (the local engine); not enforced in Dask worker threads.
+
+    Returns
+    -------
+    PlanOutcome
+        Packed grasps, or the failure category and reason.
+    """
+    start = time.perf_counter()
+    try:
+        with _time_limit(timeout):
+            doc = plan_one(path, params, planner)
+    except _Timeout:
+        return _failure(path, "timeout", f"timed out after {timeout:g} s", start)
+    except MeshError as e:
+        return _failure(path, "mesh", f"cannot load mesh: {e}", start)
+    except SynthError as e:
+        return _failure(path, "planner", f"{type(e).__name__}: {e}", start)
+    except Exception as e:  # noqa: BLE001 - a planner bug must not stop a long run
+        return _failure(path, "planner", f"planner raised {type(e).__name__}: {e}", start)
+    try:
+        if not isinstance(doc, dict) or doc.get("format") != "synth.grasps":
+            raise ValueError("not a 'synth.grasps' document")
+        if doc.get("version") != 1:
+            raise ValueError(f"format version {doc.get('version')!r}, expected 1")
+        grasps = doc["grasps"]
+        rows = tuple(_pack_grasp(i + 1, g) for i, g in enumerate(grasps))
+        mesh = doc.get("mesh", {})
+        timing = doc.get("timing", {})
+        units = mesh.get("units")
+        length = mesh.get("length")
+        plan_s = timing.get("total_s")
+        outcome_meta = (
+            None if units is None else str(units),
+            None if length is None else float(length),
+            json.dumps(doc.get("params", {}), sort_keys=True, default=str),
+            None if doc.get("synth_version") is None else str(doc["synth_version"]),
+            None if plan_s is None else float(plan_s),
+        )
+    except (KeyError, TypeError, ValueError) as e:
+        return _failure(path, "invalid_result", f"planner returned an invalid document: {e}", start)
+    if not rows:
+        message = doc.get("message")
+        reason = "no grasp found" + (f": {message}" if message else "")
+        return PlanOutcome(
+            path, False, "no_grasp", reason, outcome_meta[0], outcome_meta[1], outcome_meta[2],
+            outcome_meta[3], (), outcome_meta[4], time.perf_counter() - start,
+        )  # fmt: skip
+    return PlanOutcome(
+        path, True, None, None, outcome_meta[0], outcome_meta[1], outcome_meta[2],
+        outcome_meta[3], rows, outcome_meta[4], time.perf_counter() - start,
+    )  # fmt: skip

@@ -1,0 +1,129 @@
+"""A small, real, deterministic planner for the database tests, used through ``SYNTH_DB_PLANNER``.
+
+``SYNTH_DB_PLANNER=db_fakeplanner:plan_mesh_file`` (with ``tests/`` on ``PYTHONPATH``) makes
+``synth db build`` use it. It loads the mesh with trimesh, refuses files that are not a closed
+surface, samples ``evals`` sets of ``contacts`` surface points with ``default_rng(seed)``, scores
+each with d* from the null space of the frictionless wrench matrix (exact when the null space
+has dimension one, i.e. 7 contacts of full rank; the last right-singular vector otherwise), and
+returns the ``top`` best in the planner's JSON format (version 1). ``mu`` is recorded but not used
+(``epsilon`` is 0). It exists so the database can be tested before, and independently of, the
+synth planner; it is not that planner.
+
+``SYNTH_FAKEPLANNER_DELAY`` (seconds) adds a sleep per mesh so tests can interrupt a run.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from synth.errors import MeshError
+
+__all__ = ["plan_mesh_file"]
+
+_RANK_TOL = 1e-9
+
+
+def _load(path: str) -> trimesh.Trimesh:
+    try:
+        mesh = trimesh.load(path, force="mesh", process=True)
+    except Exception as e:  # noqa: BLE001 - trimesh raises many kinds
+        raise MeshError(f"{path}: cannot read mesh: {type(e).__name__}: {e}") from e
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise MeshError(f"{path}: no triangles in the file")
+    if not mesh.is_watertight:
+        raise MeshError(f"{path}: not a solid (the surface is not closed)")
+    return mesh
+
+
+def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Plan grasps on a mesh file by seeded random sampling (see the module docstring).
+
+    Parameters
+    ----------
+    path : str
+        Mesh file.
+    params : dict
+        ``contacts``, ``mu``, ``top``, ``seed``, ``finger_radius``, ``evals``.
+
+    Returns
+    -------
+    dict
+        The planner's JSON document, format ``synth.grasps`` version 1.
+    """
+    t0 = time.perf_counter()
+    delay = float(os.environ.get("SYNTH_FAKEPLANNER_DELAY", "0") or 0)
+    if delay:
+        time.sleep(delay)
+    k, evals, top = int(params["contacts"]), int(params["evals"]), int(params["top"])
+    mesh = _load(path)
+    rng = np.random.default_rng(int(params["seed"]))
+    length = float(np.max(mesh.extents))
+    center = mesh.bounds.mean(axis=0)
+    areas = mesh.area_faces / mesh.area
+    faces = rng.choice(len(areas), size=(evals, k), p=areas)
+    uv = rng.random((evals, k, 2))
+    flip = uv.sum(axis=2) > 1.0
+    uv[flip] = 1.0 - uv[flip]
+    tri = mesh.triangles[faces]  # (evals, k, 3, 3)
+    points = (
+        tri[:, :, 0] * (1.0 - uv[..., :1] - uv[..., 1:])
+        + tri[:, :, 1] * uv[..., :1]
+        + tri[:, :, 2] * uv[..., 1:]
+    )
+    normals = -mesh.face_normals[faces]  # inward: the direction a contact pushes
+    torques = np.cross(points - center, normals) / length
+    wrench = np.concatenate([normals, torques], axis=2).transpose(0, 2, 1)  # (evals, 6, k)
+    _, s, vt = np.linalg.svd(wrench)
+    rank = (s > _RANK_TOL * s[:, :1]).sum(axis=1)
+    null = vt[:, -1, :]
+    scale = np.abs(null).max(axis=1)
+    d_star = np.maximum(null.min(axis=1), (-null).min(axis=1)) / scale
+    d_star = np.where((rank == 6) & (k > 6), d_star, 0.0)
+    conditioning = s[:, -1] / s[:, 0]
+    order = np.lexsort((-conditioning, -d_star))
+    chosen = [int(i) for i in order[:top] if d_star[i] > 0.0]
+    radius = float(params["finger_radius"] or 0.05 * length)
+    grasps = []
+    for i in chosen:
+        tips = points[i] - normals[i] * radius
+        grasps.append(
+            {
+                "points": points[i].tolist(),
+                "normals": normals[i].tolist(),
+                "features": ["face"] * k,
+                "regions": faces[i].tolist(),
+                "d_star": float(d_star[i]),
+                "closure": "form closure",
+                "conditioning": float(conditioning[i]),
+                "epsilon": 0.0,
+                "fingers": {
+                    "tip_centers": tips.tolist(),
+                    "tip_radius": radius,
+                    "approach": normals[i].tolist(),
+                    "body_length": length,
+                    "body_radius": radius,
+                },
+            }
+        )
+    doc: dict[str, Any] = {
+        "format": "synth.grasps",
+        "version": 1,
+        "synth_version": "0.1.0",
+        "mesh": {
+            "path": path,
+            "sha256": "",
+            "units": "unknown",
+            "length": length,
+        },
+        "params": dict(params),
+        "grasps": grasps,
+        "timing": {"total_s": time.perf_counter() - t0},
+    }
+    if not grasps:
+        doc["message"] = f"no form-closure grasp among {evals} random {k}-contact sets"
+    return doc

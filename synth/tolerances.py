@@ -16,16 +16,23 @@ D_STAR_TOL
     LP solvers' feasibility tolerance (HiGHS: 1e-7 primal feasibility on a problem of
     scale 1 is an absolute bound on residuals, and our optimum is recomputed exactly from the
     optimal basis), so a reported positive d* is a real positive margin.
+MOMENT_NOISE_RTOL
+    Before the rank test the moment rows of W are rescaled to the size of the force rows (so
+    the test does not depend on the length unit); a moment block whose norm is below this
+    fraction of the force block's is taken as round-off (all normals through one point, as on
+    a sphere) and left unscaled. 1e-9 leaves any real part, from nanometres to kilometres in
+    any unit, correctly scaled, and sits well above the 1e-16 noise of ``r x n``.
 LP_FEAS_TOL
     Primal and dual feasibility tolerance used to accept the batched simplex's certificate.
 """
 
 from __future__ import annotations
 
-__all__ = ["RANK_RTOL", "D_STAR_TOL", "LP_FEAS_TOL", "NORMAL_NORM_TOL"]
+__all__ = ["RANK_RTOL", "D_STAR_TOL", "LP_FEAS_TOL", "MOMENT_NOISE_RTOL", "NORMAL_NORM_TOL"]
 
 RANK_RTOL: float = 1e-9
 D_STAR_TOL: float = 1e-9
 LP_FEAS_TOL: float = 1e-9
+MOMENT_NOISE_RTOL: float = 1e-9
 #: A supplied contact normal is accepted when its length is above this (it is then normalised).
 NORMAL_NORM_TOL: float = 1e-12

@@ -1,0 +1,29 @@
+"""Closure scores: Trinkle's three linear programs (1992), single and batched."""
+
+from synth.scores.batch import BatchScores, form_closure_batch
+from synth.scores.escape import describe_twist, escape_twist
+from synth.scores.form import FormClosure, form_closure
+from synth.scores.friction import (
+    FrictionalFormClosure,
+    friction_cone_wrenches,
+    frictional_form_closure,
+)
+from synth.scores.strong import StrongForceClosure, squeezable_contacts, strong_force_closure
+from synth.scores.wrench import numerical_rank, wrench_matrix
+
+__all__ = [
+    "BatchScores",
+    "FormClosure",
+    "FrictionalFormClosure",
+    "StrongForceClosure",
+    "describe_twist",
+    "escape_twist",
+    "form_closure",
+    "form_closure_batch",
+    "friction_cone_wrenches",
+    "frictional_form_closure",
+    "numerical_rank",
+    "squeezable_contacts",
+    "strong_force_closure",
+    "wrench_matrix",
+]

@@ -1,0 +1,5 @@
+"""Shared pytest setup: headless plotting."""
+
+import os
+
+os.environ.setdefault("MPLBACKEND", "Agg")

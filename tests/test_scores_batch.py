@@ -1,0 +1,82 @@
+"""The batched scorer agrees with the single LP on every kind of grasp."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from synth import InputError, form_closure, form_closure_batch, wrench_matrix
+from synth.scores.simplex import solve_batch
+from tests.scoring_cases import blob_contacts, cube_contacts, example1_W, TABLE1
+
+
+def _compare(Ws):
+    res = form_closure_batch(np.stack(Ws))
+    for j, W in enumerate(Ws):
+        ref = form_closure(W)
+        assert res.d_star[j] == pytest.approx(ref.d_star, abs=1e-7)
+        assert bool(res.closure[j]) == ref.is_form_closure
+        assert res.rank[j] == ref.rank
+    return res
+
+
+@pytest.mark.parametrize("n", [7, 8, 12, 20])
+def test_random_cube_grasps(n):
+    rng = np.random.default_rng(n)
+    res = _compare([wrench_matrix(*cube_contacts(rng, n)) for _ in range(150)])
+    assert res.closure.any() or n == 7
+
+
+@pytest.mark.parametrize("n, dim", [(7, 3), (9, 3), (16, 3), (4, 2), (6, 2)])
+def test_random_blob_grasps(n, dim):
+    rng = np.random.default_rng(10 * n + dim)
+    res = _compare([wrench_matrix(*blob_contacts(rng, n, dim, 0.5)) for _ in range(120)])
+    assert res.closure.any() and not res.closure.all()
+
+
+def test_paper_table1_batched():
+    res = _compare([example1_W(a) for a, _, _ in TABLE1])
+    assert res.closure.sum() == 8
+
+
+def test_degenerate_cases():
+    P = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1.0]])
+    octa = wrench_matrix(P, -P)  # d* = 1 (W 1 = 0), rank 3
+    dup = np.hstack([octa, octa[:, :1]])  # 7 columns, nullity > 1
+    zero_col = dup.copy()
+    zero_col[:, 3] = 0.0
+    rng = np.random.default_rng(5)
+    P2, N2 = blob_contacts(rng, 7, 2, 0.3)
+    planar = wrench_matrix(np.hstack([P2, 0 * P2[:, :1]]), np.hstack([N2, 0 * N2[:, :1]]))
+    cube = wrench_matrix(*cube_contacts(rng, 7))
+    res = _compare([dup, zero_col, planar, cube])
+    assert res.rank.tolist()[:3] == [3, 3, 3]
+    res8 = _compare([np.hstack([octa, octa[:, :2]]), np.hstack([octa, -octa[:, :2]])])
+    assert res8.d_star[0] == pytest.approx(1.0)
+
+
+def test_scaled_and_rotated_batches_agree():
+    rng = np.random.default_rng(2)
+    P, N = blob_contacts(rng, 10, 3, 0.5)
+    Ws = [wrench_matrix(s * P, N) for s in (1e-3, 1.0, 1e3)]
+    res = form_closure_batch(np.stack(Ws))
+    assert np.ptp(res.d_star) < 1e-9 and len(set(res.rank.tolist())) == 1
+
+
+def test_empty_and_bad_batches():
+    assert len(form_closure_batch(np.zeros((0, 6, 7)))) == 0
+    with pytest.raises(InputError, match="shape"):
+        form_closure_batch(np.zeros((6, 7)))
+    bad = np.ones((3, 6, 7))
+    bad[1, 0, 0] = np.nan
+    with pytest.raises(InputError, match=r"W\[1\]"):
+        form_closure_batch(bad)
+
+
+def test_simplex_small_lp_known_optimum():
+    # max x0 + x1 s.t. x0 + x1 + s = 1.5, 0 <= x0, x1 <= 1: optimum 1.5 (an independent check)
+    A = np.array([[[1.0, 1.0, 1.0]]])
+    sol = solve_batch(A, np.array([[1.5]]), np.array([1.0, 1.0, 0.0]),
+                      np.array([1.0, 1.0, np.inf]), np.array([2]))
+    assert sol.status[0] == 0
+    assert sol.objective[0] == pytest.approx(1.5)

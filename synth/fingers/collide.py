@@ -1,0 +1,458 @@
+"""Can the fingers of a grasp physically be placed? Batched checks with numpy and FCL.
+
+For a batch of grasps of one part, :func:`check_fingers` keeps the grasps whose fingers
+
+1. can touch all their contacts (a fingertip shared by several contacts fits them all),
+2. do not overlap each other (tips and bodies; exact sphere/capsule distances in numpy),
+3. stay on the part's side of an optional support plane, approach path included (numpy),
+4. do not penetrate the part deeper than ``Fingers.penetration_tol`` (FCL), and
+5. can come in from outside along an approach direction in the cone without passing through
+   the part (FCL: the fingertip swept from beyond the part's bounding sphere to its contact is
+   a capsule, which also contains the tip and, the body being thinner, the whole finger).
+
+The cheap numpy stages run first on the whole batch; FCL only sees fingers of grasps still
+alive, and a grasp is dropped at its first failing finger. The part's BVH is built once per
+mesh and cached (:func:`checker_for`).
+
+A tip centre inside the part (contact far off the surface, or a flipped normal on a thick
+part) is caught by the approach check: every path from outside to it crosses the surface.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import Any
+
+import fcl
+import numpy as np
+
+from synth.errors import InputError
+from synth.fingers.geometry import (
+    approach_directions,
+    point_segment_distance,
+    quaternions_to,
+    segment_segment_distance,
+)
+from synth.fingers.model import (
+    SHARED_TIP_FIT_RTOL,
+    FingerPlacement,
+    Fingers,
+    part_mesh,
+    tip_centers,
+)
+from synth.tolerances import NORMAL_NORM_TOL
+
+__all__ = [
+    "OK",
+    "ABSENT",
+    "UNCHECKED",
+    "MISFIT",
+    "OVERLAP",
+    "PLANE",
+    "TIP_PENETRATES",
+    "BODY_HITS_PART",
+    "APPROACH_BLOCKED",
+    "STATUS_NAMES",
+    "FingerCheck",
+    "FingerChecker",
+    "checker_for",
+    "check_fingers",
+    "finger_placement",
+]
+
+#: Per-finger status codes of :attr:`FingerCheck.status`.
+OK, ABSENT, UNCHECKED = 0, -2, -1
+MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2, 3, 4, 5, 6
+STATUS_NAMES: dict[int, str] = {
+    OK: "ok",
+    ABSENT: "absent",
+    UNCHECKED: "unchecked",
+    MISFIT: "misfit",
+    OVERLAP: "overlap",
+    PLANE: "plane",
+    TIP_PENETRATES: "tip_penetrates",
+    BODY_HITS_PART: "body_hits_part",
+    APPROACH_BLOCKED: "approach_blocked",
+}
+
+
+@dataclass(frozen=True)
+class FingerCheck:
+    """Result of checking B grasps of k contacts with fingers (f = k finger slots).
+
+    Attributes
+    ----------
+    mask : (B,) bool
+        The grasp can be made.
+    reasons : tuple of str, length B
+        Why each grasp was dropped ("" when accepted), naming the finger (by its index in
+        the grasp's :class:`FingerPlacement`) and what it hit.
+    status : (B, f) int8
+        Per finger slot: ``OK``, a failure code, ``UNCHECKED`` (grasp dropped earlier) or
+        ``ABSENT`` (no contact uses this finger id).
+    tip_centers : (B, f, 3) float
+        NaN for absent fingers.
+    approach : (B, f, 3) float
+        Chosen unit approach directions (away from the part); NaN where none was found.
+    contact_finger : (B, k) int
+        Finger slot of each contact.
+    fingers : Fingers
+    """
+
+    mask: np.ndarray
+    reasons: tuple[str, ...]
+    status: np.ndarray
+    tip_centers: np.ndarray
+    approach: np.ndarray
+    contact_finger: np.ndarray
+    fingers: Fingers
+
+    @property
+    def n_accepted(self) -> int:
+        """Number of grasps that can be made."""
+        return int(self.mask.sum())
+
+    def placement(self, i: int) -> FingerPlacement:
+        """Finger geometry of accepted grasp ``i`` (fingers renumbered 0..f_i-1 by slot)."""
+        if not self.mask[i]:
+            raise InputError(f"grasp {i} was rejected ({self.reasons[i]}); it has no placement")
+        slots = np.flatnonzero(self.status[i] != ABSENT)
+        renumber = np.full(self.status.shape[1], -1, dtype=int)
+        renumber[slots] = np.arange(len(slots))
+        f = self.fingers
+        return FingerPlacement(
+            tip_centers=self.tip_centers[i, slots].copy(),
+            tip_radius=float(f.tip_radius),
+            approach=self.approach[i, slots].copy(),
+            body_length=float(f.body_length),  # type: ignore[arg-type]
+            body_radius=float(f.body_radius),  # type: ignore[arg-type]
+            contact_finger=renumber[self.contact_finger[i]],
+        )
+
+
+class FingerChecker:
+    """FCL model of one part, built once, checking many grasps.
+
+    Parameters
+    ----------
+    part : trimesh.Trimesh or object with ``.mesh``
+        Watertight mesh with outward face normals.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> checker = FingerChecker(trimesh.creation.box())
+    >>> res = checker.check(np.array([[[0.0, 0.0, 0.5]]]), np.array([[[0.0, 0.0, -1.0]]]),
+    ...                     Fingers(tip_radius=0.05))
+    >>> res.mask.tolist()
+    [True]
+    """
+
+    def __init__(self, part: Any) -> None:
+        mesh = part_mesh(part)
+        vertices = np.asarray(mesh.vertices, dtype=float)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        try:
+            bvh = fcl.BVHModel()
+            bvh.beginModel(len(vertices), len(faces))
+            bvh.addSubModel(vertices, faces)
+            bvh.endModel()
+        except Exception as e:  # pragma: no cover - FCL rejects malformed arrays
+            raise InputError(f"part: FCL could not build a BVH of the mesh: {e}") from e
+        self.mesh = mesh
+        self._bvh = bvh
+        self._part = fcl.CollisionObject(bvh, fcl.Transform())
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        self.center: np.ndarray = (lo + hi) / 2.0
+        self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
+        self._objects: dict[tuple[str, float, float], Any] = {}
+        self._request = fcl.CollisionRequest()
+
+    # -- FCL primitives ---------------------------------------------------------------------
+
+    def _object(self, kind: str, radius: float, length: float = 0.0) -> Any:
+        key = (kind, radius, length)
+        obj = self._objects.get(key)
+        if obj is None:
+            geom = fcl.Sphere(radius) if kind == "sphere" else fcl.Capsule(radius, length)
+            obj = fcl.CollisionObject(geom, fcl.Transform())
+            self._objects[key] = obj
+        return obj
+
+    def _hits(self, obj: Any, rotation: np.ndarray | None, translation: np.ndarray) -> bool:
+        if rotation is not None:
+            obj.setQuatRotation(rotation)
+        obj.setTranslation(translation)
+        return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
+
+    def _penetration(self, center: np.ndarray, radius: float) -> float:
+        """Largest depth by which the ball (center, radius) sinks into the surface (FCL)."""
+        obj = self._object("sphere", radius)
+        obj.setTranslation(center)
+        req = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=True)
+        res = fcl.CollisionResult()
+        fcl.collide(self._part, obj, req, res)
+        return max((abs(c.penetration_depth) for c in res.contacts), default=0.0)
+
+    def sweep_length(self, fingers: Fingers) -> float:
+        """Length of the approach sweep: from the tip centre to beyond the bounding sphere."""
+        return 2.0 * self.radius + 2.0 * fingers.tip_radius + float(fingers.body_length)  # type: ignore[arg-type]
+
+    # -- the batched check ------------------------------------------------------------------
+
+    def check(
+        self,
+        points: np.ndarray,
+        normals: np.ndarray,
+        fingers: Fingers,
+        finger_ids: np.ndarray | None = None,
+    ) -> FingerCheck:
+        """Check B grasps; see :func:`check_fingers`."""
+        P, N, ids = _validate(points, normals, fingers, finger_ids)
+        B, k, _ = P.shape
+        r = float(fingers.tip_radius)
+        rb = float(fingers.body_radius)  # type: ignore[arg-type]
+        L = float(fingers.body_length)  # type: ignore[arg-type]
+        tol = float(fingers.penetration_tol)  # type: ignore[arg-type]
+        centers, present, misfit, ids = tip_centers(P, N, r, ids)
+        status = np.where(present, UNCHECKED, ABSENT).astype(np.int8)
+        reasons = [""] * B
+        alive = np.ones(B, dtype=bool)
+        slot_name = _slot_names(status)
+
+        def fail(b: int, j: int, code: int, text: str) -> None:
+            alive[b] = False
+            status[b, j] = code
+            reasons[b] = text
+
+        # 1. Shared fingertips must touch all their contacts.
+        bad = present & (misfit > SHARED_TIP_FIT_RTOL * r)
+        for b, j in zip(*np.nonzero(bad)):
+            if alive[b]:
+                cs = np.flatnonzero(ids[b] == j).tolist()
+                fail(b, j, MISFIT, f"finger {slot_name[b][j]} cannot touch contacts {cs} at "
+                     f"once (off by {misfit[b, j]:.3g})")
+
+        # 2. Tip-tip overlaps.
+        iu, ju = np.triu_indices(k, 1)
+        if len(iu):
+            dist = np.linalg.norm(centers[:, iu] - centers[:, ju], axis=-1)
+            both = present[:, iu] & present[:, ju]
+            close = both & (dist < 2.0 * r - tol)
+            for b, p in zip(*np.nonzero(close)):
+                if alive[b]:
+                    i, j = iu[p], ju[p]
+                    fail(b, i, OVERLAP, f"fingers {slot_name[b][i]} and {slot_name[b][j]} "
+                         f"overlap (tips {dist[b, p]:.3g} apart, less than 2 r = {2 * r:.3g})")
+                    status[b, j] = OVERLAP
+
+        # 3. Approach directions (cone around the mean outward normal of each finger).
+        onehot = (ids[:, None, :] == np.arange(k)[None, :, None]).astype(float)
+        axis = -np.einsum("bfj,bjx->bfx", onehot, N)
+        norm = np.linalg.norm(axis, axis=-1, keepdims=True)
+        axis = np.where(norm > NORMAL_NORM_TOL, axis / np.where(norm > 0, norm, 1.0), 0.0)
+        axis[~present] = (0.0, 0.0, 1.0)
+        dirs = approach_directions(axis.reshape(-1, 3), float(fingers.approach_cone))
+        m = dirs.shape[1]
+        dirs = dirs.reshape(B, k, m, 3)
+        D = self.sweep_length(fingers)
+        usable = np.ones((B, k, m), dtype=bool)
+        tip_below = np.zeros((B, k), dtype=bool)
+        if fingers.support_plane is not None:
+            p0, n0 = fingers.support_plane
+            h = (centers - p0) @ n0  # (B, k)
+            h_far = h[..., None] + D * (dirs @ n0)  # (B, k, m)
+            tip_below = present & (h < r - tol)
+            usable = ~tip_below[..., None] & (h_far >= r - tol)
+            for b, j in zip(*np.nonzero(tip_below | (present & ~usable.any(axis=2)))):
+                if alive[b]:
+                    what = "tip" if tip_below[b, j] else "approach"
+                    fail(b, j, PLANE, f"finger {slot_name[b][j]} {what} crosses the support plane")
+
+        # 4-5. FCL: tip against part, then the approach sweep.
+        approach = np.full((B, k, 3), np.nan)
+        sweep = self._object("capsule", r - tol, D)
+        rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
+        mid = centers[:, :, None, :] + 0.5 * D * dirs  # (B, k, m, 3)
+        tip = self._object("sphere", r - tol)
+        for b in np.flatnonzero(alive):
+            for j in np.flatnonzero(present[b]):
+                chosen, tip_checked = -1, False
+                for d in np.flatnonzero(usable[b, j]):
+                    if not self._hits(sweep, rot[b, j, d], mid[b, j, d]):
+                        chosen = d
+                        break
+                    if not tip_checked:
+                        tip_checked = True
+                        if self._hits(tip, None, centers[b, j]):
+                            depth = self._penetration(centers[b, j], r - tol) + tol
+                            fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
+                                 f"penetrates the part by {depth:.3g}")
+                            break
+                if not alive[b]:
+                    break
+                if chosen < 0:
+                    d0 = int(np.flatnonzero(usable[b, j])[0])
+                    if L > 0 and self._body_hits(centers[b, j], dirs[b, j, d0], rb - tol, L):
+                        fail(b, j, BODY_HITS_PART, f"finger {slot_name[b][j]} body hits the part")
+                    else:
+                        fail(b, j, APPROACH_BLOCKED,
+                             f"finger {slot_name[b][j]} approach blocked by the part")
+                    break
+                approach[b, j] = dirs[b, j, chosen]
+                status[b, j] = OK
+
+        # 6. Tip-body and body-body overlaps between fingers, with the chosen directions.
+        live = np.flatnonzero(alive)
+        if len(iu) and len(live) and L > 0:
+            c, a = centers[live], approach[live]
+            end = c + L * a
+            ci, cj, ei, ej = c[:, iu], c[:, ju], end[:, iu], end[:, ju]
+            both = present[live][:, iu] & present[live][:, ju]
+            tb = np.minimum(point_segment_distance(ci, cj, ej), point_segment_distance(cj, ci, ei))
+            bb = segment_segment_distance(ci, ei, cj, ej)
+            hit = both & ((tb < r + rb - tol) | (bb < 2.0 * rb - tol))
+            for q, p in zip(*np.nonzero(hit)):
+                b = live[q]
+                if alive[b]:
+                    i, j = iu[p], ju[p]
+                    fail(b, i, OVERLAP, f"fingers {slot_name[b][i]} and {slot_name[b][j]} "
+                         "overlap (body against finger)")
+                    status[b, j] = OVERLAP
+        for arr in (status, centers, approach, ids, alive):
+            arr.setflags(write=False)
+        return FingerCheck(
+            mask=alive,
+            reasons=tuple(reasons),
+            status=status,
+            tip_centers=centers,
+            approach=approach,
+            contact_finger=np.ascontiguousarray(ids),
+            fingers=fingers,
+        )
+
+    def _body_hits(self, center: np.ndarray, direction: np.ndarray, radius: float,
+                   length: float) -> bool:
+        obj = self._object("capsule", radius, length)
+        rot = quaternions_to(direction[None])[0]
+        return self._hits(obj, rot, center + 0.5 * length * direction)
+
+
+def _slot_names(status: np.ndarray) -> list[list[int]]:
+    """Finger index of each slot in the grasp's placement (slots renumbered past absent ones)."""
+    present = status != ABSENT
+    return (np.cumsum(present, axis=1) - 1).tolist()
+
+
+def _validate(
+    points: Any, normals: Any, fingers: Any, finger_ids: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    if not isinstance(fingers, Fingers):
+        raise InputError(f"fingers: expected a synth Fingers, got {type(fingers).__name__}")
+    try:
+        P = np.asarray(points, dtype=float)
+        N = np.asarray(normals, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise InputError("points, normals: expected float arrays of shape (B, k, 3)") from e
+    if P.ndim == 2:
+        P = P[None]
+        if N.ndim == 2:
+            N = N[None]
+    if P.ndim != 3 or P.shape[-1] != 3 or P.shape[1] == 0:
+        raise InputError(f"points: expected shape (B, k, 3) or (k, 3), got {np.shape(points)}")
+    if N.shape != P.shape:
+        raise InputError(f"normals: expected shape {P.shape} like points, got {np.shape(normals)}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
+        raise InputError("points, normals: contain NaN or infinity")
+    norm = np.linalg.norm(N, axis=-1, keepdims=True)
+    if np.any(norm <= NORMAL_NORM_TOL):
+        raise InputError("normals: some normals have (near) zero length")
+    N = N / norm
+    B, k, _ = P.shape
+    ids = None
+    if finger_ids is not None:
+        raw = np.asarray(finger_ids)
+        if raw.dtype.kind not in "iu":
+            raise InputError(f"finger_ids: expected integers, got dtype {raw.dtype}")
+        if raw.shape == (k,):
+            raw = np.broadcast_to(raw, (B, k))
+        if raw.shape != (B, k):
+            raise InputError(f"finger_ids: expected shape ({k},) or ({B}, {k}), got {raw.shape}")
+        if raw.size and (raw.min() < 0 or raw.max() >= k):
+            raise InputError(f"finger_ids: expected values in [0, {k}), got {raw.min()}..{raw.max()}")
+        ids = np.ascontiguousarray(raw, dtype=np.int64)
+    return P, N, ids
+
+
+_CHECKERS: "weakref.WeakKeyDictionary[Any, FingerChecker]" = weakref.WeakKeyDictionary()
+
+
+def checker_for(part: Any) -> FingerChecker:
+    """The cached :class:`FingerChecker` of ``part``'s mesh (built on first use).
+
+    The cache is keyed by the mesh object and dropped with it; a mesh edited in place after
+    its first check keeps its old BVH, so build a new ``FingerChecker`` after editing.
+    """
+    mesh = part_mesh(part)
+    checker = _CHECKERS.get(mesh)
+    if checker is None:
+        checker = FingerChecker(mesh)
+        _CHECKERS[mesh] = checker
+    return checker
+
+
+def check_fingers(
+    part: Any,
+    points: np.ndarray,
+    normals: np.ndarray,
+    fingers: Fingers,
+    finger_ids: np.ndarray | None = None,
+) -> FingerCheck:
+    """Which of B candidate grasps of ``part`` can physically be made by the fingers.
+
+    Parameters
+    ----------
+    part : trimesh.Trimesh or object with ``.mesh``
+        Watertight, outward face normals. Its FCL model is built once and cached.
+    points : (B, k, 3) float
+        Contact points on the surface ((k, 3) is one grasp).
+    normals : (B, k, 3) float
+        Inward unit normals (normalised here).
+    fingers : Fingers
+    finger_ids : (k,) or (B, k) int, optional
+        Finger of each contact, in [0, k); contacts with the same id share one fingertip.
+        Default: one finger per contact.
+
+    Returns
+    -------
+    FingerCheck
+        ``mask`` (B,), ``reasons``, per-finger ``status``, ``tip_centers`` and ``approach``;
+        ``placement(i)`` gives the :class:`FingerPlacement` of an accepted grasp.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box((2.0, 2.0, 2.0))
+    >>> pts = np.array([[[0.0, 0.0, 1.0], [0.1, 0.0, 1.0]]])
+    >>> nrm = np.array([[[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]]])
+    >>> check_fingers(box, pts, nrm, Fingers(tip_radius=0.1)).reasons[0]
+    'fingers 0 and 1 overlap (tips 0.1 apart, less than 2 r = 0.2)'
+    """
+    return checker_for(part).check(points, normals, fingers, finger_ids)
+
+
+def finger_placement(
+    part: Any,
+    points: np.ndarray,
+    normals: np.ndarray,
+    fingers: Fingers,
+    finger_ids: np.ndarray | None = None,
+) -> FingerPlacement:
+    """Finger geometry of one grasp (points, normals (k, 3)); InputError if it cannot be made."""
+    P = np.asarray(points, dtype=float)
+    if P.ndim != 2:
+        raise InputError(f"points: expected one grasp of shape (k, 3), got {P.shape}")
+    ids = None if finger_ids is None else np.asarray(finger_ids)[None]
+    res = check_fingers(part, P[None], np.asarray(normals, dtype=float)[None], fingers, ids)
+    return res.placement(0)

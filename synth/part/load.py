@@ -182,12 +182,21 @@ def _close(mesh: trimesh.Trimesh, name: str, repairs: list[str], warnings: list[
     except Exception:  # manifold3d refuses non-manifold input; fall through to warning
         pass
     warnings.append(
-        f"{name}: mesh is not watertight ({int((mesh.edges_unique_inverse >= 0).sum() and 0)}"
-        f"{len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))} open edges); "
+        f"{name}: mesh is not watertight ({len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))} open edges); "
         "volume, centre of mass and inside tests are unreliable, normals at the open "
         "boundary are guesses, and closure scores assume a solid that is not there"
     )
     return mesh
+
+
+def _valid_unit(unit: object) -> str | None:
+    if not isinstance(unit, str):
+        return None
+    try:
+        trimesh.units.to_inch(unit)
+    except Exception:
+        return None
+    return unit
 
 
 def load_part(
@@ -239,10 +248,17 @@ def load_part(
     else:
         raise MeshError(f"source: expected a path or trimesh.Trimesh, got {type(source).__name__}")
     if len(bodies) == 1:
-        bodies = _split_components(_clean(bodies[0][1], name, [], []))
-    mesh = _choose(bodies, body, name, repairs)
-    mesh = _clean(mesh, name, repairs, warnings)
-    unit = units if units is not None else declared
+        mesh = _clean(bodies[0][1], name, repairs, warnings)
+        components = _split_components(mesh)
+        if len(components) > 1:
+            mesh = _choose(components, body, name, repairs)
+            mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+            mesh.remove_unreferenced_vertices()
+        elif body not in ("largest", "all", 0, "mesh"):
+            raise _fail(name, f"body={body!r} not found: the file holds one body")
+    else:
+        mesh = _clean(_choose(bodies, body, name, repairs), name, repairs, warnings)
+    unit = units if units is not None else _valid_unit(declared)
     if unit is not None:
         try:
             trimesh.units.to_inch(unit)

@@ -210,11 +210,14 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
                     f"{src}: not a mesh file ({', '.join(MESH_EXTENSIONS)}) nor a readable text "
                     f"list of paths: {e}"
                 ) from e
-            for line in lines:
-                entry = line.strip()
-                if not entry or entry.startswith("#"):
-                    continue
-                full = os.path.abspath(os.path.join(base, os.path.expanduser(entry)))
+            entries = [e.strip() for e in lines if e.strip() and not e.strip().startswith("#")]
+            fulls = [os.path.abspath(os.path.join(base, os.path.expanduser(e))) for e in entries]
+            if not any(os.path.exists(f) for f in fulls):
+                raise InputError(
+                    f"{src}: not a mesh file ({', '.join(MESH_EXTENSIONS)}), and read as a list "
+                    f"of paths none of its {len(entries)} entries names an existing file"
+                )
+            for full in fulls:
                 if not os.path.exists(full):
                     missing.add(full)
                 elif not _is_mesh(full):
@@ -259,6 +262,12 @@ def _prepare(
     for p in inputs.not_mesh:
         hashes[p] = f"not a mesh file (extension not one of {', '.join(MESH_EXTENSIONS)})"
     existing = db.rows_by_path(hashes)
+    # rows whose file changed (or is unreadable now) are re-planned: not an original for others
+    stale = {
+        int(row["id"])
+        for path, row in existing.items()
+        if isinstance(hashes[path], str) or hashes[path][0] != row["sha256"]  # type: ignore[index]
+    }
     now = db.now()
     tasks: list[str] = []
     planned_sha: dict[str, int] = {}  # sha256 -> id of the mesh planned for it in this run
@@ -287,7 +296,14 @@ def _prepare(
             sha, size = h
             if row is not None and row["sha256"] == sha:
                 status = row["status"]
-                if status == "done" or status == "duplicate" or (
+                original_ok = status != "duplicate" or (
+                    row["duplicate_of"] not in stale
+                    and cur.execute(
+                        "SELECT sha256 FROM meshes WHERE id = ?", (row["duplicate_of"],)
+                    ).fetchone()[0]
+                    == sha
+                )
+                if (status in ("done", "duplicate") and original_ok) or (
                     status == "failed" and not retry_failed
                 ):
                     skipped += 1
@@ -296,11 +312,12 @@ def _prepare(
             primary = planned_sha.get(sha)
             if primary is None:
                 found = cur.execute(
-                    "SELECT id, path FROM meshes WHERE sha256 = ? AND status IN ('done', 'failed') "
-                    "AND id != ? ORDER BY id LIMIT 1",
+                    "SELECT id FROM meshes WHERE sha256 = ? AND status IN ('done', 'failed') "
+                    "AND id != ? ORDER BY id",
                     (sha, own),
-                ).fetchone()
-                primary = None if found is None else int(found[0])
+                ).fetchall()
+                found = [int(r[0]) for r in found if int(r[0]) not in stale]
+                primary = found[0] if found else None
             if primary is not None:
                 first = cur.execute("SELECT path FROM meshes WHERE id = ?", (primary,)).fetchone()
                 duplicates += 1

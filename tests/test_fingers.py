@@ -1,0 +1,326 @@
+"""Finger checks on cases with known answers: a cube, an L bracket, an I-beam, a table."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import trimesh
+
+import synth.fingers as fingers_pkg
+import synth.fingers.collide as collide_mod
+import synth.fingers.geometry as geometry_mod
+import synth.fingers.model as model_mod
+from synth.errors import InputError
+from synth.fingers import (
+    Fingers,
+    check_fingers,
+    default_fingers,
+    finger_placement,
+)
+from synth.fingers.collide import (
+    APPROACH_BLOCKED,
+    BODY_HITS_PART,
+    MISFIT,
+    OK,
+    OVERLAP,
+    PLANE,
+    TIP_PENETRATES,
+    FingerChecker,
+    checker_for,
+)
+
+UP = (0.0, 0.0, -1.0)  # inward normal of a face whose outward normal is +z
+
+
+def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
+    lo_a, hi_a = np.array(lo), np.array(hi)
+    return trimesh.creation.box(
+        extents=hi_a - lo_a, transform=trimesh.transformations.translation_matrix((lo_a + hi_a) / 2)
+    )
+
+
+def _union(*boxes: trimesh.Trimesh) -> trimesh.Trimesh:
+    mesh = trimesh.boolean.union(list(boxes), engine="manifold")
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    return mesh
+
+
+@pytest.fixture(scope="module")
+def cube() -> trimesh.Trimesh:
+    return trimesh.creation.box((2.0, 2.0, 2.0))
+
+
+@pytest.fixture(scope="module")
+def bracket() -> trimesh.Trimesh:
+    """L bracket: floor [0,4]x[0,2]x[0,1] and upright [0,1]x[0,2]x[0,4]; inside edge x=1, z=1."""
+    return _union(_box((0, 0, 0), (4, 2, 1)), _box((0, 0, 0), (1, 2, 4)))
+
+
+@pytest.fixture(scope="module")
+def ibeam() -> trimesh.Trimesh:
+    """I-beam: base z in [-0.5, 0], stem |x| <= 0.5 up to z = 2, top bar z in [2, 2.5]."""
+    return _union(
+        _box((-2, -1, -0.5), (2, 1, 0)), _box((-0.5, -1, -0.1), (0.5, 1, 2.1)),
+        _box((-2, -1, 2), (2, 1, 2.5)),
+    )
+
+
+def _one(part, point, normal, fingers, finger_ids=None):
+    ids = None if finger_ids is None else np.asarray(finger_ids)
+    return check_fingers(part, np.array([point], float)[None] if np.ndim(point) == 1 else
+                         np.array(point, float)[None],
+                         np.array([normal], float)[None] if np.ndim(normal) == 1 else
+                         np.array(normal, float)[None], fingers, ids)
+
+
+def _depth(reason: str) -> float:
+    match = re.search(r"penetrates the part by ([0-9.e+-]+)", reason)
+    assert match, reason
+    return float(match.group(1))
+
+
+# -- cube -----------------------------------------------------------------------------------
+
+
+def test_tip_on_cube_face_is_accepted_with_its_placement(cube):
+    f = Fingers(tip_radius=0.1, body_length=1.0, body_radius=0.05)
+    res = _one(cube, (0.3, 0.2, 1.0), UP, f)
+    assert res.mask.tolist() == [True] and res.reasons == ("",)
+    pl = res.placement(0)
+    np.testing.assert_allclose(pl.tip_centers, [[0.3, 0.2, 1.1]], atol=1e-12)
+    np.testing.assert_allclose(pl.approach, [[0.0, 0.0, 1.0]], atol=1e-12)
+    assert pl.contact_finger.tolist() == [0]
+    d = pl.to_dict()
+    assert set(d) == {"tip_centers", "tip_radius", "approach", "body_length", "body_radius"}
+    assert json.loads(json.dumps(d)) == d and d["body_length"] == 1.0
+
+
+@pytest.mark.parametrize("shift", [0.1, 0.5, 2e-3])
+def test_tip_shifted_into_cube_face_is_rejected_with_its_depth(cube, shift):
+    r = 0.1
+    f = Fingers(tip_radius=r)  # penetration_tol = 1e-4
+    res = _one(cube, (0.3, 0.2, 1.0 - shift * r), UP, f)
+    assert res.mask.tolist() == [False]
+    assert res.status[0, 0] == TIP_PENETRATES
+    assert "finger 0 tip penetrates the part" in res.reasons[0]
+    assert _depth(res.reasons[0]) == pytest.approx(shift * r, rel=1e-2)
+
+
+def test_penetration_within_tolerance_is_accepted(cube):
+    f = Fingers(tip_radius=0.1, penetration_tol=1e-3)
+    assert _one(cube, (0.3, 0.2, 1.0 - 0.5e-3), UP, f).mask[0]
+    assert not _one(cube, (0.3, 0.2, 1.0 - 1.5e-3), UP, f).mask[0]
+
+
+def test_tips_closer_than_two_radii_overlap(cube):
+    r = 0.1
+    f = Fingers(tip_radius=r)
+    pts = [(0.0, 0.0, 1.0), (1.9 * r, 0.0, 1.0)]
+    res = _one(cube, pts, [UP, UP], f)
+    assert not res.mask[0] and res.status[0].tolist() == [OVERLAP, OVERLAP]
+    assert res.reasons[0].startswith("fingers 0 and 1 overlap")
+    res = _one(cube, [(0.0, 0.0, 1.0), (2.1 * r, 0.0, 1.0)], [UP, UP], f)
+    assert res.mask[0] and res.status[0].tolist() == [OK, OK]
+
+
+def test_batch_mixes_reasons_per_grasp(cube):
+    r = 0.1
+    f = Fingers(tip_radius=r)
+    points = np.array([
+        [(0.0, 0.0, 1.0), (0.5, 0.0, 1.0)],
+        [(0.0, 0.0, 1.0), (0.5, 0.0, 1.0 - 0.5 * r)],
+        [(0.0, 0.0, 1.0), (0.05, 0.0, 1.0)],
+    ])
+    normals = np.broadcast_to(np.array(UP), points.shape)
+    res = check_fingers(cube, points, normals, f)
+    assert res.mask.tolist() == [True, False, False]
+    assert res.reasons[1].startswith("finger 1 tip penetrates")
+    assert "overlap" in res.reasons[2]
+    with pytest.raises(InputError, match="rejected"):
+        res.placement(1)
+
+
+# -- L bracket ------------------------------------------------------------------------------
+
+
+def test_tip_too_big_for_inside_corner_is_rejected(bracket):
+    point = (1.3, 1.0, 1.0)  # on the floor, 0.3 from the upright
+    res = _one(bracket, point, UP, Fingers(tip_radius=0.5))
+    assert not res.mask[0] and res.status[0, 0] == TIP_PENETRATES
+    assert _depth(res.reasons[0]) == pytest.approx(0.2, rel=1e-3)
+    assert _one(bracket, point, UP, Fingers(tip_radius=0.2)).mask[0]
+
+
+def test_shared_tip_in_inside_corner_touches_both_faces(bracket):
+    r = 0.25
+    pts = [(1.0, 1.0, 1.0 + r), (1.0 + r, 1.0, 1.0)]
+    nrm = [(-1.0, 0.0, 0.0), UP]
+    res = _one(bracket, pts, nrm, Fingers(tip_radius=r), finger_ids=[0, 0])
+    assert res.mask[0], res.reasons
+    pl = res.placement(0)
+    np.testing.assert_allclose(pl.tip_centers, [[1 + r, 1.0, 1 + r]], atol=1e-12)
+    assert pl.contact_finger.tolist() == [0, 0] and pl.n_fingers == 1
+    np.testing.assert_allclose(pl.approach[0], np.array([1.0, 0.0, 1.0]) / math.sqrt(2))
+    # The same two contacts as two separate fingers: the two tips overlap.
+    assert "overlap" in _one(bracket, pts, nrm, Fingers(tip_radius=r)).reasons[0]
+    # A contact the shared tip cannot reach.
+    far = [(1.0, 1.0, 1.0 + 2 * r), (1.0 + r, 1.0, 1.0)]
+    res = _one(bracket, far, nrm, Fingers(tip_radius=r), finger_ids=[0, 0])
+    assert res.status[0, 0] == MISFIT and "cannot touch contacts [0, 1]" in res.reasons[0]
+
+
+def test_crossing_bodies_overlap(bracket):
+    pts = [(1.5, 1.0, 1.0), (1.0, 1.0, 1.5)]
+    nrm = [UP, (-1.0, 0.0, 0.0)]
+    res = _one(bracket, pts, nrm, Fingers(tip_radius=0.2, body_length=2.0, body_radius=0.15))
+    assert not res.mask[0] and res.reasons[0] == "fingers 0 and 1 overlap (body against finger)"
+    assert _one(bracket, pts, nrm, Fingers(tip_radius=0.2, body_length=0.0, body_radius=0.15)).mask[0]
+
+
+# -- I-beam: a face in the shadow of an overhang ----------------------------------------------
+
+
+def test_face_under_overhang_needs_a_tilted_approach(ibeam):
+    point, r = (1.5, 0.0, 0.0), 0.2
+    res = _one(ibeam, point, UP, Fingers(tip_radius=r, body_length=0.5, body_radius=0.15))
+    assert not res.mask[0] and res.status[0, 0] == APPROACH_BLOCKED
+    assert res.reasons[0] == "finger 0 approach blocked by the part"
+    # A body long enough to reach the bar is reported as such.
+    res = _one(ibeam, point, UP, Fingers(tip_radius=r, body_length=3.0, body_radius=0.15))
+    assert res.status[0, 0] == BODY_HITS_PART and res.reasons[0] == "finger 0 body hits the part"
+    # A narrow cone does not get out from under the bar; a wide one does.
+    narrow = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15, approach_cone=math.radians(20))
+    assert not _one(ibeam, point, UP, narrow).mask[0]
+    wide = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15, approach_cone=math.radians(60))
+    res = _one(ibeam, point, UP, wide)
+    assert res.mask[0], res.reasons
+    a = res.placement(0).approach[0]
+    assert np.linalg.norm(a) == pytest.approx(1.0)
+    # The inner ring (tilt 30 deg) already clears the bar's edge towards +x.
+    assert math.degrees(math.acos(a[2])) == pytest.approx(30.0) and a[0] > 0.4
+    # Independent check of the chosen path: sample the swept tip against the mesh.
+    c = res.placement(0).tip_centers[0]
+    path = c + np.linspace(0.0, 10.0, 400)[:, None] * a
+    sd = trimesh.proximity.signed_distance(ibeam, path)  # positive inside
+    assert np.all(-sd >= r - 1e-3 * r - 1e-9)
+
+
+# -- support plane --------------------------------------------------------------------------
+
+
+def test_support_plane_under_the_part(cube):
+    table = ((0.0, 0.0, -1.0), (0.0, 0.0, 1.0))
+    f = Fingers(tip_radius=0.1, body_length=0.5, body_radius=0.05, support_plane=table)
+    side = (-1.0, 0.0, 0.0)
+    assert _one(cube, (1.0, 0.0, 0.0), side, f).mask[0]
+    res = _one(cube, (1.0, 0.0, -0.95), side, f)
+    assert res.status[0, 0] == PLANE and res.reasons[0] == "finger 0 tip crosses the support plane"
+    res = _one(cube, (0.0, 0.0, -1.0), (0.0, 0.0, 1.0), f)  # the bottom face rests on the table
+    assert res.status[0, 0] == PLANE
+    # Without the table both are fine.
+    free = Fingers(tip_radius=0.1, body_length=0.5, body_radius=0.05)
+    assert _one(cube, (1.0, 0.0, -0.95), side, free).mask[0]
+    assert _one(cube, (0.0, 0.0, -1.0), (0.0, 0.0, 1.0), free).mask[0]
+
+
+def test_support_plane_blocks_an_approach_from_below(cube):
+    # A tilted table: the side face's outward normal points into it far away.
+    table = ((0.0, 0.0, -1.2), (-0.2, 0.0, 1.0))
+    f = Fingers(tip_radius=0.1, support_plane=table)
+    res = _one(cube, (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), f)
+    assert res.reasons[0] == "finger 0 approach crosses the support plane"
+    tilted = Fingers(tip_radius=0.1, support_plane=table, approach_cone=math.radians(40))
+    res = _one(cube, (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), tilted)
+    assert res.mask[0] and res.placement(0).approach[0] @ np.array([-0.2, 0, 1]) > 0
+
+
+# -- API, caching and errors ----------------------------------------------------------------
+
+
+def test_duck_typed_part_and_cached_checker(cube):
+    part = SimpleNamespace(mesh=cube)
+    assert checker_for(part) is checker_for(cube)
+    pl = finger_placement(part, [(0.0, 0.0, 1.0)], [UP], Fingers(tip_radius=0.1))
+    assert pl.tip_centers.shape == (1, 3)
+    with pytest.raises(InputError, match="cannot|rejected"):
+        finger_placement(cube, [(0.0, 0.0, 0.9)], [UP], Fingers(tip_radius=0.5))
+
+
+def test_default_fingers_scale_with_the_part():
+    box = trimesh.creation.box((3.0, 4.0, 12.0))
+    f = default_fingers(box, approach_cone=0.3)
+    assert f.tip_radius == pytest.approx(0.025 * 13.0)
+    assert f.body_radius == pytest.approx(0.75 * f.tip_radius)
+    assert f.body_length == pytest.approx(10 * f.tip_radius)
+    assert f.penetration_tol == pytest.approx(1e-3 * f.tip_radius) and f.approach_cone == 0.3
+    assert json.dumps(f.to_dict())
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"tip_radius": 0.0}, "tip_radius"),
+        ({"tip_radius": float("nan")}, "tip_radius"),
+        ({"tip_radius": 1.0, "body_radius": 1.5}, "body_radius"),
+        ({"tip_radius": 1.0, "approach_cone": math.pi / 2}, "approach_cone"),
+        ({"tip_radius": 1.0, "penetration_tol": 1.0}, "penetration_tol"),
+        ({"tip_radius": 1.0, "body_length": -1.0}, "body_length"),
+        ({"tip_radius": 1.0, "support_plane": ((0, 0, 0), (0, 0, 0))}, "support_plane"),
+        ({"tip_radius": 1.0, "support_plane": "table"}, "support_plane"),
+    ],
+)
+def test_bad_finger_models_raise(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        Fingers(**kwargs)
+
+
+def test_bad_inputs_raise(cube):
+    f = Fingers(tip_radius=0.1)
+    p = np.zeros((2, 3, 3))
+    n = np.broadcast_to(np.array(UP), p.shape)
+    with pytest.raises(InputError, match="part"):
+        check_fingers(object(), p, n, f)
+    with pytest.raises(InputError, match="normals"):
+        check_fingers(cube, p, n[:, :2], f)
+    with pytest.raises(InputError, match="normals"):
+        check_fingers(cube, p, np.zeros_like(p), f)
+    with pytest.raises(InputError, match="points"):
+        check_fingers(cube, np.zeros((2, 3, 2)), n, f)
+    with pytest.raises(InputError, match="NaN"):
+        check_fingers(cube, np.full_like(p, np.nan), n, f)
+    with pytest.raises(InputError, match="finger_ids"):
+        check_fingers(cube, p, n, f, finger_ids=[0, 1, 3])
+    with pytest.raises(InputError, match="finger_ids"):
+        check_fingers(cube, p, n, f, finger_ids=np.zeros((3, 3), int))
+    with pytest.raises(InputError, match="finger_ids"):
+        check_fingers(cube, p, n, f, finger_ids=[0.0, 1.0, 2.0])
+    with pytest.raises(InputError, match="fingers"):
+        check_fingers(cube, p, n, {"tip_radius": 0.1})
+
+
+def test_finger_ids_with_gaps_renumber_fingers(cube):
+    f = Fingers(tip_radius=0.1)
+    pts = [(-0.5, 0.0, 1.0), (0.5, 0.0, 1.0), (0.0, 0.5, 1.0)]
+    res = _one(cube, pts, [UP] * 3, f, finger_ids=[2, 0, 2])
+    # contacts 0 and 2 on one flat face cannot share a tip
+    assert res.status[0, 2] == MISFIT and res.reasons[0].startswith("finger 1 cannot touch")
+    res = check_fingers(cube, np.array([pts]), np.array([[UP] * 3]), f, np.array([[2, 0, 1]]))
+    pl = res.placement(0)
+    assert pl.contact_finger.tolist() == [2, 0, 1]
+    np.testing.assert_allclose(pl.tip_centers[2], (-0.5, 0.0, 1.1))
+
+
+@pytest.mark.parametrize("module", [fingers_pkg, collide_mod, geometry_mod, model_mod])
+def test_all_names_exist(module):
+    for name in module.__all__:
+        assert hasattr(module, name), name
+
+
+def test_checker_rejects_non_mesh():
+    with pytest.raises(InputError, match="Trimesh"):
+        FingerChecker(SimpleNamespace(mesh="bracket.stl"))

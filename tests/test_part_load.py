@@ -185,7 +185,7 @@ def _bad_files(tmp: Path) -> dict[str, tuple[Path, str]]:
     out["random_stl"] = (p, "STL")
     p = tmp / "random.obj"
     p.write_bytes(rng.bytes(5000))
-    out["random_obj"] = (p, "")
+    out["random_obj"] = (p, "not a text OBJ")
     p = tmp / "triangle.stl"
     trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], process=False).export(p)
     out["triangle"] = (p, "triangle")

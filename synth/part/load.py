@@ -51,8 +51,14 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     if ext == "stl" and not data[:5].lower().startswith(b"solid") and len(data) >= 84:
         count = int(np.frombuffer(data[80:84], "<u4")[0])
         if len(data) < 84 + 50 * count:
-            raise _fail(name, f"truncated binary STL: header announces {count} triangles, "
-                        f"file holds {(len(data) - 84) // 50}")
+            raise _fail(name, f"not a complete binary STL: header announces {count} "
+                        f"triangles ({84 + 50 * count} bytes), file has {len(data)} bytes "
+                        "(truncated, or not an STL file)")
+    if ext in ("obj", "off", "gltf"):
+        try:
+            data.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise _fail(name, f"not a text {ext.upper()} file (bytes are not UTF-8)") from e
     try:
         loaded = trimesh.load(str(path), file_type=ext, process=False, force=None)
     except Exception as e:  # trimesh raises many kinds

@@ -1,0 +1,101 @@
+"""Edge and vertex classes and face regions of the sample parts (known answers)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from synth.part import Part, load_part
+
+MESHES = Path(__file__).resolve().parent.parent / "meshes"
+
+
+@pytest.fixture(scope="module")
+def parts() -> dict[str, Part]:
+    names = ["cube", "prism", "bracket", "tee", "nut", "cylinder", "sphere", "torus"]
+    return {n: load_part(MESHES / f"{n}.stl", units="decimeters") for n in names}
+
+
+def _kinds(part: Part) -> tuple[np.ndarray, np.ndarray]:
+    f = part.features
+    return np.bincount(f.edge_kind, minlength=4), np.bincount(f.vertex_kind, minlength=6)
+
+
+def test_cube_features_and_regions(parts: dict[str, Part]) -> None:
+    cube = parts["cube"]
+    ek, vk = _kinds(cube)
+    assert tuple(ek) == (6, 12, 0, 0)  # 6 face diagonals smooth, 12 convex edges
+    assert tuple(vk) == (0, 0, 8, 0, 0, 0)  # 8 convex corners
+    assert np.allclose(cube.features.edge_angle[cube.features.edges_of_kind("convex")],
+                       np.pi / 2)
+    assert len(cube.regions) == 6
+    normals = np.array([r.normal for r in cube.regions])
+    assert all(r.planar and r.area == pytest.approx(1.0) for r in cube.regions)
+    # inward: the normal of each facet points from the facet towards the centre
+    centres = np.array([cube.mesh.triangles_center[r.faces].mean(axis=0) for r in cube.regions])
+    assert np.allclose(normals, -2.0 * centres, atol=1e-9)
+    for r in cube.regions:
+        assert len(r.boundary_edges) == 4 and len(r.outline) == 1 and len(r.outline[0]) == 4
+        assert np.isin(r.boundary_edges, cube.features.edges_of_kind("convex")).all()
+
+
+def test_bracket_and_tee_concave_edges(parts: dict[str, Part]) -> None:
+    b = parts["bracket"]
+    f = b.features
+    v = np.asarray(b.mesh.vertices)
+    concave = f.edges_of_kind("concave")
+    # three grooves meeting at the inside corner: x = z = 0.25 (y 0.25..1),
+    # y = z = 0.25 (x 0.25..1), x = y = 0.25 (z 0.25..1); and two short ones where the side
+    # wall meets the base (x = 1, z = 0.25) and the upright (x = 0.25, z = 1), y 0..0.25
+    assert f.edge_length[concave].sum() == pytest.approx(0.75 * 3 + 0.25 * 2)
+    mids = v[f.edges[concave]].mean(axis=1)
+    in_grooves = np.sum(np.isclose(mids, 0.25), axis=1) == 2
+    assert f.edge_length[concave[in_grooves]].sum() == pytest.approx(2.25)
+    corner = f.vertices_of_kind("concave_corner")
+    assert len(corner) == 1 and np.allclose(v[corner[0]], 0.25)
+    assert b.vertex_kind(int(corner[0])) == "concave_corner"
+    saddles = v[f.vertices_of_kind("saddle")]
+    assert {tuple(np.round(s, 6)) for s in saddles} >= {(0.25, 1.0, 0.25), (1.0, 0.25, 0.25),
+                                                        (0.25, 0.25, 1.0)}
+    t = parts["tee"]
+    assert len(t.features.edges_of_kind("concave")) == 2
+
+
+def test_curved_parts_are_smooth_patches(parts: dict[str, Part]) -> None:
+    for name in ("sphere", "torus"):
+        p = parts[name]
+        ek, vk = _kinds(p)
+        assert ek[1] == ek[2] == 0 and vk[0] == len(p.mesh.vertices), name
+        assert not any(r.planar for r in p.regions)
+        assert all(0 < r.half_angle <= np.radians(45) for r in p.regions)
+        assert sum(r.area for r in p.regions) == pytest.approx(p.mesh.area)
+    cyl = parts["cylinder"]
+    planar = [r for r in cyl.regions if r.planar]
+    assert len(planar) == 2  # the caps
+    assert sorted(r.normal[2] for r in planar) == pytest.approx([-1.0, 1.0])
+    area64 = 0.5 * 64 * 0.25 * np.sin(2 * np.pi / 64)
+    assert all(r.area == pytest.approx(area64) for r in planar)
+    # the rims are sharp convex edges whose vertices are 'edge' vertices, not corners
+    assert len(cyl.features.edges_of_kind("convex")) == 128
+    assert (cyl.features.vertex_kind == 1).all()
+
+
+def test_nut_hole_is_smooth_and_hex_is_sharp(parts: dict[str, Part]) -> None:
+    nut = parts["nut"]
+    f = nut.features
+    angles = f.edge_angle[f.edges_of_kind("convex")]
+    assert np.isclose(angles, np.pi / 3).sum() == 6  # vertical edges of the hexagon
+    assert (f.vertex_kind == 2).sum() == 12  # hexagon corners top and bottom
+    v = np.asarray(nut.mesh.vertices)
+    r = np.linalg.norm(v[:, :2], axis=1)
+    hole = np.isclose(r, 0.25, atol=1e-6)
+    assert (f.vertex_kind[hole] == 1).all()  # on the hole rims
+
+
+def test_sharp_angle_is_settable() -> None:
+    coarse = load_part(MESHES / "cylinder.stl", sharp_angle=np.radians(3.0))
+    # 64 segments: 5.6 deg between side facets, now sharp
+    assert len(coarse.features.edges_of_kind("convex")) == 128 + 64
+    assert all(r.planar for r in coarse.regions)

@@ -1,0 +1,180 @@
+"""Normal resolution at known features, on tessellated curved surfaces, and closure checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import synth
+from synth.contacts import sample_contacts
+from synth.errors import InputError
+from synth.part import Part, load_part
+
+MESHES = Path(__file__).resolve().parent.parent / "meshes"
+S2, S3 = 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(3.0)
+
+
+@pytest.fixture(scope="module")
+def cube() -> Part:
+    return load_part(MESHES / "cube.stl", units="decimeters")
+
+
+@pytest.fixture(scope="module")
+def bracket() -> Part:
+    return load_part(MESHES / "bracket.stl", units="decimeters")
+
+
+@pytest.fixture(scope="module")
+def cylinder() -> Part:
+    return load_part(MESHES / "cylinder.stl", units="decimeters")
+
+
+def _inward(part: Part, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    step = 1e-4 * part.length
+    return part.mesh.contains(points + step * normals)
+
+
+# (point, expected kind, expected normals as rows, unique?, cone size)
+CUBE_CASES = [
+    ((0.0, 0.0, 0.5), "face", [(0, 0, -1)], True, 1),  # on the smooth face diagonal
+    ((0.2, -0.1, -0.5), "face", [(0, 0, 1)], True, 1),
+    ((0.5, 0.5, 0.1), "edge", [(-S2, -S2, 0)], False, 2),
+    ((-0.5, 0.2, 0.5), "edge", [(S2, 0, -S2)], False, 2),
+    ((0.5, 0.5, 0.5), "vertex", [(-S3, -S3, -S3)], False, 3),
+    ((-0.5, 0.5, -0.5), "vertex", [(S3, -S3, S3)], False, 3),
+]
+
+BRACKET_CASES = [
+    ((1.5, 0.5, 0.25), "face", [(0, 0, -1)], True, 1),
+    ((2.0, 0.5, 0.25), "edge", [(-S2, 0, -S2)], False, 2),  # convex edge at the base's end
+    ((2.0, 1.0, 0.25), "vertex", [(-S3, -S3, -S3)], False, 3),  # convex corner
+    ((0.25, 0.6, 0.25), "edge", [(0, 0, -1), (-1, 0, 0)], True, 2),  # groove: 2 contacts
+    ((0.6, 0.25, 0.25), "edge", [(0, 0, -1), (0, -1, 0)], True, 2),
+    ((0.25, 0.25, 0.6), "edge", [(-1, 0, 0), (0, -1, 0)], True, 2),
+    ((0.25, 0.25, 0.25), "vertex", [(-1, 0, 0), (0, -1, 0), (0, 0, -1)], True, 3),  # inside
+]
+
+
+def _check(part: Part, point: tuple, kind: str, normals: list, unique: bool, cone: int,
+           via_face: bool) -> None:
+    p = np.array([point], float)
+    if via_face:
+        # give the face explicitly: any face of the closest set must resolve the same
+        _, _, face = trimesh.proximity.closest_point(part.mesh, p)
+        c = part.resolve(p, np.asarray(face))
+    else:
+        c = part.resolve(p)
+    assert len(c) == len(normals), (point, c.to_dict())
+    assert set(c.features.tolist()) == {kind}
+    assert (c.finger == 0).all() and c.n_fingers == 1
+    got = sorted(map(tuple, np.round(c.normals, 9)))
+    assert np.allclose(got, sorted(map(tuple, np.round(normals, 9))), atol=1e-7), point
+    assert (c.unique_normal == unique).all()
+    assert np.allclose(c.points, p, atol=1e-12)
+    assert np.allclose(np.linalg.norm(c.normals, axis=1), 1.0)
+    assert len(part.normal_cone(kind, int(c.feature_index[0]))) == cone
+    if kind != "face":
+        assert (c.feature_index == c.feature_index[0]).all()
+    assert (c.region == part.face_region[c.faces]).all()
+    assert _inward(part, c.points, c.normals).all()
+
+
+@pytest.mark.parametrize("case", CUBE_CASES, ids=lambda c: f"{c[1]}{c[0]}")
+@pytest.mark.parametrize("via_face", [False, True])
+def test_cube_known_features(cube: Part, case: tuple, via_face: bool) -> None:
+    _check(cube, *case, via_face=via_face)
+
+
+@pytest.mark.parametrize("case", BRACKET_CASES, ids=lambda c: f"{c[1]}{c[0]}")
+@pytest.mark.parametrize("via_face", [False, True])
+def test_bracket_known_features(bracket: Part, case: tuple, via_face: bool) -> None:
+    _check(bracket, *case, via_face=via_face)
+
+
+def test_saddle_vertex_gives_one_contact_per_facet(bracket: Part) -> None:
+    c = bracket.resolve([[0.25, 1.0, 0.25]])  # end of a groove on the outer side face
+    assert len(c) == 3 and (c.features == "vertex").all() and not c.unique_normal.any()
+    assert np.allclose(sorted(map(tuple, c.normals)), sorted([(0, -1, 0), (0, 0, -1),
+                                                                (-1, 0, 0)]), atol=1e-9)
+
+
+def test_fingers_group_contacts_of_one_point(bracket: Part) -> None:
+    pts = [[1.5, 0.5, 0.25], [0.25, 0.25, 0.25], [0.25, 0.6, 0.25], [2.0, 0.5, 0.25]]
+    c = bracket.resolve(pts)
+    assert c.finger.tolist() == [0, 1, 1, 1, 2, 2, 3]
+
+
+def test_off_surface_points_refused_or_snapped(cube: Part) -> None:
+    with pytest.raises(InputError, match="farther than"):
+        cube.resolve([[0.0, 0.0, 0.6]])
+    c = cube.resolve([[0.0, 0.0, 0.6], [0.9, 0.9, 0.9], [0.1, 0.0, 0.0]], snap=True)
+    assert np.allclose(c.points, [[0, 0, 0.5], [0.5, 0.5, 0.5], [0.5, 0.0, 0.0]])
+    assert c.features.tolist() == ["face", "vertex", "face"]
+    with pytest.raises(InputError, match="shape"):
+        cube.resolve(np.zeros((2, 2)))
+    with pytest.raises(InputError, match="finite"):
+        cube.resolve([[np.nan, 0, 0]])
+    with pytest.raises(InputError, match="faces"):
+        cube.resolve([[0, 0, 0.5]], np.array([99]))
+
+
+def _true_cylinder_normals(points: np.ndarray) -> np.ndarray:
+    n = -np.c_[points[:, :2], np.zeros(len(points))]
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def test_cylinder_side_normals_follow_the_cylinder(cylinder: Part) -> None:
+    c = sample_contacts(cylinder, 3000, seed=3)
+    side = np.abs(c.normals[:, 2]) < 0.5
+    assert side.sum() > 1500
+    true = _true_cylinder_normals(c.points[side])
+    err = np.arccos(np.clip(np.einsum("ij,ij->i", true, c.normals[side]), -1, 1))
+    facet = 2 * np.pi / 64  # angle between neighbouring side facets
+    assert err.max() < facet / 2
+    # and much better than the raw face normals, which are off by up to facet / 2
+    face_err = np.arccos(np.clip(np.einsum(
+        "ij,ij->i", true, -cylinder.mesh.face_normals[c.faces[side]]), -1, 1))
+    assert err.mean() < 0.01 * face_err.mean()
+    # continuity across smooth edges: nearby points on both sides of an edge agree
+    e = cylinder.features.edges_of_kind("smooth")
+    v = np.asarray(cylinder.mesh.vertices)
+    vert = e[np.abs(v[cylinder.features.edges[e, 0], 2] - v[cylinder.features.edges[e, 1], 2])
+             > 1.0]  # the long vertical edges between side facets
+    mid = v[cylinder.features.edges[vert]].mean(axis=1)
+    offs = 1e-5 * np.cross(_true_cylinder_normals(mid), [0, 0, 1])
+    a = cylinder.resolve(mid + offs, snap=True).normals
+    b = cylinder.resolve(mid - offs, snap=True).normals
+    assert np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1, 1)).max() < 1e-4
+
+
+def _random_sets(c: synth.Contacts, n_sets: int, seed: int) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return [rng.choice(len(c), rng.integers(7, 13), replace=False) for _ in range(n_sets)]
+
+
+def _form_closure_count(part: Part, n_sets: int = 150) -> int:
+    c = sample_contacts(part, 2000, seed=5)
+    assert (np.abs(c.normals[:, 2]) > 0.99).any()  # caps included
+    return sum(
+        synth.form_closure(synth.wrench_matrix(c.points[i], c.normals[i])).closure == "form"
+        for i in _random_sets(c, n_sets, seed=6)
+    )
+
+
+def test_form_closure_never_on_a_cylinder_in_double_precision() -> None:
+    part = load_part(trimesh.creation.cylinder(radius=0.5, height=1.5, sections=64))
+    assert _form_closure_count(part) == 0
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="cylinder.stl stores float32 coordinates, so interpolated normals are exact only "
+    "to ~1e-7 rad; synth.tolerances.RANK_RTOL = 1e-9 takes that noise for a real moment "
+    "about the axis and reports form closure (about 1 set in 6). Needs a scorer tolerance "
+    "tied to input precision (or contacts flagged as coming from a surface of revolution).",
+)
+def test_form_closure_never_on_the_float32_cylinder_stl(cylinder: Part) -> None:
+    assert _form_closure_count(cylinder) == 0

@@ -297,6 +297,8 @@ class GraspDatabase:
                     "SELECT * FROM meshes WHERE sha256 >= ? AND sha256 < ? ORDER BY id",
                     (low, low + "g"),
                 )
+                originals = [r for r in rows if r["status"] != "duplicate"]
+                rows = originals or rows  # a content's duplicates share its sha256
             if not rows:
                 rows = self._query("SELECT * FROM meshes WHERE name = ? ORDER BY id", (key,))
             if not rows:  # the stem: 'box' finds 'box.stl'

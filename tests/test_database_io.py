@@ -1,0 +1,238 @@
+"""Grasp databases: export round trips, lookups, bad database files, the CLI, the progress bar."""
+
+from __future__ import annotations
+
+import io
+import json
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import synth.database as database
+from synth.database import GraspDatabase, build_database, export_database
+from synth.database.export import export_columns
+from synth.database.progress import ProgressBar
+from synth.errors import DatabaseError, InputError
+from tests.db_support import PARAMS, PLANNER, make_mesh_dir, planner_env, snapshot
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """(mesh folder, database) built once for the read-only tests of this module."""
+    root = tmp_path_factory.mktemp("db")
+    mesh_dir = make_mesh_dir(root)
+    out = root / "grasps.sqlite"
+    build_database([mesh_dir], out, PARAMS, workers=0, planner=PLANNER)
+    return mesh_dir, out
+
+
+def test_all_names_exist() -> None:
+    for name in database.__all__:
+        assert hasattr(database, name), name
+
+
+def test_export_h5_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
+    h5py = pytest.importorskip("h5py")
+    _, db_path = built
+    out = tmp_path / "g.h5"
+    assert export_database(db_path, out) == "h5"
+    with GraspDatabase(db_path) as db:
+        expected = export_columns(db)
+        grasps = list(db.grasps())
+        params = db.params
+    assert len(grasps) > 0
+    with h5py.File(out, "r") as f:
+        assert json.loads(f.attrs["params"]) == params
+        assert f["grasps/points"].chunks is not None
+        assert f["grasps/points"].shape == (sum(g.n_contacts for g in grasps), 3)
+        for name, arr in expected.items():
+            key = f"meshes/{name[5:]}" if name.startswith("mesh_") else f"grasps/{name}"
+            got = f[key][()]
+            if arr.dtype.kind == "U":
+                got = np.array([s.decode() for s in got], dtype=str)
+            np.testing.assert_array_equal(got, arr, err_msg=name)
+        start = f["grasps/contact_start"][()]
+        fstart = f["grasps/finger_start"][()]
+        for i, g in enumerate(grasps):  # the stored grasps, one by one, from the columns
+            c = slice(start[i], start[i + 1])
+            np.testing.assert_array_equal(f["grasps/points"][c], g.points)
+            np.testing.assert_array_equal(f["grasps/normals"][c], g.normals)
+            np.testing.assert_array_equal(f["grasps/regions"][c], g.regions)
+            assert [s.decode() for s in f["grasps/features"][c]] == list(g.features)
+            np.testing.assert_array_equal(
+                f["grasps/tip_centers"][fstart[i] : fstart[i + 1]], g.tip_centers
+            )
+            assert f["grasps/d_star"][i] == g.d_star and f["grasps/rank"][i] == g.rank
+
+
+def test_export_npz_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
+    _, db_path = built
+    out = tmp_path / "g.npz"
+    export_database(db_path, out, "npz")
+    with GraspDatabase(db_path) as db:
+        expected = export_columns(db)
+        grasps = list(db.grasps())
+    with np.load(out, allow_pickle=False) as z:
+        assert json.loads(str(z["params"]))["evals"] == PARAMS["evals"]
+        for name, arr in expected.items():
+            np.testing.assert_array_equal(z[name], arr, err_msg=name)
+        start = z["contact_start"]
+        assert len(start) == len(grasps) + 1
+        for i, g in enumerate(grasps):
+            np.testing.assert_array_equal(z["normals"][start[i] : start[i + 1]], g.normals)
+            assert z["conditioning"][i] == g.conditioning and z["closure"][i] == g.closure
+
+
+def test_export_json_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
+    _, db_path = built
+    out = tmp_path / "g.json"
+    export_database(db_path, out, "json")
+    doc = json.loads(out.read_text())
+    meshes, grasps = snapshot(db_path)
+    assert [m["path"] for m in doc["meshes"]] == [m[1] for m in meshes]
+    assert [m["status"] for m in doc["meshes"]] == [m[5] for m in meshes]
+    exported = [(m["id"], g["rank"], g) for m in doc["meshes"] for g in m["grasps"]]
+    assert exported == grasps  # floats survive JSON exactly
+
+
+def test_export_bad_format_and_missing_h5py(
+    built: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _, db_path = built
+    with pytest.raises(InputError, match="h5, npz, json"):
+        export_database(db_path, tmp_path / "g.csv")
+    monkeypatch.setitem(sys.modules, "h5py", None)
+    with pytest.raises(InputError, match=r'pip install "synth\[h5\]"'):
+        export_database(db_path, tmp_path / "g.h5")
+
+
+def test_dask_missing_gives_install_hint(
+    built: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    mesh_dir, _ = built
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(InputError, match=r'pip install "synth\[dask\]"'):
+        build_database([mesh_dir], tmp_path / "d.sqlite", PARAMS, engine="dask", planner=PLANNER)
+
+
+def test_lookup_by_name_stem_path_and_sha(built: tuple[Path, Path]) -> None:
+    mesh_dir, db_path = built
+    with GraspDatabase(db_path) as db:
+        box = db.mesh("box.stl")
+        assert db.mesh("box") == box
+        assert db.mesh(str(mesh_dir / "box.stl")) == box
+        assert db.mesh(box.sha256[:10]) == box  # type: ignore[index]
+        assert db.mesh(box.id) == box
+        assert len(db) == 7 and [m.id for m in db] == sorted(m.id for m in db)
+        top = db.top("box", k=2)
+        assert [g.rank for g in top] == [1, 2]
+        assert top == list(db.grasps("box"))[:2]
+        dup = db.mesh("dup")
+        assert dup.sha256 == box.sha256 and dup.duplicate_of == box.id
+        with pytest.raises(InputError, match="no mesh matching 'nothing'"):
+            db.mesh("nothing")
+
+
+def test_ambiguous_name(tmp_path: Path) -> None:
+    import trimesh
+
+    for folder, extents in (("a", (1.0, 1.0, 1.0)), ("b", (1.0, 2.0, 1.0))):
+        (tmp_path / folder).mkdir()
+        trimesh.creation.box(extents=extents).export(tmp_path / folder / "box.stl")
+    out = tmp_path / "g.sqlite"
+    build_database([tmp_path / "a", tmp_path / "b"], out, PARAMS, workers=0, planner=PLANNER)
+    with GraspDatabase(out) as db:
+        with pytest.raises(InputError, match=r"2 meshes match 'box'.*a/box\.stl.*b/box\.stl"):
+            db.mesh("box")
+        assert db.mesh(str(tmp_path / "b" / "box.stl")).status == "done"
+
+
+def test_bad_database_files_are_named_and_left_alone(built: tuple[Path, Path],
+                                                     tmp_path: Path) -> None:  # fmt: skip
+    mesh_dir, db_path = built
+    text = tmp_path / "notes.sqlite"
+    text.write_text("hello, not a database\n")
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as conn:
+        conn.execute("CREATE TABLE users (name TEXT)")
+    conn.close()
+    future = tmp_path / "future.sqlite"
+    future.write_bytes(db_path.read_bytes())
+    with sqlite3.connect(future) as conn:
+        conn.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    conn.close()
+    cases = [(text, "not an SQLite file"), (other, "without a 'meta' table"),
+             (future, "schema version 99")]  # fmt: skip
+    for path, message in cases:
+        data = path.read_bytes()
+        for mode in ("r", "w"):
+            with pytest.raises(DatabaseError, match=message) as err:
+                GraspDatabase(path, mode=mode)
+            assert str(path) in str(err.value)
+        with pytest.raises(DatabaseError, match=message):
+            build_database([mesh_dir], path, PARAMS, workers=0, planner=PLANNER)
+        assert path.read_bytes() == data
+    with pytest.raises(DatabaseError, match="no such grasp database"):
+        GraspDatabase(tmp_path / "missing.sqlite")
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "synth.database", *args],
+        capture_output=True, text=True, env=planner_env(), timeout=60,
+    )  # fmt: skip
+
+
+def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> None:
+    mesh_dir, db_path = built
+    out = tmp_path / "cli.sqlite"
+    args = [f"--{k}={v}" for k, v in PARAMS.items()]
+    r = _cli("build", str(mesh_dir), "--out", str(out), "--workers", "2", *args)
+    assert r.returncode == 0, r.stderr
+    assert "4 done, 2 failed" in r.stderr and "random.stl" in r.stderr
+    assert snapshot(out)[1] == snapshot(db_path)[1]
+    r = _cli("info", str(out), "--json")
+    info = json.loads(r.stdout)
+    assert {k: info[k] for k in ("meshes", "done", "failed", "grasps")} == {
+        "meshes": 7, "done": 4, "failed": 2, "grasps": len(snapshot(out)[1]),
+    }  # fmt: skip
+    r = _cli("info", str(out))
+    assert "failures:" in r.stdout and "empty.stl" in r.stdout
+    r = _cli("top", str(out), "ico", "-k", "2")
+    assert r.returncode == 0 and r.stdout.count("form closure") == 2
+    r = _cli("export", str(out), "--format", "json", "--out", str(tmp_path / "e.json"))
+    assert r.returncode == 0 and json.loads((tmp_path / "e.json").read_text())["meshes"]
+
+
+def test_cli_errors_are_one_line(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.sqlite"
+    bad.write_bytes(b"\x00" * 100)
+    for args in (("info", str(bad)), ("top", str(bad), "box"),
+                 ("build", str(tmp_path / "nope"), "--out", str(bad))):  # fmt: skip
+        r = _cli(*args)
+        assert r.returncode == 1
+        assert r.stderr.startswith("synth: error: ") and r.stderr.count("\n") == 1, r.stderr
+        assert "Traceback" not in r.stderr
+
+
+class _Tty(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_only_on_a_tty() -> None:
+    tty, pipe = _Tty(), io.StringIO()
+    for stream in (tty, pipe):
+        bar = ProgressBar(4, stream=stream)
+        bar.update(2, 1, 30, force=True)
+        bar.close()
+    assert "2/4 meshes, 1 failed, 30 grasps" in tty.getvalue() and "ETA" in tty.getvalue()
+    assert pipe.getvalue() == ""
+    quiet = _Tty()
+    bar = ProgressBar(4, stream=quiet, quiet=True)
+    bar.update(1, 0, 1, force=True)
+    assert quiet.getvalue() == ""

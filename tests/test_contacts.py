@@ -1,0 +1,150 @@
+"""Contacts: the result type, sampling invariants on every sample mesh, and rays."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth.contacts import SAMPLE_METHODS, Contacts, contacts_from_rays, sample_contacts
+from synth.errors import InputError
+from synth.part import Part, load_part
+
+MESHES = Path(__file__).resolve().parent.parent / "meshes"
+NAMES = ["cube", "prism", "bracket", "tee", "nut", "cylinder", "sphere", "torus"]
+
+
+@pytest.fixture(scope="module")
+def parts() -> dict[str, Part]:
+    return {n: load_part(MESHES / f"{n}.stl", units="decimeters") for n in NAMES}
+
+
+def _assert_valid(part: Part, c: Contacts) -> None:
+    """Independent checks: on the surface (trimesh.proximity) and normals point inside."""
+    _, dist, _ = trimesh.proximity.closest_point(part.mesh, c.points)
+    assert dist.max() < 1e-9 * part.length
+    step = 1e-4 * part.length
+    # a contact sharing its finger (groove, inside corner, saddle) carries the normal of its
+    # own face: test it from a point moved slightly into that face
+    shared = np.bincount(c.finger)[c.finger] > 1
+    centre = part.mesh.triangles_center[c.faces]
+    start = np.where(shared[:, None], c.points + 1e-3 * (centre - c.points), c.points)
+    assert part.mesh.contains(start + step * c.normals).all()
+    assert not part.mesh.contains(c.points - step * c.normals)[c.features == "face"].any()
+    assert np.allclose(np.linalg.norm(c.normals, axis=1), 1.0)
+    assert (c.region == part.face_region[c.faces]).all()
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("method", ["uniform", "even"])
+def test_surface_samples_on_surface_and_inward(parts: dict[str, Part], name: str,
+                                               method: str) -> None:
+    part = parts[name]
+    c = sample_contacts(part, 300, seed=11, method=method)
+    assert c.n_fingers == 300
+    _assert_valid(part, c)
+
+
+@pytest.mark.parametrize("name", ["cube", "prism", "bracket", "tee", "nut", "cylinder"])
+@pytest.mark.parametrize("method", ["edges", "corners"])
+def test_feature_samples(parts: dict[str, Part], name: str, method: str) -> None:
+    part = parts[name]
+    if method == "corners" and name == "cylinder":
+        with pytest.raises(InputError, match="no corners"):
+            sample_contacts(part, 5, seed=0, method=method)
+        return
+    c = sample_contacts(part, 40, seed=2, method=method)
+    assert c.n_fingers == 40 and len(c) >= 40
+    want = "edge" if method == "edges" else "vertex"
+    assert (c.features == want).all()
+    _assert_valid(part, c)
+    # concave features give several contacts per finger
+    per = np.bincount(c.finger)
+    if name == "bracket" and method == "edges":
+        assert per.max() == 2 and per.min() == 1
+
+
+def test_sampling_is_reproducible_and_seeded(parts: dict[str, Part]) -> None:
+    part = parts["bracket"]
+    for method in SAMPLE_METHODS:
+        a = sample_contacts(part, 50, seed=7, method=method)
+        b = sample_contacts(part, 50, seed=np.random.default_rng(7), method=method)
+        assert a.to_dict() == b.to_dict(), method
+    c = sample_contacts(part, 50, seed=8)
+    assert not np.allclose(c.points, sample_contacts(part, 50, seed=7).points)
+
+
+def test_uniform_is_area_uniform(parts: dict[str, Part]) -> None:
+    part = parts["bracket"]
+    c = sample_contacts(part, 20000, seed=1)
+    area = np.array([r.area for r in part.regions])
+    share = np.bincount(c.region, minlength=len(area)) / len(c)
+    expected = area / area.sum()
+    sigma = np.sqrt(expected * (1 - expected) / len(c))
+    assert (np.abs(share - expected) < 5 * sigma + 1e-12).all()
+
+
+def test_even_spread_beats_uniform(parts: dict[str, Part]) -> None:
+    part = parts["sphere"]
+
+    def min_gap(c: Contacts) -> float:
+        d = np.linalg.norm(c.points[:, None] - c.points[None], axis=2)
+        return float(d[np.triu_indices(len(c), 1)].min())
+
+    even = sample_contacts(part, 200, seed=4, method="even")
+    uni = sample_contacts(part, 200, seed=4, method="uniform")
+    assert min_gap(even) > 3 * min_gap(uni)
+
+
+def test_region_restriction(parts: dict[str, Part]) -> None:
+    part = parts["nut"]
+    curved = [r.index for r in part.regions if not r.planar]
+    c = sample_contacts(part, 200, seed=0, regions=curved)
+    assert np.isin(c.region, curved).all()
+    _assert_valid(part, c)
+    with pytest.raises(InputError, match="regions"):
+        sample_contacts(part, 5, seed=0, regions=[999])
+    with pytest.raises(InputError, match="method"):
+        sample_contacts(part, 5, seed=0, method="magic")
+
+
+def test_contacts_type_frozen_select_concatenate(parts: dict[str, Part]) -> None:
+    part = parts["bracket"]
+    c = part.resolve([[0.25, 0.25, 0.25], [1.5, 0.5, 0.25]])
+    assert len(c) == 4
+    with pytest.raises(ValueError):
+        c.points[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        c.points = np.zeros((4, 3))  # type: ignore[misc]
+    sel = c.select(c.features == "face")
+    assert len(sel) == 1 and sel.finger.tolist() == [1]
+    both = Contacts.concatenate([c, c])
+    assert len(both) == 8 and both.n_fingers == 4
+    assert both.finger.tolist() == [0, 0, 0, 1, 2, 2, 2, 3]
+    d = json.loads(json.dumps(c.to_dict()))
+    assert Contacts(**d).to_dict() == c.to_dict()
+    with pytest.raises(InputError, match="features"):
+        Contacts(**{**d, "features": ["face", "rim", "face", "face"]})
+    with pytest.raises(InputError, match="shape"):
+        Contacts(**{**d, "normals": [[0, 0, 1]]})
+
+
+def test_rays(parts: dict[str, Part]) -> None:
+    cube = parts["cube"]
+    origins = [[0.1, 0.2, 3.0], [0.5, 0.5, 3.0], [5.0, 5.0, 5.0], [3.0, 0.0, 0.0]]
+    dirs = [[0, 0, -1], [0, 0, -1], [0, 0, 1], [-2, 0, 0]]
+    c = contacts_from_rays(cube, origins, dirs)
+    assert c.finger.tolist() == [0, 1, 3]  # ray 2 misses
+    assert np.allclose(c.points, [[0.1, 0.2, 0.5], [0.5, 0.5, 0.5], [0.5, 0.0, 0.0]])
+    assert c.features.tolist() == ["face", "vertex", "face"]
+    assert np.allclose(c.normals[[0, 2]], [[0, 0, -1], [-1, 0, 0]])
+    same = cube.raycast(origins, dirs)
+    assert same.to_dict() == c.to_dict()
+    # a finger coming down into the bracket's groove touches both faces
+    g = contacts_from_rays(parts["bracket"], [[1.0, 0.6, 1.25]], [[-0.75, 0.0, -1.0]])
+    assert len(g) == 2 and (g.finger == 0).all() and (g.features == "edge").all()
+    with pytest.raises(InputError, match="zero length"):
+        contacts_from_rays(cube, [[0, 0, 2.0]], [[0, 0, 0]])

@@ -179,7 +179,8 @@ def test_crossing_bodies_overlap(bracket):
     nrm = [UP, (-1.0, 0.0, 0.0)]
     res = _one(bracket, pts, nrm, Fingers(tip_radius=0.2, body_length=2.0, body_radius=0.15))
     assert not res.mask[0] and res.reasons[0] == "fingers 0 and 1 overlap (body against finger)"
-    assert _one(bracket, pts, nrm, Fingers(tip_radius=0.2, body_length=0.0, body_radius=0.15)).mask[0]
+    short = Fingers(tip_radius=0.2, body_length=0.0, body_radius=0.15)
+    assert _one(bracket, pts, nrm, short).mask[0]
 
 
 # -- I-beam: a face in the shadow of an overhang ----------------------------------------------
@@ -194,9 +195,11 @@ def test_face_under_overhang_needs_a_tilted_approach(ibeam):
     res = _one(ibeam, point, UP, Fingers(tip_radius=r, body_length=3.0, body_radius=0.15))
     assert res.status[0, 0] == BODY_HITS_PART and res.reasons[0] == "finger 0 body hits the part"
     # A narrow cone does not get out from under the bar; a wide one does.
-    narrow = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15, approach_cone=math.radians(20))
+    narrow = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15,
+                     approach_cone=math.radians(20))
     assert not _one(ibeam, point, UP, narrow).mask[0]
-    wide = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15, approach_cone=math.radians(60))
+    wide = Fingers(tip_radius=r, body_length=0.5, body_radius=0.15,
+                   approach_cone=math.radians(60))
     res = _one(ibeam, point, UP, wide)
     assert res.mask[0], res.reasons
     a = res.placement(0).approach[0]

@@ -20,8 +20,9 @@ from synth.fingers.geometry import (
 
 
 def _bracket() -> trimesh.Trimesh:
-    floor = trimesh.creation.box((4, 2, 1), transform=trimesh.transformations.translation_matrix((2, 1, 0.5)))
-    upright = trimesh.creation.box((1, 2, 4), transform=trimesh.transformations.translation_matrix((0.5, 1, 2)))
+    move = trimesh.transformations.translation_matrix
+    floor = trimesh.creation.box((4, 2, 1), transform=move((2, 1, 0.5)))
+    upright = trimesh.creation.box((1, 2, 4), transform=move((0.5, 1, 2)))
     mesh = trimesh.boolean.union([floor, upright], engine="manifold")
     assert mesh.is_watertight and mesh.volume == pytest.approx(4 * 2 + 3 * 2)
     return mesh

@@ -197,7 +197,8 @@ class FingerChecker:
 
     def sweep_length(self, fingers: Fingers) -> float:
         """Length of the approach sweep: from the tip centre to beyond the bounding sphere."""
-        return 2.0 * self.radius + 2.0 * fingers.tip_radius + float(fingers.body_length)  # type: ignore[arg-type]
+        length = float(fingers.body_length)  # type: ignore[arg-type]
+        return 2.0 * self.radius + 2.0 * fingers.tip_radius + length
 
     # -- the batched check ------------------------------------------------------------------
 
@@ -380,7 +381,9 @@ def _validate(
         if raw.shape != (B, k):
             raise InputError(f"finger_ids: expected shape ({k},) or ({B}, {k}), got {raw.shape}")
         if raw.size and (raw.min() < 0 or raw.max() >= k):
-            raise InputError(f"finger_ids: expected values in [0, {k}), got {raw.min()}..{raw.max()}")
+            raise InputError(
+                f"finger_ids: expected values in [0, {k}), got {raw.min()}..{raw.max()}"
+            )
         ids = np.ascontiguousarray(raw, dtype=np.int64)
     return P, N, ids
 

@@ -121,7 +121,8 @@ def segment_segment_distance(
     eps = 1e-300
     a_ok, e_ok = a > eps, e > eps
     denom = a * e - b * b
-    s = np.where(denom > 1e-12 * np.maximum(a * e, eps), (b * f - c * e) / np.where(denom > 0, denom, 1.0), 0.0)
+    general = denom > 1e-12 * np.maximum(a * e, eps)
+    s = np.where(general, (b * f - c * e) / np.where(denom > 0, denom, 1.0), 0.0)
     s = np.clip(s, 0.0, 1.0)
     t = (b * s + f) / np.where(e_ok, e, 1.0)
     # Re-clamp t, recompute s.

@@ -327,3 +327,43 @@ def test_all_names_exist(module):
 def test_checker_rejects_non_mesh():
     with pytest.raises(InputError, match="Trimesh"):
         FingerChecker(SimpleNamespace(mesh="bracket.stl"))
+
+
+def test_tip_wider_than_a_channel_cannot_reach_its_floor():
+    # U channel: two walls 1.0 apart on a base; floor at z = 1, walls at x = 1 and x = 2.
+    channel = _union(
+        _box((0, 0, 0), (3, 2, 1)), _box((0, 0, 0), (1, 2, 3)), _box((2, 0, 0), (3, 2, 3))
+    )
+    floor = (1.5, 1.0, 1.0)
+    res = _one(channel, floor, UP, Fingers(tip_radius=0.6))
+    assert res.status[0, 0] == TIP_PENETRATES
+    assert _depth(res.reasons[0]) == pytest.approx(0.1, rel=1e-3)
+    assert _one(channel, floor, UP, Fingers(tip_radius=0.45)).mask[0]
+    # A tip exactly as wide as the channel touches both walls at once.
+    walls = [(1.0, 1.0, 2.0), (2.0, 1.0, 2.0)]
+    res = _one(channel, walls, [(-1.0, 0, 0), (1.0, 0, 0)], Fingers(tip_radius=0.5), [0, 0])
+    assert res.mask[0], res.reasons
+    np.testing.assert_allclose(res.placement(0).tip_centers, [[1.5, 1.0, 2.0]], atol=1e-12)
+    # opposite normals cancel: the finger leaves along the channel, upwards
+    np.testing.assert_allclose(res.placement(0).approach, [[0.0, 0.0, 1.0]], atol=1e-12)
+
+
+def test_flipped_normal_puts_the_tip_inside_and_is_rejected(cube):
+    # Outward instead of inward normal: the centre lands 0.5 inside the cube, no surface
+    # within r of it; the approach from outside must cross the top face.
+    res = _one(cube, (0.0, 0.0, 1.0), (0.0, 0.0, 1.0), Fingers(tip_radius=0.5, body_length=0.0))
+    assert not res.mask[0] and res.status[0, 0] == APPROACH_BLOCKED
+
+
+def test_results_do_not_depend_on_the_batch(bracket):
+    rng = np.random.default_rng(4)
+    pts, faces = trimesh.sample.sample_surface(bracket, 60, seed=3)
+    points = pts.reshape(20, 3, 3) + rng.normal(scale=0.02, size=(20, 3, 3))
+    normals = -bracket.face_normals[faces].reshape(20, 3, 3)
+    f = Fingers(tip_radius=0.2, approach_cone=0.4)
+    res = check_fingers(bracket, points, normals, f)
+    assert 0 < res.n_accepted < 20
+    for i in range(20):
+        one = check_fingers(bracket, points[i : i + 1], normals[i : i + 1], f)
+        assert one.mask[0] == res.mask[i] and one.reasons[0] == res.reasons[i]
+        np.testing.assert_array_equal(one.approach[0], res.approach[i])

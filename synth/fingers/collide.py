@@ -54,6 +54,7 @@ __all__ = [
     "BODY_HITS_PART",
     "APPROACH_BLOCKED",
     "STATUS_NAMES",
+    "DEGENERATE_AXIS_TOL",
     "FingerCheck",
     "FingerChecker",
     "checker_for",
@@ -64,6 +65,9 @@ __all__ = [
 #: Per-finger status codes of :attr:`FingerCheck.status`.
 OK, ABSENT, UNCHECKED = 0, -2, -1
 MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2, 3, 4, 5, 6
+#: A finger's summed outward normals shorter than this (the sum of unit vectors) count as
+#: cancelling out (a tip pinched between opposite faces); see ``_approach_axes``.
+DEGENERATE_AXIS_TOL: float = 1e-6
 STATUS_NAMES: dict[int, str] = {
     OK: "ok",
     ABSENT: "absent",
@@ -250,9 +254,9 @@ class FingerChecker:
 
         # 3. Approach directions (cone around the mean outward normal of each finger).
         onehot = (ids[:, None, :] == np.arange(k)[None, :, None]).astype(float)
-        axis = -np.einsum("bfj,bjx->bfx", onehot, N)
-        norm = np.linalg.norm(axis, axis=-1, keepdims=True)
-        axis = np.where(norm > NORMAL_NORM_TOL, axis / np.where(norm > 0, norm, 1.0), 0.0)
+        gram = np.einsum("bfj,bjx,bjy->bfxy", onehot, N, N)
+        away = np.where(present[..., None], centers - self.center, 0.0)
+        axis = _approach_axes(-np.einsum("bfj,bjx->bfx", onehot, N), gram, away)
         axis[~present] = (0.0, 0.0, 1.0)
         dirs = approach_directions(axis.reshape(-1, 3), float(fingers.approach_cone))
         m = dirs.shape[1]
@@ -338,6 +342,40 @@ class FingerChecker:
         obj = self._object("capsule", radius, length)
         rot = quaternions_to(direction[None])[0]
         return self._hits(obj, rot, center + 0.5 * length * direction)
+
+
+def _approach_axes(outward_sum: np.ndarray, normal_gram: np.ndarray,
+                   away: np.ndarray) -> np.ndarray:
+    """Unit cone axes (B, f, 3): the normalised sum of each finger's outward normals.
+
+    Parameters
+    ----------
+    outward_sum : (B, f, 3) float
+        Sum of the outward normals (``-normal``) of each finger's contacts.
+    normal_gram : (B, f, 3, 3) float
+        Sum of ``n n^T`` over each finger's contacts.
+    away : (B, f, 3) float
+        Tip centre minus the part's centre.
+
+    When the sum (nearly) vanishes, the tip is pinched between faces whose normals cancel (two
+    walls of a channel); the axis is then ``away`` projected onto the directions orthogonal to
+    all those normals (along the channel, outwards), or ``away`` itself if there is none.
+    """
+    norm = np.linalg.norm(outward_sum, axis=-1)
+    ok = norm > DEGENERATE_AXIS_TOL
+    axis = outward_sum / np.where(ok, norm, 1.0)[..., None]
+    if np.all(ok):
+        return axis
+    bad = ~ok
+    w, v = np.linalg.eigh(normal_gram[bad])  # (n, 3), (n, 3, 3); columns are eigenvectors
+    free = w < DEGENERATE_AXIS_TOL * np.maximum(w[:, -1:], 1.0)
+    proj = np.einsum("nxe,ne,nye,ny->nx", v, free.astype(float), v, away[bad])
+    fallback = np.where(np.linalg.norm(proj, axis=1, keepdims=True) > 0, proj, away[bad])
+    fallback_norm = np.linalg.norm(fallback, axis=1, keepdims=True)
+    fallback = np.where(fallback_norm > 0, fallback / np.where(fallback_norm > 0, fallback_norm, 1),
+                        (0.0, 0.0, 1.0))
+    axis[bad] = fallback
+    return axis
 
 
 def _slot_names(status: np.ndarray) -> list[list[int]]:

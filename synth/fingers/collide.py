@@ -16,6 +16,13 @@ mesh and cached (:func:`checker_for`).
 
 A tip centre inside the part (contact far off the surface, or a flipped normal on a thick
 part) is caught by the approach check: every path from outside to it crosses the surface.
+
+Limits: approach directions are chosen per finger against the part and the plane only
+(the first clear one of :func:`~synth.fingers.geometry.approach_directions`), and fingers
+are compared in their final places, not along their approach paths. Contacts are assumed to
+lie on the surface: a contact floating off it is not rejected (its tip penetrates nothing).
+The part is one FCL object, so each finger is one direct ``fcl.collide`` call against its BVH;
+a broad-phase manager would add nothing (every finger's box overlaps the part's).
 """
 
 from __future__ import annotations
@@ -281,10 +288,14 @@ class FingerChecker:
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
         mid = centers[:, :, None, :] + 0.5 * D * dirs  # (B, k, m, 3)
         tip = self._object("sphere", r - tol)
-        for b in np.flatnonzero(alive):
-            for j in np.flatnonzero(present[b]):
+        present_l, usable_l = present.tolist(), usable.tolist()
+        for b in np.flatnonzero(alive).tolist():
+            for j in range(k):
+                if not present_l[b][j]:
+                    continue
+                options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
-                for d in np.flatnonzero(usable[b, j]):
+                for d in options:
                     if not self._hits(sweep, rot[b, j, d], mid[b, j, d]):
                         chosen = d
                         break
@@ -298,8 +309,10 @@ class FingerChecker:
                 if not alive[b]:
                     break
                 if chosen < 0:
-                    d0 = int(np.flatnonzero(usable[b, j])[0])
-                    if L > 0 and self._body_hits(centers[b, j], dirs[b, j, d0], rb - tol, L):
+                    d0 = options[0]
+                    body = self._object("capsule", rb - tol, L)
+                    if L > 0 and self._hits(body, rot[b, j, d0],
+                                            centers[b, j] + 0.5 * L * dirs[b, j, d0]):
                         fail(b, j, BODY_HITS_PART, f"finger {slot_name[b][j]} body hits the part")
                     else:
                         fail(b, j, APPROACH_BLOCKED,
@@ -336,12 +349,6 @@ class FingerChecker:
             contact_finger=np.ascontiguousarray(ids),
             fingers=fingers,
         )
-
-    def _body_hits(self, center: np.ndarray, direction: np.ndarray, radius: float,
-                   length: float) -> bool:
-        obj = self._object("capsule", radius, length)
-        rot = quaternions_to(direction[None])[0]
-        return self._hits(obj, rot, center + 0.5 * length * direction)
 
 
 def _approach_axes(outward_sum: np.ndarray, normal_gram: np.ndarray,

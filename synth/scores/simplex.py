@@ -79,97 +79,172 @@ def solve_batch(
     Returns
     -------
     BatchLP
+
+    Notes
+    -----
+    Only the movable columns (``hi > 0``) are kept in the working tableau ``T = B^-1 A[:, :, w]``
+    of shape (K, M, Nw): a fixed column can never enter, and the verification refactorises from
+    ``A``. Basic columns of ``T`` stay exact unit vectors and their reduced costs exact zeros
+    (a pivot divides the pivot row by its own entry), so no "is basic" mask is needed in
+    pricing. Problems that finish stay in the arrays, inert, until a quarter of the working set
+    has finished; then the set is compacted (fewer copies than compacting every iteration).
     """
     Bn, M, N = A.shape
+    c = np.asarray(c, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
     x_out = np.zeros((Bn, N))
     status = np.full(Bn, UNVERIFIED, dtype=np.int64)
     iters = np.zeros(Bn, dtype=np.int64)
-    movable = hi > 0
-    # working set
+    wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
+    Nw = wcols.size
+    wpos = np.full(N, -1, dtype=np.int64)  # original column -> working column (or -1)
+    wpos[wcols] = np.arange(Nw)
+    hi_w = hi[wcols]
+    c_w = c[wcols]
+    finite_w = np.isfinite(hi_w)
+    # working set (K problems)
     idx = np.arange(Bn)
-    T = A.astype(np.float64, copy=True)
+    T = np.ascontiguousarray(A[:, :, wcols], dtype=np.float64)
     xB = b.astype(np.float64, copy=True)
-    basis = np.broadcast_to(basis0, (Bn, M)).copy()
-    is_basic = np.zeros((Bn, N), dtype=bool)
-    is_basic[:, basis0] = True
-    at_upper = np.zeros((Bn, N), dtype=bool)
-    r = c[None, :] - np.einsum("m,bmn->bn", c[basis0], T)  # reduced costs
-    stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
+    basis = np.broadcast_to(np.asarray(basis0, dtype=np.int64), (Bn, M)).copy()
+    upper = np.zeros((Bn, Nw), dtype=bool)
+    r = c_w[None, :] - np.einsum("m,bmn->bn", c[basis0], T)  # reduced costs
+    r[:, wpos[basis0][wpos[basis0] >= 0]] = 0.0
     degen = np.zeros(Bn, dtype=np.int64)
-    hi_b = np.where(np.isinf(hi), np.inf, hi)
+    live = np.ones(Bn, dtype=bool)
+    buf = np.empty_like(T)
+    stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
+
+    def retire(mask: NDArray[np.bool_]) -> None:
+        """Record the final basis of finished, bounded problems for the verification."""
+        if mask.any():
+            stash.append((idx[mask], basis[mask], upper[mask]))
+
     for _ in range(max_iter):
-        if idx.size == 0:
+        K = idx.size
+        if K == 0:
             break
-        ar = np.arange(idx.size)
-        elig = ~is_basic & movable & np.where(at_upper, r < -LP_FEAS_TOL, r > LP_FEAS_TOL)
-        has = elig.any(axis=1)
-        bland = degen >= _DEGENERATE_RUN
-        q = np.where(bland, np.argmax(elig, axis=1), np.argmax(np.where(elig, np.abs(r), -1.0), 1))
-        sig = np.where(at_upper[ar, q], -1.0, 1.0)
-        alpha = sig[:, None] * T[ar, :, q]
-        loB_gap = xB  # lower bounds are all 0
-        hiB = hi_b[basis]
+        ar = np.arange(K)
+        # pricing: gain per unit step of each nonbasic column in its feasible direction
+        gain = np.where(upper, -r, r)
+        q = np.argmax(gain, axis=1)
+        has = (gain[ar, q] > LP_FEAS_TOL) & live
+        bland = (degen >= _DEGENERATE_RUN) & has
+        if bland.any():  # Bland: the lowest-index improving column
+            qb = np.argmax(gain[bland] > LP_FEAS_TOL, axis=1)
+            q[bland] = qb
+        up_q = upper[ar, q]
+        colq = T[ar, :, q]  # (K, M)
+        alpha = np.where(up_q[:, None], -colq, colq)
+        # ratio test (lower bounds are all 0)
+        hiB = hi[basis]
+        absa = np.abs(alpha)
+        num = np.where(alpha > 0, xB, hiB - xB)
         with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(
-                alpha > _PIVOT_TOL,
-                loB_gap / alpha,
-                np.where(alpha < -_PIVOT_TOL, (hiB - xB) / -alpha, np.inf),
-            )
-        ratio = np.maximum(ratio, 0.0)
+            ratio = np.where(absa > _PIVOT_TOL, num / absa, np.inf)
+        np.maximum(ratio, 0.0, out=ratio)
         theta_r = ratio.min(axis=1)
         ties = ratio <= theta_r[:, None] + 1e-12
-        p = np.where(
-            bland,
-            np.argmin(np.where(ties, basis, N + 1), axis=1),
-            np.argmax(np.where(ties, np.abs(alpha), -1.0), axis=1),
-        )
-        theta_f = hi_b[q]
-        flip = np.isfinite(theta_f) & (theta_f <= theta_r)
+        p = np.argmax(np.where(ties, absa, -1.0), axis=1)
+        if bland.any():
+            p[bland] = np.argmin(np.where(ties[bland], basis[bland], N + 1), axis=1)
+        theta_f = hi_w[q]
+        flip = finite_w[q] & (theta_f <= theta_r)
         unbounded = has & ~flip & np.isinf(theta_r)
         step = has & ~unbounded
         theta = np.where(step, np.where(flip, theta_f, theta_r), 0.0)
-        theta = np.where(np.isfinite(theta), theta, 0.0)
+        theta[~np.isfinite(theta)] = 0.0
         xB -= theta[:, None] * alpha
         fl = step & flip
-        at_upper[ar[fl], q[fl]] ^= True
+        upper[ar[fl], q[fl]] ^= True
         piv = step & ~flip
         if piv.any():
             leave = basis[ar, p]
-            pi = ar[piv]
-            hit_upper = alpha[pi, p[piv]] < 0
-            at_upper[pi, leave[piv]] = hit_upper
-            is_basic[pi, leave[piv]] = False
-            is_basic[pi, q[piv]] = True
-            at_upper[pi, q[piv]] = False
-            xB[pi, p[piv]] = np.where(sig[piv] > 0, theta[piv], hi_b[q[piv]] - theta[piv])
-            basis[pi, p[piv]] = q[piv]
+            lw = wpos[leave]
+            pi = ar[piv & (lw >= 0)]
+            hit_upper = alpha[ar, p] < 0
+            upper[pi, lw[pi]] = hit_upper[pi]
+            upper[ar[piv], q[piv]] = False
+            xB[ar, p] = np.where(piv, np.where(up_q, hi_w[q] - theta, theta), xB[ar, p])
+            basis[ar, p] = np.where(piv, wcols[q], leave)
+            # tableau update on every row of the working set; rows not pivoting see an
+            # identity (pivot 1, zero column), so no gathers of the pivoting subset
             pv = np.where(piv, T[ar, p, q], 1.0)
             rowp = T[ar, p, :] / pv[:, None]
-            colq = T[ar, :, q] * piv[:, None]
-            T -= colq[:, :, None] * rowp[:, None, :]
-            T[pi, p[piv], :] = rowp[piv]
-            r -= (r[ar, q] * piv)[:, None] * rowp
+            colq *= piv[:, None]
+            colq[ar, p] = 0.0
+            np.multiply(colq[:, :, None], rowp[:, None, :], out=buf[:K])
+            T -= buf[:K]
+            T[ar, p, :] = rowp
+            rq = np.where(piv, r[ar, q], 0.0)
+            r -= rq[:, None] * rowp
+            r[ar[piv], q[piv]] = 0.0
         degen = np.where(step & (theta <= 1e-12), degen + 1, 0)
         iters[idx] += step
-        done = ~has | unbounded
+        done = live & (~has | unbounded)
         if done.any():
-            status[idx[unbounded]] = UNBOUNDED
-            keep = ~done
-            # record the final basis of finished problems for verification below
-            fin = done & ~unbounded
-            stash.append((idx[fin], basis[fin].copy(), at_upper[fin].copy()))
-            idx, T, xB, basis = idx[keep], T[keep], xB[keep], basis[keep]
-            is_basic, at_upper, r, degen = is_basic[keep], at_upper[keep], r[keep], degen[keep]
+            status[idx[unbounded & live]] = UNBOUNDED
+            retire(done & ~unbounded)
+            live &= ~done
+            n_live = int(live.sum())
+            if n_live <= 0.75 * K:
+                idx, T, xB, basis = idx[live], T[live], xB[live], basis[live]
+                upper, r, degen, live = upper[live], r[live], degen[live], live[live]
     if stash:
         which = np.concatenate([w for w, _, _ in stash])
         bases = np.concatenate([bs for _, bs, _ in stash])
-        uppers = np.concatenate([u for _, _, u in stash])
+        up_w = np.concatenate([u for _, _, u in stash])
         if which.size:
-            x_v, ok = _verify(A[which], b[which], c, hi_b, bases, uppers)
+            uppers = np.zeros((which.size, N), dtype=bool)
+            uppers[:, wcols] = up_w
+            x_v, ok = _verify(A[which], b[which], c, hi, bases, uppers)
             x_out[which] = x_v
             status[which[ok]] = OPTIMAL
     obj = np.where(status == UNBOUNDED, np.inf, x_out @ c)
     return BatchLP(x=x_out, objective=obj, status=status, iterations=iters)
+
+
+def _solve_square(
+    Mat: NDArray[np.float64], rhs: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Solve ``Mat x = rhs`` for a stack of small matrices by Gaussian elimination.
+
+    Partial pivoting, vectorised over the stack (numpy's batched ``solve`` calls LAPACK once
+    per matrix, which costs microseconds each for 6 x 6).
+
+    Parameters
+    ----------
+    Mat : (K, M, M) float
+    rhs : (K, M) float
+
+    Returns
+    -------
+    x : (K, M) float
+    ok : (K,) bool
+        False where a pivot was zero or not finite (singular to working precision).
+    """
+    K, M, _ = Mat.shape
+    ar = np.arange(K)
+    G = np.concatenate([Mat, rhs[:, :, None]], axis=2)
+    ok = np.ones(K, dtype=bool)
+    for j in range(M):
+        piv = j + np.argmax(np.abs(G[:, j:, j]), axis=1)
+        rows = G[ar, piv].copy()
+        G[ar, piv] = G[:, j]
+        G[:, j] = rows
+        d = rows[:, j]
+        good = np.isfinite(d) & (d != 0)
+        ok &= good
+        d = np.where(good, d, 1.0)
+        if j + 1 < M:
+            f = G[:, j + 1 :, j] / d[:, None]
+            G[:, j + 1 :, j:] -= f[:, :, None] * rows[:, None, j:]
+    x = np.empty((K, M))
+    for j in range(M - 1, -1, -1):
+        d = G[:, j, j]
+        d = np.where(d != 0, d, 1.0)
+        x[:, j] = (G[:, j, M] - np.einsum("km,km->k", G[:, j, j + 1 : M], x[:, j + 1 :])) / d
+    return x, ok & np.isfinite(x).all(axis=1)
 
 
 def _verify(
@@ -180,7 +255,22 @@ def _verify(
     basis: NDArray[np.int64],
     upper: NDArray[np.bool_],
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Refactorise each final basis, recompute x and duals, check optimality."""
+    """Refactorise each final basis, recompute x and duals, check optimality.
+
+    Parameters
+    ----------
+    A : (K, M, N) float
+    b : (K, M) float
+    c, hi : (N,) float
+    basis : (K, M) int
+    upper : (K, N) bool
+        Nonbasic variables at their upper bound.
+
+    Returns
+    -------
+    x : (K, N) float
+    ok : (K,) bool
+    """
     K, M, N = A.shape
     ar = np.arange(K)
     x = np.where(upper, np.where(np.isinf(hi), 0.0, hi), 0.0)
@@ -189,13 +279,15 @@ def _verify(
     x = np.where(nonbasic, x, 0.0)
     Bm = np.take_along_axis(A, basis[:, None, :], axis=2)  # (K, M, M)
     rhs = b - np.einsum("kmn,kn->km", A, x)
-    try:
-        xB = np.linalg.solve(Bm, rhs[..., None])[..., 0]
-        y = np.linalg.solve(np.transpose(Bm, (0, 2, 1)), c[basis][..., None])[..., 0]
-    except np.linalg.LinAlgError:  # a singular final basis somewhere: let the caller re-solve
-        return x, np.zeros(K, dtype=bool)
+    sol, solved = _solve_square(
+        np.concatenate([Bm, np.transpose(Bm, (0, 2, 1))]), np.concatenate([rhs, c[basis]])
+    )
+    xB, y = sol[:K], sol[K:]
+    solved = solved[:K] & solved[K:]
+    xB = np.where(solved[:, None], xB, 0.0)
+    y = np.where(solved[:, None], y, 0.0)
     res_p = np.abs(np.einsum("kmj,kj->km", Bm, xB) - rhs).max(axis=1)
-    ok = np.isfinite(xB).all(axis=1) & (res_p <= LP_FEAS_TOL * (1.0 + np.abs(xB).max(axis=1)))
+    ok = solved & (res_p <= LP_FEAS_TOL * (1.0 + np.abs(xB).max(axis=1)))
     x[ar[:, None], basis] = xB
     red = c[None, :] - np.einsum("km,kmn->kn", y, A)
     scale = 1.0 + np.abs(xB).max(axis=1)

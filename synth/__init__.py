@@ -15,7 +15,20 @@ from synth.errors import (
     SolverError,
     SynthError,
 )
+from synth.contacts import Contacts, contacts_from_rays, sample_contacts
+from synth.database import GraspDatabase, build_database
+from synth.fingers import (
+    FingerCheck,
+    FingerChecker,
+    FingerPlacement,
+    Fingers,
+    check_fingers,
+    default_fingers,
+    finger_placement,
+)
 from synth.grasps import Candidate, read_candidates
+from synth.part import Part, Region, load_part
+from synth.plan import Plan, PlannedGrasp, PlanParams, plan_mesh_file, plan_part
 from synth.scores import (
     BatchScores,
     FormClosure,
@@ -30,6 +43,7 @@ from synth.scores import (
     strong_force_closure,
     wrench_matrix,
 )
+from synth.scores.quality import conditioning, epsilon_quality
 
 __version__ = "0.1.0"
 
@@ -41,8 +55,18 @@ __all__ = [
     "CandidateError",
     "SolverError",
     "DatabaseError",
+    # mesh -> part
+    "load_part",
+    "Part",
+    "Region",
+    # part -> contacts
+    "Contacts",
+    "sample_contacts",
+    "contacts_from_rays",
+    # contacts -> grasps
     "Candidate",
     "read_candidates",
+    # grasps -> scores
     "BatchScores",
     "FormClosure",
     "FrictionalFormClosure",
@@ -55,4 +79,23 @@ __all__ = [
     "squeezable_contacts",
     "strong_force_closure",
     "wrench_matrix",
+    "conditioning",
+    "epsilon_quality",
+    # scores -> fingers
+    "Fingers",
+    "FingerPlacement",
+    "FingerCheck",
+    "FingerChecker",
+    "check_fingers",
+    "default_fingers",
+    "finger_placement",
+    # fingers -> plan
+    "PlanParams",
+    "Plan",
+    "PlannedGrasp",
+    "plan_part",
+    "plan_mesh_file",
+    # plan -> database
+    "GraspDatabase",
+    "build_database",
 ]

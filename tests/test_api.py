@@ -6,7 +6,8 @@ import pytest
 
 import synth
 
-MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances"]
+MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances", "synth.part",
+           "synth.contacts", "synth.fingers", "synth.plan", "synth.database"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -61,13 +61,24 @@ def min_contacts(dim: int, mu: float) -> int:
     return 7 if dim == 3 else 4
 
 
-def parse_candidate(obj: object, index: int, *, where: str) -> Candidate:
-    """Validate one candidate object read from JSON."""
+def parse_candidate(
+    obj: object, index: int, *, where: str, require_normals: bool = True
+) -> Candidate:
+    """Validate one candidate object read from JSON.
+
+    With ``require_normals=False`` a missing ``normals`` field is allowed (the normals are then
+    resolved from a mesh, as ``synth rank`` does) and set to NaN.
+    """
     label = f"{where}: candidate {index}"
     if not isinstance(obj, dict):
         raise CandidateError(f"{label}: expected an object with 'points' and 'normals'")
     name = str(obj.get("name", f"#{index}"))
     label = f"{where}: candidate {index}" + (f" ({name})" if "name" in obj else "")
+    if not require_normals and "normals" not in obj and "points" in obj:
+        obj = dict(obj, normals=np.ones(np.shape(obj["points"])))
+        placeholder = True
+    else:
+        placeholder = False
     for key in ("points", "normals"):
         if key not in obj:
             raise CandidateError(f"{label}: missing field '{key}'")
@@ -77,6 +88,8 @@ def parse_candidate(obj: object, index: int, *, where: str) -> Candidate:
     except (TypeError, ValueError) as e:
         raise CandidateError(f"{label}: 'points' and 'normals' must be numeric k x 3 lists") from e
     P, N = check_contacts(P, N, name=label)
+    if placeholder:
+        N = np.full_like(P, np.nan)
     mu = obj.get("mu")
     if mu is not None:
         try:
@@ -88,12 +101,14 @@ def parse_candidate(obj: object, index: int, *, where: str) -> Candidate:
     return Candidate(name, P, N, mu)
 
 
-def read_candidates(path: str | Path) -> list[Candidate]:
+def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[Candidate]:
     """Read and validate every candidate of a JSON or NPZ file.
 
     Parameters
     ----------
     path : str or Path
+    require_normals : bool
+        When False, candidates may omit ``normals`` (JSON only); they come back as NaN.
 
     Returns
     -------
@@ -126,7 +141,10 @@ def read_candidates(path: str | Path) -> list[Candidate]:
         raise InputError(f"{p}: expected a list of candidates")
     if not data:
         raise InputError(f"{p}: holds no candidates")
-    return [parse_candidate(obj, i, where=str(p)) for i, obj in enumerate(data)]
+    return [
+        parse_candidate(obj, i, where=str(p), require_normals=require_normals)
+        for i, obj in enumerate(data)
+    ]
 
 
 def _read_npz(p: Path) -> list[Candidate]:

@@ -96,12 +96,18 @@ def _direction(u: NDArray[np.float64], tol_deg: float = 5.0) -> str:
     return "(" + ", ".join(f"{c:+.2f}" for c in u) + ")"
 
 
-def _point(p: NDArray[np.float64]) -> str:
-    return "(" + ", ".join(f"{c:.3g}" for c in p) + ")"
+def _point(p: NDArray[np.float64], length: float | None) -> str:
+    if length:
+        p = np.where(np.abs(p) < 1e-6 * length, 0.0, p)
+    return "(" + ", ".join(f"{c:.3g}" for c in p + 0.0) + ")"
 
 
 def describe_twist(
-    t: ArrayLike, center: ArrayLike | None = None, *, both_senses: bool = False
+    t: ArrayLike,
+    center: ArrayLike | None = None,
+    *,
+    both_senses: bool = False,
+    length: float | None = None,
 ) -> str:
     """Put an escape twist into words, e.g. ``"free to translate along +z"``.
 
@@ -113,6 +119,9 @@ def describe_twist(
         Where the moment reference point is, to place a rotation axis in part coordinates.
     both_senses : bool
         Say ``±`` when the motion is free in both senses (the contacts only stay, none lifts).
+    length : float, optional
+        The part's size: a screw whose pitch is below 1% of it is called a rotation, and
+        coordinates below 1e-6 of it print as 0.
 
     Returns
     -------
@@ -133,13 +142,14 @@ def describe_twist(
         turn = "counter-clockwise" if w[0] > 0 else "clockwise"
         if both_senses:
             turn = "either way"
-        return f"free to rotate {turn} about the point {_point(p)}"
+        return f"free to rotate {turn} about the point {_point(p, length)}"
     p = o + np.cross(w, v) / nw**2
     pitch = float(np.dot(w, v) / nw**2)
     axis = _direction(w)
-    if abs(pitch) * nw <= 1e-3 * max(nv, nw * 1e-300) or abs(pitch) * nw < 1e-9:
-        return f"free to rotate about {sign}{axis.lstrip('+') if sign else axis} through {_point(p)}"
+    small = 1e-2 * length if length else 1e-3 * nv / nw
+    if abs(pitch) <= small or abs(pitch) * nw < 1e-9:
+        return f"free to rotate about {sign}{axis.lstrip('+') if sign else axis} through {_point(p, length)}"
     return (
-        f"free to screw about {sign}{axis.lstrip('+') if sign else axis} through {_point(p)}"
+        f"free to screw about {sign}{axis.lstrip('+') if sign else axis} through {_point(p, length)}"
         f" (pitch {pitch:.3g} per radian)"
     )

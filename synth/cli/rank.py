@@ -1,0 +1,161 @@
+"""``synth rank MESH CANDIDATES``: score contact sets from elsewhere on a mesh."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from synth.errors import InputError
+
+__all__ = ["add_parser", "run", "rank_candidates", "RankedCandidate"]
+
+
+@dataclass(frozen=True)
+class RankedCandidate:
+    """One candidate after snapping, normal resolution, finger checks and scoring."""
+
+    name: str
+    status: str  # "ok", "fingers" (collides), "error" (unusable input)
+    reason: str | None
+    d_star: float = 0.0
+    closure: str = "force"
+    conditioning: float = 0.0
+    points: np.ndarray | None = field(default=None, repr=False)
+    normals: np.ndarray | None = field(default=None, repr=False)
+    features: tuple[str, ...] = ()
+    fingers: dict[str, Any] | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary."""
+        return {
+            "name": self.name,
+            "status": self.status,
+            "reason": self.reason,
+            "d_star": self.d_star,
+            "closure": self.closure,
+            "conditioning": self.conditioning,
+            "points": None if self.points is None else self.points.tolist(),
+            "normals": None if self.normals is None else self.normals.tolist(),
+            "features": list(self.features),
+            "fingers": self.fingers,
+        }
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register ``synth rank``."""
+    from synth.cli.plan import add_finger_options
+
+    p = sub.add_parser(
+        "rank",
+        help="rank candidate grasps from another tool on a mesh",
+        description="Snap each candidate's points to the mesh surface, resolve their normals "
+        "with the part model (given normals are ignored), check the fingers with FCL, score "
+        "by d* and print the candidates ranked. CANDIDATES is JSON (a list of {points[, name]}"
+        " or an object with a 'candidates' or 'grasps' list) or NPZ.",
+    )
+    p.add_argument("mesh", help="mesh file")
+    p.add_argument("candidates", help="candidate file (.json or .npz)")
+    p.add_argument("--mu", type=float, default=0.0, help="friction coefficient (default 0)")
+    p.add_argument("--max-distance", type=float, default=None, metavar="D",
+                   help="largest distance from a point to the surface that is snapped, in mesh "
+                   "units (default: 1%% of the part's bounding-box diagonal)")
+    p.add_argument("--units", default=None, help="length unit of the mesh")
+    add_finger_options(p)
+    p.add_argument("--out", default=None, metavar="JSON", help="write the ranked candidates")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--quiet", action="store_true", help="no summary line")
+    p.set_defaults(run=run)
+
+
+def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> list[RankedCandidate]:
+    """Snap, resolve, check and score candidates on a part; best first (errors last)."""
+    import trimesh
+
+    from synth.fingers import check_fingers
+    from synth.scores import form_closure, frictional_form_closure
+    from synth.scores.quality import conditioning, scaled_wrenches
+
+    rows: list[RankedCandidate] = []
+    center, L = part.center_mass, part.length
+    for i, c in enumerate(cands):
+        label = f"candidate {i} ({c.name})"
+        if c.points.shape[1] != 3:
+            rows.append(RankedCandidate(c.name, "error", f"{label}: points must be 3-D"))
+            continue
+        closest, dist, _ = trimesh.proximity.closest_point(part.mesh, c.points)
+        far = np.nonzero(dist > max_distance)[0]
+        if far.size:
+            j = int(far[0])
+            rows.append(RankedCandidate(
+                c.name, "error",
+                f"{label}: point {j} is {dist[j]:.4g} from the surface (more than "
+                f"{max_distance:.4g} allowed)"))
+            continue
+        con = part.resolve(closest, snap=True)
+        P, N = con.points, con.normals
+        m = c.mu if c.mu is not None else mu
+        if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
+            rows.append(RankedCandidate(c.name, "error",
+                                        f"{label}: {len(P)} contacts are too few"))
+            continue
+        if m == 0:
+            r = form_closure(scaled_wrenches(P, N, center, L))
+            d, closure = r.d_star, r.closure
+            cond = float(conditioning(scaled_wrenches(P, N, center, L)))
+        else:
+            fr = frictional_form_closure(P, N, m, center=center)
+            d, closure, cond = fr.d_star, fr.closure, 0.0
+        ids = np.unique(con.finger, return_inverse=True)[1]
+        chk = check_fingers(part, P[None], N[None], fingers, ids[None])
+        fing = chk.placement(0).to_dict() if chk.mask[0] else None
+        rows.append(RankedCandidate(
+            c.name, "ok" if chk.mask[0] else "fingers", None if chk.mask[0] else chk.reasons[0],
+            d, closure, cond, P, N, tuple(con.features), fing))
+    order = {"ok": 0, "fingers": 1, "error": 2}
+    return sorted(rows, key=lambda r: (order[r.status], -r.d_star))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``synth rank``."""
+    from synth.fingers import default_fingers
+    from synth.grasps import read_candidates
+    from synth.part import load_part
+
+    if not np.isfinite(args.mu) or args.mu < 0:
+        raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
+    part = load_part(args.mesh, units=args.units)
+    cands = read_candidates(args.candidates, require_normals=False)
+    over = {k: v for k, v in (("tip_radius", args.finger_radius),
+                              ("body_length", args.body_length),
+                              ("body_radius", args.body_radius)) if v is not None}
+    if args.approach_cone:
+        over["approach_cone"] = float(np.radians(args.approach_cone))
+    fingers = default_fingers(part, **over)
+    max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
+    rows = rank_candidates(part, cands, args.mu, fingers, max_d)
+    doc = {"format": "synth.ranked", "version": 1, "mesh": {"path": part.source,
+           "sha256": part.sha256, "units": part.units, "length": part.length},
+           "mu": args.mu, "fingers": fingers.to_dict(),
+           "candidates": [r.to_dict() for r in rows]}
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as f:
+            json.dump(doc, f, indent=1)
+    if args.json:
+        print(json.dumps(doc, indent=1))
+    else:
+        w = max([4] + [len(r.name) for r in rows])
+        print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  status")
+        for i, r in enumerate(rows, 1):
+            status = r.status if r.reason is None else f"{r.status}: {r.reason}"
+            print(f"{i:>3}  {r.name:<{w}}  {r.d_star:>8.5f}  {r.closure:<15}  "
+                  f"{r.conditioning:>7.4f}  {status}")
+    if not args.quiet:
+        n_ok = sum(r.status == "ok" for r in rows)
+        print(f"{len(rows)} candidates: {n_ok} collision free, "
+              f"{sum(r.status == 'error' for r in rows)} unusable", file=sys.stderr)
+    return 0 if any(r.status != "error" for r in rows) else 2

@@ -1,0 +1,145 @@
+"""Pictures of a plan: a PNG (matplotlib, headless) and a GLB scene (trimesh).
+
+Contacts are drawn as dots with their inward normals as short arrows, fingertips as spheres
+and finger bodies as capsules (lines in the PNG) along their approach directions.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from synth.plan.result import Plan
+
+__all__ = ["render_png", "export_glb"]
+
+_COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
+                     [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
+
+
+def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
+    """Draw the part and up to ``panels`` of the best grasps, one panel each.
+
+    Parameters
+    ----------
+    part : synth.Part
+    plan : Plan
+    path : str or Path
+    panels : int
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    grasps = plan.grasps[:panels]
+    n = max(1, len(grasps))
+    cols = min(n, 2)
+    rows = int(np.ceil(n / cols))
+    fig = plt.figure(figsize=(5.5 * cols, 5.0 * rows), dpi=110)
+    mesh = part.mesh
+    light = np.array([0.4, 0.3, 0.85]) / np.linalg.norm([0.4, 0.3, 0.85])
+    shade = 0.45 + 0.5 * np.clip(mesh.face_normals @ light, 0, 1)
+    face_rgb = np.clip(shade[:, None] * np.array([[0.75, 0.78, 0.82]]), 0, 1)
+    L = part.length
+    for p in range(n):
+        ax = fig.add_subplot(rows, cols, p + 1, projection="3d")
+        ax.add_collection3d(Poly3DCollection(mesh.triangles, facecolors=face_rgb,
+                                             edgecolors="none", alpha=0.55))
+        if grasps:
+            g = grasps[p]
+            f = g.fingers
+            tips = np.asarray(f["tip_centers"])
+            app = np.asarray(f["approach"])
+            for i, (pt, nm) in enumerate(zip(g.points, g.normals)):
+                col = _COLOURS[i % len(_COLOURS)]
+                ax.scatter(*pt, color=col, s=22, depthshade=False)
+                ax.quiver(*pt, *(nm * 0.12 * L), color=col, linewidth=1.5,
+                          arrow_length_ratio=0.3)
+            for i, (c, a) in enumerate(zip(tips, app)):
+                col = _COLOURS[i % len(_COLOURS)]
+                end = c + a * f["body_length"]
+                ax.plot(*np.stack([c, end]).T, color=col, linewidth=3, alpha=0.8)
+                ax.scatter(*c, color=col, s=60, alpha=0.5, depthshade=False)
+            ax.set_title(f"#{p + 1}  d* = {g.d_star:.4f}  {g.closure} closure\n"
+                         f"conditioning {g.conditioning:.3f}, epsilon {g.epsilon:.4f}",
+                         fontsize=9)
+        else:
+            ax.set_title(_wrap(plan.message), fontsize=8)
+        lo, hi = mesh.bounds
+        mid, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.35
+        ax.set_xlim(mid[0] - half, mid[0] + half)
+        ax.set_ylim(mid[1] - half, mid[1] + half)
+        ax.set_zlim(mid[2] - half, mid[2] + half)
+        ax.set_box_aspect((1, 1, 1))
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        ax.set_zlabel("z")
+        ax.tick_params(labelsize=6)
+    name = Path(plan.mesh.get("path") or "part").name
+    fig.suptitle(f"synth: {name}", fontsize=11)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def _wrap(text: str, width: int = 70) -> str:
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
+
+
+def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
+    """Write a GLB scene: the part, and grasp ``grasp``'s fingertips, bodies and normals.
+
+    Parameters
+    ----------
+    part : synth.Part
+    plan : Plan
+    path : str or Path
+    grasp : int
+        Which grasp to show (0 = best); with no grasps, the part alone.
+
+    Returns
+    -------
+    Path
+    """
+    scene = trimesh.Scene()
+    body = part.mesh.copy()
+    body.visual.face_colors = [190, 195, 205, 255]
+    scene.add_geometry(body, geom_name="part")
+    if plan.grasps:
+        g = plan.grasps[grasp]
+        f = g.fingers
+        r = float(f["tip_radius"])
+        for i, (c, a) in enumerate(zip(np.asarray(f["tip_centers"]), np.asarray(f["approach"]))):
+            col = (np.append(_COLOURS[i % len(_COLOURS)], 1.0) * 255).astype(np.uint8)
+            tip = trimesh.creation.icosphere(subdivisions=2, radius=r)
+            tip.apply_translation(c)
+            tip.visual.face_colors = col
+            scene.add_geometry(tip, geom_name=f"tip_{i}")
+            length = float(f["body_length"])
+            cap = trimesh.creation.capsule(height=length, radius=float(f["body_radius"]))
+            # trimesh's capsule runs along +z from z = 0 to z = height
+            T = trimesh.geometry.align_vectors([0, 0, 1], a)
+            T[:3, 3] = c
+            cap.apply_transform(T)
+            cap.visual.face_colors = col
+            scene.add_geometry(cap, geom_name=f"finger_{i}")
+        for i, (p, n) in enumerate(zip(g.points, g.normals)):
+            arrow = trimesh.creation.cylinder(radius=0.004 * part.length,
+                                              segment=[p, p + 0.1 * part.length * n])
+            arrow.visual.face_colors = [20, 20, 20, 255]
+            scene.add_geometry(arrow, geom_name=f"normal_{i}")
+    out = Path(path)
+    out.write_bytes(scene.export(file_type="glb"))
+    return out

@@ -1,0 +1,140 @@
+"""What the planner returns, and the JSON file format (``synth.grasps``, version 1).
+
+File format
+-----------
+A JSON object::
+
+    {"format": "synth.grasps", "version": 1, "synth_version": "0.1.0",
+     "mesh": {"path", "sha256", "units", "length"},
+     "params": {...every PlanParams field...},
+     "fingers": {tip_radius, body_length, body_radius, approach_cone, ...},
+     "grasps": [  # best first
+        {"points": k x 3, "normals": k x 3 (unit, into the part), "features": [str] * k,
+         "regions": [int] * k, "d_star": float, "closure": str, "conditioning": float,
+         "epsilon": float,
+         "fingers": {"tip_centers": f x 3, "tip_radius", "approach": f x 3 (unit, away from
+                     the part), "body_length", "body_radius", "contact_finger": [int] * k}}],
+     "message": str, "timing": {"total_s", "evaluations", "stopped_by_time"}}
+
+All coordinates are in the mesh file's coordinates and units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan"]
+
+FORMAT = "synth.grasps"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class PlannedGrasp:
+    """One returned grasp.
+
+    Attributes
+    ----------
+    points : (k, 3) float
+    normals : (k, 3) float
+        Unit, pointing into the part.
+    features : tuple of str
+        ``"face"``, ``"edge"`` or ``"vertex"`` per contact.
+    regions : (k,) int
+        Face region of each contact.
+    d_star : float
+    closure : str
+        ``"form"``, ``"frictional form"``.
+    conditioning : float
+        ``sigma_min / sigma_max`` of the wrench matrix, moments scaled by the part's length.
+    epsilon : float
+        Ferrari-Canny epsilon (same scaling).
+    fingers : dict
+        Finger geometry: ``tip_centers``, ``tip_radius``, ``approach``, ``body_length``,
+        ``body_radius`` (see :class:`synth.FingerPlacement`).
+    """
+
+    points: NDArray[np.float64] = field(repr=False)
+    normals: NDArray[np.float64] = field(repr=False)
+    features: tuple[str, ...] = field(repr=False)
+    regions: NDArray[np.int64] = field(repr=False)
+    d_star: float
+    closure: str
+    conditioning: float
+    epsilon: float
+    fingers: dict[str, Any] = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The grasp's JSON object."""
+        return {
+            "points": np.asarray(self.points).tolist(),
+            "normals": np.asarray(self.normals).tolist(),
+            "features": list(self.features),
+            "regions": [int(r) for r in self.regions],
+            "d_star": float(self.d_star),
+            "closure": self.closure,
+            "conditioning": float(self.conditioning),
+            "epsilon": float(self.epsilon),
+            "fingers": self.fingers,
+        }
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The planner's answer for one part.
+
+    Attributes
+    ----------
+    grasps : tuple of PlannedGrasp
+        Best first; empty when nothing was found.
+    message : str
+        A sentence for the user: what was found, or why nothing was (with the escape motion).
+    mesh : dict
+        ``path``, ``sha256``, ``units``, ``length``.
+    params : dict
+        Every planner parameter.
+    fingers : dict
+        The finger model used.
+    evaluations : int
+        Grasps scored.
+    total_s : float
+    stopped_by_time : bool
+        True when the time cap cut the search (the result then depends on machine speed).
+    escape : str or None
+        For a part with no closure grasp, the motion the best candidate leaves free.
+    """
+
+    grasps: tuple[PlannedGrasp, ...]
+    message: str
+    mesh: dict[str, Any]
+    params: dict[str, Any]
+    fingers: dict[str, Any]
+    evaluations: int
+    total_s: float
+    stopped_by_time: bool = False
+    escape: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The plan as a ``synth.grasps`` version-1 JSON document."""
+        from synth import __version__
+
+        return {
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "synth_version": __version__,
+            "mesh": self.mesh,
+            "params": self.params,
+            "fingers": self.fingers,
+            "grasps": [g.to_dict() for g in self.grasps],
+            "message": self.message,
+            "escape": self.escape,
+            "timing": {
+                "total_s": self.total_s,
+                "evaluations": self.evaluations,
+                "stopped_by_time": self.stopped_by_time,
+            },
+        }

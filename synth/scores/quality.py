@@ -1,0 +1,111 @@
+"""Second opinions beside d*: conditioning of W and the Ferrari-Canny epsilon.
+
+Both need moments in a length unit, so contacts are taken relative to a reference point
+(the part's centre of mass) and moments are divided by a characteristic length ``L`` (the
+part's bounding-box diagonal); the numbers are then unit free and comparable across parts.
+
+conditioning
+    ``sigma_min / sigma_max`` of the scaled 6 x n wrench matrix: 0 for a rank-deficient grasp,
+    small for a grasp that barely resists some motion (d* can stay high there; see the
+    "traps" in DOMAIN notes), 1 at best.
+epsilon
+    Ferrari and Canny's (1992) largest-ball measure: the distance from the origin to the
+    boundary of the convex hull of the unit contact wrenches (with friction: the unit-force
+    wrenches of the cone edges); 0 when the origin is not strictly inside. Computed with qhull.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import ConvexHull, QhullError
+
+from synth.scores.friction import friction_cone_wrenches
+
+__all__ = ["scaled_wrenches", "conditioning", "epsilon_quality"]
+
+
+def scaled_wrenches(
+    points: ArrayLike, normals: ArrayLike, center: ArrayLike, length: float
+) -> NDArray[np.float64]:
+    """Unit-normal wrenches with moments about ``center`` divided by ``length``.
+
+    Parameters
+    ----------
+    points, normals : (..., k, 3) float
+        Contacts and unit inward normals.
+    center : (3,) float
+    length : float
+
+    Returns
+    -------
+    W : (..., 6, k) float
+    """
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    N = N / np.linalg.norm(N, axis=-1, keepdims=True)
+    tau = np.cross(P - np.asarray(center, dtype=np.float64), N) / float(length)
+    return np.concatenate([N, tau], axis=-1).swapaxes(-1, -2)
+
+
+def conditioning(W: ArrayLike) -> NDArray[np.float64] | float:
+    """``sigma_min / sigma_max`` of (batched) scaled wrench matrices (0 when rank < rows).
+
+    Parameters
+    ----------
+    W : (6, k) or (B, 6, k) float
+        From :func:`scaled_wrenches`.
+
+    Returns
+    -------
+    float or (B,) float
+    """
+    A = np.asarray(W, dtype=np.float64)
+    s = np.linalg.svd(A, compute_uv=False)
+    m = A.shape[-2]
+    if A.shape[-1] < m:
+        out = np.zeros(A.shape[:-2])
+    else:
+        out = s[..., m - 1] / np.where(s[..., 0] > 0, s[..., 0], 1.0)
+    return float(out) if np.ndim(out) == 0 else out
+
+
+def epsilon_quality(
+    points: ArrayLike,
+    normals: ArrayLike,
+    center: ArrayLike,
+    length: float,
+    mu: float = 0.0,
+    edges: int = 8,
+) -> float:
+    """Ferrari-Canny epsilon of one grasp (unit forces, moments scaled by ``length``).
+
+    Parameters
+    ----------
+    points, normals : (k, 3) float
+    center : (3,) float
+    length : float
+    mu : float
+        Friction coefficient (0: the contact wrenches themselves).
+    edges : int
+        Cone edges with friction.
+
+    Returns
+    -------
+    float
+        >= 0; 0 when the origin is not strictly inside the hull.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    if mu > 0:
+        G = friction_cone_wrenches(P, N, mu, center=center, edges=edges)  # (6, k, E)
+        G = G.reshape(6, -1) / np.sqrt(1.0 + mu**2)  # unit force along each edge
+        G[3:] /= float(length)
+    else:
+        G = scaled_wrenches(P, N, center, length)
+    try:
+        hull = ConvexHull(G.T)
+    except (QhullError, ValueError):
+        return 0.0
+    dist = -hull.equations[:, -1]
+    return float(max(0.0, dist.min()))

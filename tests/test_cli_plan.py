@@ -1,0 +1,81 @@
+"""``synth plan`` and ``synth rank`` end to end through the command line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+MESHES = Path(__file__).resolve().parent.parent / "meshes"
+
+
+def synth(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "synth", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd)
+
+
+def test_plan_writes_json_png_glb(tmp_path):
+    proc = synth("plan", MESHES / "bracket.stl", "--evals", "3000", "--top", "3", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "form" in proc.stdout and "d*" in proc.stdout
+    doc = json.loads((tmp_path / "bracket.grasps.json").read_text())
+    assert len(doc["grasps"]) == 3 and doc["params"]["evals"] == 3000
+    png = (tmp_path / "bracket.grasps.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+    scene = trimesh.load(tmp_path / "bracket.grasps.glb")
+    assert "part" in scene.geometry and "tip_0" in scene.geometry
+
+
+def test_plan_json_to_stdout_and_sphere_exit_status(tmp_path):
+    proc = synth("plan", MESHES / "sphere.stl", "--evals", "2000", "--json", "--no-files",
+                 cwd=tmp_path)
+    assert proc.returncode == 1  # nothing found
+    doc = json.loads(proc.stdout)
+    assert doc["grasps"] == [] and "rotate" in doc["message"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def _one_line_error(proc, code=2):
+    assert proc.returncode == code, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("synth: error: ")
+    return lines[0]
+
+
+def test_plan_bad_input(tmp_path):
+    assert "no such file" in _one_line_error(synth("plan", tmp_path / "missing.stl"))
+    junk = tmp_path / "junk.stl"
+    junk.write_bytes(np.random.default_rng(0).bytes(900))
+    assert "junk.stl" in _one_line_error(synth("plan", junk, "--no-files"))
+    msg = _one_line_error(synth("plan", MESHES / "cube.stl", "--contacts", "4", "--no-files"))
+    assert "at least 7" in msg and "--mu" in msg
+
+
+def test_rank_end_to_end(tmp_path):
+    plan = synth("plan", MESHES / "cube.stl", "--evals", "2000", "--top", "2",
+                 "--out", tmp_path / "g.json", "--no-files", "--quiet")
+    assert plan.returncode == 0
+    proc = synth("plan", MESHES / "cube.stl", "--evals", "2000", "--top", "2", "--quiet",
+                 "--out", tmp_path / "g.json", "--png", tmp_path / "g.png",
+                 "--glb", tmp_path / "g.glb")
+    doc = json.loads((tmp_path / "g.json").read_text())
+    cands = [{"name": f"g{i}", "points": g["points"]} for i, g in enumerate(doc["grasps"])]
+    cands.append({"name": "far", "points": [[9, 9, 9]] + doc["grasps"][0]["points"][1:]})
+    f = tmp_path / "c.json"
+    f.write_text(json.dumps(cands))
+    out = tmp_path / "ranked.json"
+    proc = synth("rank", MESHES / "cube.stl", f, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    ranked = json.loads(out.read_text())["candidates"]
+    assert [c["status"] for c in ranked] == ["ok", "ok", "error"]
+    assert "candidate 2 (far): point 0 is" in ranked[2]["reason"]
+    assert ranked[0]["d_star"] == doc["grasps"][0]["d_star"] or abs(
+        ranked[0]["d_star"] - doc["grasps"][0]["d_star"]) < 1e-7
+    bad = tmp_path / "bad.json"
+    bad.write_text('[{"name": "x"}]')
+    assert "missing field 'points'" in _one_line_error(synth("rank", MESHES / "cube.stl", bad))

@@ -1,0 +1,118 @@
+"""The planner: optimum on the cube, impossibility on surfaces of revolution, and every
+returned grasp re-verified from its JSON with checks that do not share the planner's code."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth import (
+    InputError,
+    PlanParams,
+    form_closure,
+    frictional_form_closure,
+    load_part,
+    plan_mesh_file,
+    plan_part,
+    wrench_matrix,
+)
+
+MESHES = Path(__file__).resolve().parent.parent / "meshes"
+SAMPLES = sorted(p.name for p in MESHES.glob("*.stl"))
+
+
+@pytest.fixture(scope="module")
+def cube_plan():
+    return plan_part(load_part(MESHES / "cube.stl"), PlanParams(seed=1))
+
+
+def test_cube_reaches_the_optimum(cube_plan):
+    assert cube_plan.grasps, cube_plan.message
+    assert cube_plan.grasps[0].d_star >= 0.49
+    assert cube_plan.grasps[0].d_star <= 0.5 + 1e-9  # 0.5 is provably the best for 7 contacts
+    for g in cube_plan.grasps:
+        r = form_closure(wrench_matrix(g.points, g.normals))
+        assert r.is_form_closure and r.rank == 6
+        assert r.d_star == pytest.approx(g.d_star, abs=1e-7)
+
+
+def test_grasps_are_diverse_and_ranked(cube_plan):
+    g = cube_plan.grasps
+    assert len(g) == 10
+    assert all(a.d_star >= b.d_star - 1e-6 for a, b in zip(g, g[1:]))
+    L = load_part(MESHES / "cube.stl").length
+    for i in range(len(g)):
+        for j in range(i):
+            D = np.linalg.norm(g[i].points[:, None] - g[j].points[None], axis=2)
+            hd = max(D.min(0).max(), D.min(1).max())
+            assert hd >= 0.05 * L - 1e-12
+
+
+@pytest.mark.parametrize("name", ["sphere.stl", "cylinder.stl"])
+def test_surfaces_of_revolution(name):
+    part = load_part(MESHES / name)
+    plan = plan_part(part, PlanParams(evals=3000))
+    assert plan.grasps == ()
+    assert "rotate about" in plan.message and plan.escape
+    fr = plan_part(part, PlanParams(contacts=4, mu=0.5, evals=3000, top=3))
+    assert fr.grasps, fr.message
+    for g in fr.grasps:
+        r = frictional_form_closure(g.points, g.normals, 0.5)
+        assert r.closure == "frictional form"
+        assert r.d_star == pytest.approx(g.d_star, abs=1e-6)
+
+
+@pytest.mark.parametrize("name", SAMPLES)
+def test_every_grasp_verifies_from_json(name):
+    doc = plan_mesh_file(MESHES / name, {"evals": 3000, "top": 5, "seed": 3})
+    part = load_part(MESHES / name)
+    L = part.length
+    assert doc["format"] == "synth.grasps" and doc["version"] == 1
+    assert doc["mesh"]["sha256"] == part.sha256
+    if name in ("sphere.stl", "cylinder.stl", "torus.stl"):
+        assert doc["grasps"] == []
+        return
+    assert doc["grasps"], doc["message"]
+    for g in doc["grasps"]:
+        P, N = np.array(g["points"]), np.array(g["normals"])
+        # on the surface (trimesh's own closest-point query)
+        _, dist, _ = trimesh.proximity.closest_point(part.mesh, P)
+        assert dist.max() <= 1e-6 * L
+        # unit normals that agree with the part model and point inwards
+        assert np.allclose(np.linalg.norm(N, axis=1), 1.0)
+        assert np.allclose(part.resolve(P).normals, N, atol=1e-6)
+        assert part.mesh.contains(P + 1e-3 * L * N).all()
+        # d* recomputed from the file alone
+        r = form_closure(wrench_matrix(P, N))
+        assert r.is_form_closure
+        assert r.d_star == pytest.approx(g["d_star"], abs=1e-7)
+        # fingertips outside the part, touching it (trimesh signed distance: > 0 inside)
+        f = g["fingers"]
+        tips, rad = np.array(f["tip_centers"]), f["tip_radius"]
+        sd = trimesh.proximity.signed_distance(part.mesh, tips)
+        assert np.all(-sd >= rad * (1 - 2e-3))
+        assert np.allclose(np.linalg.norm(tips - (P - rad * N), axis=1), 0, atol=1e-9)
+        assert np.allclose(np.linalg.norm(f["approach"], axis=1), 1.0)
+        assert g["conditioning"] >= 1e-3 and g["epsilon"] >= 0
+
+
+def test_same_seed_same_grasps():
+    part = load_part(MESHES / "prism.stl")
+    a = plan_part(part, PlanParams(evals=2000, seed=5))
+    b = plan_part(part, PlanParams(evals=2000, seed=5))
+    assert [g.d_star for g in a.grasps] == [g.d_star for g in b.grasps]
+    assert all(np.array_equal(x.points, y.points) for x, y in zip(a.grasps, b.grasps))
+
+
+def test_bad_parameters():
+    with pytest.raises(InputError, match="at least 7"):
+        PlanParams(contacts=5)
+    with pytest.raises(InputError, match="mu"):
+        PlanParams(mu=-1)
+    with pytest.raises(InputError, match="finger_radius"):
+        PlanParams(finger_radius=0.0)
+    with pytest.raises(TypeError):
+        plan_mesh_file(MESHES / "cube.stl", {"no_such_option": 1})

@@ -23,9 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
+from synth.scores.gram import gram_inverse_factor, null_vector_m1, rank_of_balanced
 from synth.scores.simplex import OPTIMAL, UNBOUNDED, solve_batch
 from synth.scores.wrench import balance_rows
-from synth.tolerances import D_STAR_TOL, RANK_RTOL
+from synth.tolerances import D_STAR_TOL
 
 __all__ = ["BatchScores", "form_closure_batch", "d_star_linprog"]
 
@@ -123,15 +124,18 @@ def form_closure_batch(W: ArrayLike) -> BatchScores:
     if B == 0:
         return BatchScores(d, np.zeros(0, bool), np.zeros(0, np.int64))
     Wb, _ = balance_rows(A)
-    if n == m + 1:
-        U, S, Vt = np.linalg.svd(Wb, full_matrices=True)
-    else:
-        S = np.linalg.svd(Wb, compute_uv=False)
-    rank = np.sum(S > RANK_RTOL * S[:, :1], axis=1).astype(np.int64)
+    X, certified = gram_inverse_factor(Wb)
+    rank = rank_of_balanced(Wb, certified)
     todo = np.ones(B, dtype=bool)
     if n == m + 1:
+        # nullity one: the null line gives d* directly (Gram route where certified, else SVD)
+        v = np.zeros((B, n))
+        v[certified] = null_vector_m1(Wb[certified], X[certified])
+        other = np.nonzero(~certified & (rank == m))[0]
+        if other.size:
+            v[other] = np.linalg.svd(Wb[other], full_matrices=True)[2][:, -1, :]
         one = rank == m
-        v = Vt[one, -1, :]
+        v = v[one]
         v = v * np.sign(v.sum(axis=1, keepdims=True) + (v.sum(axis=1, keepdims=True) == 0))
         vmin, vmax = v.min(axis=1), v.max(axis=1)
         d[one] = np.where(vmin > 0, vmin / np.where(vmax > 0, vmax, 1.0), 0.0)

@@ -95,6 +95,14 @@ class Part:
         self._face_radius_max = float(
             np.linalg.norm(tri - centroids[:, None, :], axis=2).max() * (1 + 1e-9)
         )
+        fn = np.asarray(mesh.face_normals, float)
+        self._plane_normals = fn
+        self._plane_offsets = np.einsum("ij,ij->i", fn, tri[:, 0])
+        edge = np.roll(tri, -1, axis=1) - tri  # edges (0,1), (1,2), (2,0)
+        en = np.cross(fn[:, None, :], edge)  # in-plane, pointing into the triangle
+        en /= np.maximum(np.linalg.norm(en, axis=2, keepdims=True), 1e-300)
+        self._edge_normals = en
+        self._edge_offsets = np.einsum("ijk,ijk->ij", en, tri)
         self._vertex_cone = self._build_vertex_cone()
         self._frozen = True
 

@@ -35,13 +35,16 @@ if TYPE_CHECKING:
 __all__ = ["closest_points", "resolve_points"]
 
 _K_NEAREST = 16
+_K_FAST = 8
 
 
 def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest surface point, its face and distance for each query point (exact).
 
-    Candidates are the faces with the ``16`` nearest centroids; a query whose answer cannot
-    be certified by the bound ``|p - c_f| - r_f`` falls back to trimesh.proximity.
+    A point within ``surface_tolerance`` of one of the faces with the 8 nearest centroids
+    (inside it by ``feature_tolerance``) is taken as on that face. Otherwise candidates are
+    the faces with the 16 nearest centroids; a query whose answer cannot be certified by
+    the bound ``|p - c_f| - r_f`` falls back to trimesh.proximity.
 
     Parameters
     ----------
@@ -54,10 +57,37 @@ def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     faces : (n,) int
     distance : (n,) float
     """
+    closest = np.array(points, dtype=float)
+    face = np.full(len(points), -1, np.int64)
+    dist = np.zeros(len(points))
+    # fast pass: points already on the surface (within surface_tolerance) of a nearby face
+    k1 = min(_K_FAST, len(part._triangles))
+    _, cand = part._centroid_tree.query(points, k=k1, workers=-1)
+    cand = cand.reshape(len(points), k1)
+    normals = part._plane_normals[cand]
+    h = np.einsum("ijk,ijk->ij", normals, points[:, None, :]) - part._plane_offsets[cand]
+    side = np.einsum("ijlk,ijk->ijl", part._edge_normals[cand], points[:, None, :])
+    inside = (side >= part._edge_offsets[cand] - part.feature_tolerance).all(axis=2)
+    ok = inside & (np.abs(h) <= part.surface_tolerance)
+    hit = ok.any(axis=1)
+    first = np.argmax(ok, axis=1)
+    rows = np.flatnonzero(hit)
+    face[rows] = cand[rows, first[rows]]
+    hh = h[rows, first[rows]]
+    closest[rows] = points[rows] - hh[:, None] * normals[rows, first[rows]]
+    dist[rows] = np.abs(hh)
+    rest = np.flatnonzero(~hit)
+    if len(rest):
+        c2, f2, d2 = _closest_exact(part, points[rest])
+        closest[rest], face[rest], dist[rest] = c2, f2, d2
+    return closest, face, dist
+
+
+def _closest_exact(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     mesh = part.mesh
     tri = part._triangles
     k = min(_K_NEAREST, len(tri))
-    dist_c, cand = part._centroid_tree.query(points, k=k)
+    dist_c, cand = part._centroid_tree.query(points, k=k, workers=-1)
     dist_c, cand = dist_c.reshape(len(points), k), cand.reshape(len(points), k)
     cand_tri = tri[cand.ravel()]
     q = trimesh.triangles.closest_point(cand_tri, np.repeat(points, k, axis=0)).reshape(-1, k, 3)

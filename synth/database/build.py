@@ -7,8 +7,9 @@ not depend on the engine), then hands one task per mesh to an engine and writes 
 one transaction with its status. A run killed at any moment leaves only whole meshes; running
 the same command again finishes the rest.
 
-Engines: ``local`` (a :class:`concurrent.futures.ProcessPoolExecutor`; ``workers=0`` plans in
-this process) and ``dask`` (a Dask distributed cluster, optional extra ``synth[dask]``; use
+Engines: ``local`` (a :class:`concurrent.futures.ProcessPoolExecutor` of spawned processes,
+each limited to ``cpus // workers`` BLAS/OpenMP threads unless ``OMP_NUM_THREADS`` and friends
+are set; ``workers=0`` plans in this process) and ``dask`` (a Dask distributed cluster, optional extra ``synth[dask]``; use
 dask-jobqueue's ``SLURMCluster``/``PBSCluster`` and pass its scheduler address to reach a batch
 system). The planner is deterministic given ``seed`` and the evaluation budget ``evals``; there
 is deliberately no wall-clock budget, so results are identical, grasp for grasp, whatever the
@@ -50,6 +51,9 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "evals": 5000,
 }
 _Task = tuple[int, str]  # (mesh id, path)
+# BLAS/OpenMP threads per local worker: the CPUs divided among the workers (unless already set),
+# so that N workers do not run N times the cores' worth of threads.
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 @dataclass(frozen=True)
@@ -373,9 +377,16 @@ def _run_local(
     from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    def new_pool(n: int) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=n, initializer=_ignore_sigint)
+    import multiprocessing
 
+    context = multiprocessing.get_context("spawn")  # fresh workers that read the env below
+
+    def new_pool(n: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_ignore_sigint)
+
+    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
+    threads = str(max(1, len(os.sched_getaffinity(0)) // workers))
+    os.environ.update({k: threads for k, v in saved.items() if v is None})
     queue = list(reversed(tasks))
     suspects: list[_Task] = []  # in flight when a worker died: rerun alone, one at a time
     pool = new_pool(workers)
@@ -411,6 +422,9 @@ def _run_local(
                 pool = new_pool(workers)
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
 
 
 def _run_dask(

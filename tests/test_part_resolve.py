@@ -169,12 +169,6 @@ def test_form_closure_never_on_a_cylinder_in_double_precision() -> None:
     assert _form_closure_count(part) == 0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="cylinder.stl stores float32 coordinates, so interpolated normals are exact only "
-    "to ~1e-7 rad; synth.tolerances.RANK_RTOL = 1e-9 takes that noise for a real moment "
-    "about the axis and reports form closure (about 1 set in 6). Needs a scorer tolerance "
-    "tied to input precision (or contacts flagged as coming from a surface of revolution).",
-)
 def test_form_closure_never_on_the_float32_cylinder_stl(cylinder: Part) -> None:
+    # float32 coordinates: normals exact to ~1e-7 rad; synth.tolerances.RANK_RTOL is set above that
     assert _form_closure_count(cylinder) == 0

@@ -28,21 +28,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"synth {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    from synth.cli import score
+    from synth.cli import plan, rank, score
+    from synth.database.cli import add_db_parser
 
     score.add_parser(sub)
-    for name in ("plan", "rank"):
-        try:
-            module = __import__(f"synth.cli.{name}", fromlist=["add_parser"])
-        except ImportError:
-            continue
-        module.add_parser(sub)
-    try:
-        from synth.database.cli import add_db_parser
-    except ImportError:
-        pass
-    else:
-        add_db_parser(sub)
+    plan.add_parser(sub)
+    rank.add_parser(sub)
+    add_db_parser(sub)
     return parser
 
 

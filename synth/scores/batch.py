@@ -143,11 +143,14 @@ def form_closure_batch(W: ArrayLike) -> BatchScores:
     fallback = 0
     if todo.any():
         ii = np.nonzero(todo)[0]
-        M = np.concatenate([Wb[ii], Wb[ii].sum(axis=2, keepdims=True)], axis=2)
-        rowmax = np.abs(M).max(axis=2, keepdims=True)
-        M = M / np.where(rowmax > 0, rowmax, 1.0)
         k = ii.size
-        Afull = np.concatenate([M, np.broadcast_to(np.eye(m), (k, m, m))], axis=2)
+        # [W, W 1, I] with the rows of [W, W 1] scaled to max-norm 1, built in place
+        Afull = np.empty((k, m, n + 1 + m))
+        Afull[:, :, :n] = Wb if k == B else Wb[ii]
+        Afull[:, :, n] = Afull[:, :, :n].sum(axis=2)
+        rowmax = np.abs(Afull[:, :, : n + 1]).max(axis=2, keepdims=True)
+        Afull[:, :, : n + 1] /= np.where(rowmax > 0, rowmax, 1.0)
+        Afull[:, :, n + 1 :] = np.eye(m)
         hi = np.concatenate([np.ones(n), [np.inf], np.zeros(m)])
         c = np.zeros(n + 1 + m)
         c[n] = 1.0

@@ -82,11 +82,12 @@ def solve_batch(
 
     Notes
     -----
-    Only the movable columns (``hi > 0``) are kept in the working tableau ``T = B^-1 A[:, :, w]``
+    The tableau is updated as ``T <- E T`` with the eta matrix ``E`` of the pivot (one batched
+    matmul over the working set; problems that do not pivot use ``E = I``). Only the movable
+    columns (``hi > 0``) are kept in the working tableau ``T = B^-1 A[:, :, w]``
     of shape (K, M, Nw): a fixed column can never enter, and the verification refactorises from
-    ``A``. Basic columns of ``T`` stay exact unit vectors and their reduced costs exact zeros
-    (a pivot divides the pivot row by its own entry), so no "is basic" mask is needed in
-    pricing. Problems that finish stay in the arrays, inert, until a quarter of the working set
+    ``A``. The reduced costs of basic columns stay at round-off level (about 1e-17, far below
+    ``LP_FEAS_TOL``), so no "is basic" mask is needed in pricing; row M of ``T`` carries the reduced costs. Problems that finish stay in the arrays, inert, until a quarter of the working set
     has finished; then the set is compacted (fewer copies than compacting every iteration).
     """
     Bn, M, N = A.shape
@@ -102,17 +103,25 @@ def solve_batch(
     hi_w = hi[wcols]
     c_w = c[wcols]
     finite_w = np.isfinite(hi_w)
-    # working set (K problems)
+    # working set (K problems); row M of the tableau holds the reduced costs, so one rank-one
+    # update per pivot renews both
     idx = np.arange(Bn)
-    T = np.ascontiguousarray(A[:, :, wcols], dtype=np.float64)
+    T = np.empty((Bn, M + 1, Nw))
+    if Nw and wcols[-1] - wcols[0] == Nw - 1:  # a slice copies faster than a gather
+        T[:, :M] = A[:, :, wcols[0] : wcols[0] + Nw]
+    else:
+        T[:, :M] = A[:, :, wcols]
+    T[:, M] = c_w[None, :] - np.einsum("m,bmn->bn", c[basis0], T[:, :M])
+    T[:, M, wpos[basis0][wpos[basis0] >= 0]] = 0.0
     xB = b.astype(np.float64, copy=True)
     basis = np.broadcast_to(np.asarray(basis0, dtype=np.int64), (Bn, M)).copy()
     upper = np.zeros((Bn, Nw), dtype=bool)
-    r = c_w[None, :] - np.einsum("m,bmn->bn", c[basis0], T)  # reduced costs
-    r[:, wpos[basis0][wpos[basis0] >= 0]] = 0.0
     degen = np.zeros(Bn, dtype=np.int64)
+    n_it = np.zeros(Bn, dtype=np.int64)
     live = np.ones(Bn, dtype=bool)
     buf = np.empty_like(T)
+    eye_k = np.broadcast_to(np.eye(M + 1), (Bn, M + 1, M + 1)).copy()  # eta matrices
+    ar_m = np.arange(M + 1)
     stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
 
     def retire(mask: NDArray[np.bool_]) -> None:
@@ -125,28 +134,29 @@ def solve_batch(
         if K == 0:
             break
         ar = np.arange(K)
+        r = T[:, M, :]
         # pricing: gain per unit step of each nonbasic column in its feasible direction
         gain = np.where(upper, -r, r)
         q = np.argmax(gain, axis=1)
         has = (gain[ar, q] > LP_FEAS_TOL) & live
         bland = (degen >= _DEGENERATE_RUN) & has
-        if bland.any():  # Bland: the lowest-index improving column
-            qb = np.argmax(gain[bland] > LP_FEAS_TOL, axis=1)
-            q[bland] = qb
+        any_bland = bool(bland.any())
+        if any_bland:  # Bland: the lowest-index improving column
+            q[bland] = np.argmax(gain[bland] > LP_FEAS_TOL, axis=1)
         up_q = upper[ar, q]
-        colq = T[ar, :, q]  # (K, M)
-        alpha = np.where(up_q[:, None], -colq, colq)
+        colq = T[ar, :, q]  # (K, M + 1)
+        alpha = colq[:, :M].copy()
+        np.negative(alpha, out=alpha, where=up_q[:, None])
         # ratio test (lower bounds are all 0)
-        hiB = hi[basis]
         absa = np.abs(alpha)
-        num = np.where(alpha > 0, xB, hiB - xB)
+        num = np.where(alpha > 0, xB, hi[basis] - xB)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(absa > _PIVOT_TOL, num / absa, np.inf)
         np.maximum(ratio, 0.0, out=ratio)
         theta_r = ratio.min(axis=1)
         ties = ratio <= theta_r[:, None] + 1e-12
         p = np.argmax(np.where(ties, absa, -1.0), axis=1)
-        if bland.any():
+        if any_bland:
             p[bland] = np.argmin(np.where(ties[bland], basis[bland], N + 1), axis=1)
         theta_f = hi_w[q]
         flip = finite_w[q] & (theta_f <= theta_r)
@@ -156,40 +166,40 @@ def solve_batch(
         theta[~np.isfinite(theta)] = 0.0
         xB -= theta[:, None] * alpha
         fl = step & flip
-        upper[ar[fl], q[fl]] ^= True
+        if fl.any():
+            upper[ar[fl], q[fl]] ^= True
         piv = step & ~flip
         if piv.any():
             leave = basis[ar, p]
             lw = wpos[leave]
             pi = ar[piv & (lw >= 0)]
-            hit_upper = alpha[ar, p] < 0
-            upper[pi, lw[pi]] = hit_upper[pi]
+            upper[pi, lw[pi]] = alpha[pi, p[pi]] < 0
             upper[ar[piv], q[piv]] = False
             xB[ar, p] = np.where(piv, np.where(up_q, hi_w[q] - theta, theta), xB[ar, p])
             basis[ar, p] = np.where(piv, wcols[q], leave)
-            # tableau update on every row of the working set; rows not pivoting see an
-            # identity (pivot 1, zero column), so no gathers of the pivoting subset
-            pv = np.where(piv, T[ar, p, q], 1.0)
-            rowp = T[ar, p, :] / pv[:, None]
-            colq *= piv[:, None]
-            colq[ar, p] = 0.0
-            np.multiply(colq[:, :, None], rowp[:, None, :], out=buf[:K])
-            T -= buf[:K]
-            T[ar, p, :] = rowp
-            rq = np.where(piv, r[ar, q], 0.0)
-            r -= rq[:, None] * rowp
-            r[ar[piv], q[piv]] = 0.0
-        degen = np.where(step & (theta <= 1e-12), degen + 1, 0)
-        iters[idx] += step
+            # tableau update T <- E T with the eta matrix E (identity but column p), on every
+            # problem of the working set: one batched matmul; problems not pivoting get E = I
+            pv = np.where(piv, colq[ar, p], 1.0)
+            eta = colq * (np.where(piv, -1.0, 0.0) / pv)[:, None]
+            eta[ar, p] = 1.0 / pv
+            E = eye_k[:K]
+            E[ar, :, p] = eta
+            np.matmul(E, T, out=buf[:K])
+            T, buf = buf[:K], T
+            E[ar, :, p] = ar_m[None, :] == p[:, None]  # back to the identity
+        degen += 1
+        degen *= step & (theta <= 1e-12)
+        n_it += step
         done = live & (~has | unbounded)
         if done.any():
             status[idx[unbounded & live]] = UNBOUNDED
             retire(done & ~unbounded)
             live &= ~done
-            n_live = int(live.sum())
-            if n_live <= 0.75 * K:
+            if live.sum() <= 0.75 * K:
+                iters[idx] = n_it
                 idx, T, xB, basis = idx[live], T[live], xB[live], basis[live]
-                upper, r, degen, live = upper[live], r[live], degen[live], live[live]
+                upper, degen, n_it, live = upper[live], degen[live], n_it[live], live[live]
+    iters[idx] = n_it
     if stash:
         which = np.concatenate([w for w, _, _ in stash])
         bases = np.concatenate([bs for _, bs, _ in stash])
@@ -279,9 +289,13 @@ def _verify(
     x = np.where(nonbasic, x, 0.0)
     Bm = np.take_along_axis(A, basis[:, None, :], axis=2)  # (K, M, M)
     rhs = b - np.einsum("kmn,kn->km", A, x)
-    sol, solved = _solve_square(
-        np.concatenate([Bm, np.transpose(Bm, (0, 2, 1))]), np.concatenate([rhs, c[basis]])
-    )
+    both = np.concatenate([Bm, np.transpose(Bm, (0, 2, 1))])
+    rhs2 = np.concatenate([rhs, c[basis]])
+    try:  # LAPACK; a singular basis anywhere raises for the whole stack
+        sol = np.linalg.solve(both, rhs2[..., None])[..., 0]
+        solved = np.isfinite(sol).all(axis=1)
+    except np.linalg.LinAlgError:
+        sol, solved = _solve_square(both, rhs2)
     xB, y = sol[:K], sol[K:]
     solved = solved[:K] & solved[K:]
     xB = np.where(solved[:, None], xB, 0.0)

@@ -116,3 +116,17 @@ def test_bad_parameters():
         PlanParams(finger_radius=0.0)
     with pytest.raises(TypeError):
         plan_mesh_file(MESHES / "cube.stl", {"no_such_option": 1})
+
+
+def test_support_plane_keeps_fingers_above_the_table():
+    part = load_part(MESHES / "cube.stl")
+    on_table = plan_part(part, PlanParams(evals=2000, support_z=-0.5))
+    assert on_table.grasps == ()  # the bottom face is unreachable: nothing pushes up
+    plan = plan_part(part, PlanParams(evals=3000, top=3, support_z=-3.0))
+    assert plan.grasps
+    for g in plan.grasps:
+        f = g.fingers
+        tips = np.array(f["tip_centers"])
+        ends = tips + f["body_length"] * np.array(f["approach"])
+        assert (tips[:, 2] - f["tip_radius"] >= -3.0 - 1e-9).all()
+        assert (ends[:, 2] - f["body_radius"] >= -3.0 - 1e-9).all()

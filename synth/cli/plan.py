@@ -45,6 +45,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    help="grasp evaluations (default 20000); with --seed this fixes the result")
     p.add_argument("--min-d-star", type=float, default=0.0, help="drop grasps below this d*")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--table", type=float, default=None, metavar="Z",
+                   help="a support plane z = Z under the part that fingers must not cross")
     p.add_argument("--units", default=None,
                    help="length unit of the mesh when the file does not say (e.g. mm)")
     add_finger_options(p)
@@ -82,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         contacts=args.contacts, mu=args.mu, top=args.top, time=args.time, evals=args.evals,
         seed=args.seed, finger_radius=args.finger_radius, body_length=args.body_length,
         body_radius=args.body_radius, approach_cone=args.approach_cone,
-        min_d_star=args.min_d_star,
+        min_d_star=args.min_d_star, support_z=args.table,
     )
     part = load_part(args.mesh, units=args.units)
     bar = LineProgress(enabled=not (args.quiet or args.json))

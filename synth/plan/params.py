@@ -40,6 +40,9 @@ class PlanParams:
         Finger body (capsule) size; None for the defaults of :func:`synth.default_fingers`.
     approach_cone : float
         Half-angle in degrees of the cone of approach directions tried around the normal.
+    support_z : float or None
+        Height of a table (the plane z = support_z, part above it) that fingers must not
+        cross; None for no table.
     min_d_star : float
         Grasps with a lower d* are not returned.
     min_conditioning : float
@@ -62,6 +65,7 @@ class PlanParams:
     body_length: float | None = None
     body_radius: float | None = None
     approach_cone: float = 0.0
+    support_z: float | None = None
     min_d_star: float = 0.0
     min_conditioning: float = 1e-3
     diversity: float = 0.05
@@ -92,6 +96,8 @@ class PlanParams:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise bad(name, "a positive length in the mesh's units")
+        if self.support_z is not None and not np.isfinite(self.support_z):
+            raise bad("support_z", "a finite height")
         if not 0 <= self.approach_cone < 90:
             raise bad("approach_cone", "degrees in [0, 90)")
         if not 0 <= self.min_conditioning < 1:

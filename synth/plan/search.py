@@ -163,6 +163,8 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
                                    ("body_radius", prm.body_radius)) if v is not None}
     if prm.approach_cone:
         overrides["approach_cone"] = float(np.radians(prm.approach_cone))
+    if prm.support_z is not None:
+        overrides["support_plane"] = ((0.0, 0.0, prm.support_z), (0.0, 0.0, 1.0))
     fingers = default_fingers(part, **overrides)
     score = _Scorer(part, prm, fingers)
     k = prm.contacts
@@ -210,6 +212,8 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
         if key in tuples_seen:
             continue
         tuples_seen.add(key)
+        if not _spans_forces(np.array([p.normal for p in pcs])):
+            continue  # no positions on these pieces can balance every force
         sol = best_positions(pcs, score.center, L)
         if sol is None:
             continue
@@ -308,6 +312,13 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
     say(1.0, "done")
     return Plan(tuple(grasps), message, mesh_info, prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, escape)
+
+
+def _spans_forces(normals: NDArray[np.float64]) -> bool:
+    """Necessary condition for form closure: the normals positively span 3-D force space,
+    i.e. the origin is strictly inside their convex hull (Trinkle's test on the 3 x k force
+    rows alone)."""
+    return bool(form_closure_batch(normals.T[None]).closure[0])
 
 
 def _reachable(part, points: NDArray[np.float64], normals: NDArray[np.float64],

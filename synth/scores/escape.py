@@ -136,7 +136,7 @@ def describe_twist(
     sign = "±" if both_senses else ""
     if nw <= 1e-9 * max(nv, 1e-300) or nw == 0.0:
         dirn = _direction(np.append(v, 0.0) if planar else v)
-        return f"free to translate along {sign}{dirn.lstrip('+') if sign else dirn}"
+        return f"free to translate along {sign}{dirn.lstrip('+-') if sign else dirn}"
     if planar:
         p = o + np.array([-v[1], v[0]]) / w[0]
         turn = "counter-clockwise" if w[0] > 0 else "clockwise"
@@ -148,8 +148,8 @@ def describe_twist(
     axis = _direction(w)
     small = 1e-2 * length if length else 1e-3 * nv / nw
     if abs(pitch) <= small or abs(pitch) * nw < 1e-9:
-        return f"free to rotate about {sign}{axis.lstrip('+') if sign else axis} through {_point(p, length)}"
+        return f"free to rotate about {sign}{axis.lstrip('+-') if sign else axis} through {_point(p, length)}"
     return (
-        f"free to screw about {sign}{axis.lstrip('+') if sign else axis} through {_point(p, length)}"
+        f"free to screw about {sign}{axis.lstrip('+-') if sign else axis} through {_point(p, length)}"
         f" (pitch {pitch:.3g} per radian)"
     )

@@ -115,19 +115,19 @@ def solve_batch(
     T[:, M, wpos[basis0][wpos[basis0] >= 0]] = 0.0
     xB = b.astype(np.float64, copy=True)
     basis = np.broadcast_to(np.asarray(basis0, dtype=np.int64), (Bn, M)).copy()
-    upper = np.zeros((Bn, Nw), dtype=bool)
+    sgn = np.ones((Bn, Nw))  # -1 where a nonbasic column sits at its upper bound, else +1
     degen = np.zeros(Bn, dtype=np.int64)
     n_it = np.zeros(Bn, dtype=np.int64)
     live = np.ones(Bn, dtype=bool)
     buf = np.empty_like(T)
     eye_k = np.broadcast_to(np.eye(M + 1), (Bn, M + 1, M + 1)).copy()  # eta matrices
-    ar_m = np.arange(M + 1)
+    eye_m = np.eye(M + 1)
     stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
 
     def retire(mask: NDArray[np.bool_]) -> None:
         """Record the final basis of finished, bounded problems for the verification."""
         if mask.any():
-            stash.append((idx[mask], basis[mask], upper[mask]))
+            stash.append((idx[mask], basis[mask], sgn[mask] < 0))
 
     for _ in range(max_iter):
         K = idx.size
@@ -136,14 +136,14 @@ def solve_batch(
         ar = np.arange(K)
         r = T[:, M, :]
         # pricing: gain per unit step of each nonbasic column in its feasible direction
-        gain = np.where(upper, -r, r)
+        gain = r * sgn
         q = np.argmax(gain, axis=1)
         has = (gain[ar, q] > LP_FEAS_TOL) & live
         bland = (degen >= _DEGENERATE_RUN) & has
         any_bland = bool(bland.any())
         if any_bland:  # Bland: the lowest-index improving column
             q[bland] = np.argmax(gain[bland] > LP_FEAS_TOL, axis=1)
-        up_q = upper[ar, q]
+        up_q = sgn[ar, q] < 0
         colq = T[ar, :, q]  # (K, M + 1)
         alpha = colq[:, :M].copy()
         np.negative(alpha, out=alpha, where=up_q[:, None])
@@ -167,14 +167,14 @@ def solve_batch(
         xB -= theta[:, None] * alpha
         fl = step & flip
         if fl.any():
-            upper[ar[fl], q[fl]] ^= True
+            sgn[ar[fl], q[fl]] *= -1.0
         piv = step & ~flip
         if piv.any():
             leave = basis[ar, p]
             lw = wpos[leave]
             pi = ar[piv & (lw >= 0)]
-            upper[pi, lw[pi]] = alpha[pi, p[pi]] < 0
-            upper[ar[piv], q[piv]] = False
+            sgn[pi, lw[pi]] = np.where(alpha[pi, p[pi]] < 0, -1.0, 1.0)
+            sgn[ar[piv], q[piv]] = 1.0
             xB[ar, p] = np.where(piv, np.where(up_q, hi_w[q] - theta, theta), xB[ar, p])
             basis[ar, p] = np.where(piv, wcols[q], leave)
             # tableau update T <- E T with the eta matrix E (identity but column p), on every
@@ -186,7 +186,7 @@ def solve_batch(
             E[ar, :, p] = eta
             np.matmul(E, T, out=buf[:K])
             T, buf = buf[:K], T
-            E[ar, :, p] = ar_m[None, :] == p[:, None]  # back to the identity
+            E[ar, :, p] = eye_m[p]  # back to the identity
         degen += 1
         degen *= step & (theta <= 1e-12)
         n_it += step
@@ -198,7 +198,7 @@ def solve_batch(
             if live.sum() <= 0.75 * K:
                 iters[idx] = n_it
                 idx, T, xB, basis = idx[live], T[live], xB[live], basis[live]
-                upper, degen, n_it, live = upper[live], degen[live], n_it[live], live[live]
+                sgn, degen, n_it, live = sgn[live], degen[live], n_it[live], live[live]
     iters[idx] = n_it
     if stash:
         which = np.concatenate([w for w, _, _ in stash])

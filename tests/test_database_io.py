@@ -182,7 +182,7 @@ def test_bad_database_files_are_named_and_left_alone(built: tuple[Path, Path],
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "synth.database", *args],
+        [sys.executable, "-m", "synth", "db", *args],
         capture_output=True, text=True, env=planner_env(), timeout=60,
     )  # fmt: skip
 

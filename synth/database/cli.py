@@ -35,6 +35,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}")
     sub.required = True
+    db.set_defaults(run=run_db)
 
     b = sub.add_parser(
         "build",

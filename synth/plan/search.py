@@ -309,6 +309,9 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
         kind = "with friction mu = %g" % prm.mu if prm.mu > 0 else "without friction"
         message = f"no {k}-contact closure grasp {kind} was found" + (
             f"; the best candidate is {escape}" if escape else "")
+        if prm.mu == 0 and escape and "rotate about" in escape:
+            message += (". Without friction no number of contacts stops a turn about an axis "
+                        "of symmetry (sphere, cylinder, torus): try mu > 0 with 3 or 4 contacts")
     say(1.0, "done")
     return Plan(tuple(grasps), message, mesh_info, prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, escape)

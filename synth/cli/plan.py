@@ -7,7 +7,31 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_parser", "run", "add_finger_options", "format_plan_table"]
+__all__ = ["add_parser", "run", "add_finger_options", "add_part_options", "format_plan_table",
+           "load_part_from_args"]
+
+
+def add_part_options(p: argparse.ArgumentParser) -> None:
+    """Options of mesh loading, shared by ``plan`` and ``rank``."""
+    g = p.add_argument_group("mesh")
+    g.add_argument("--units", default=None,
+                   help="length unit of the mesh when the file does not say (e.g. mm)")
+    g.add_argument("--body", default="largest",
+                   help="which body of a file with several: 'largest' (default), an index, a "
+                   "name, or 'all' to keep them together")
+    g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
+                   help="dihedral angle above which an edge is sharp (default 30)")
+
+
+def load_part_from_args(args: argparse.Namespace):
+    """``load_part`` with the mesh options of the command line."""
+    import math
+
+    from synth.part import load_part
+
+    body = int(args.body) if str(args.body).lstrip("-").isdigit() else args.body
+    return load_part(args.mesh, units=args.units, body=body,
+                     sharp_angle=math.radians(args.sharp_angle))
 
 
 def add_finger_options(p: argparse.ArgumentParser) -> None:
@@ -47,8 +71,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--table", type=float, default=None, metavar="Z",
                    help="a support plane z = Z under the part that fingers must not cross")
-    p.add_argument("--units", default=None,
-                   help="length unit of the mesh when the file does not say (e.g. mm)")
+    add_part_options(p)
     add_finger_options(p)
     o = p.add_argument_group("output")
     o.add_argument("--out", default=None, metavar="JSON",
@@ -77,7 +100,6 @@ def format_plan_table(plan) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``synth plan``; exit status 1 when no grasp was found."""
     from synth.cli.progress import LineProgress
-    from synth.part import load_part
     from synth.plan import PlanParams, export_glb, plan_part, render_png
 
     params = PlanParams(
@@ -86,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         body_radius=args.body_radius, approach_cone=args.approach_cone,
         min_d_star=args.min_d_star, support_z=args.table,
     )
-    part = load_part(args.mesh, units=args.units)
+    part = load_part_from_args(args)
     bar = LineProgress(enabled=not (args.quiet or args.json))
     try:
         plan = plan_part(part, params, progress=bar)

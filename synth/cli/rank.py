@@ -48,7 +48,7 @@ class RankedCandidate:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Register ``synth rank``."""
-    from synth.cli.plan import add_finger_options
+    from synth.cli.plan import add_finger_options, add_part_options
 
     p = sub.add_parser(
         "rank",
@@ -64,7 +64,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--max-distance", type=float, default=None, metavar="D",
                    help="largest distance from a point to the surface that is snapped, in mesh "
                    "units (default: 1%% of the part's bounding-box diagonal)")
-    p.add_argument("--units", default=None, help="length unit of the mesh")
+    add_part_options(p)
     add_finger_options(p)
     p.add_argument("--out", default=None, metavar="JSON", help="write the ranked candidates")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -124,11 +124,11 @@ def run(args: argparse.Namespace) -> int:
     """Run ``synth rank``."""
     from synth.fingers import default_fingers
     from synth.grasps import read_candidates
-    from synth.part import load_part
+    from synth.cli.plan import load_part_from_args
 
     if not np.isfinite(args.mu) or args.mu < 0:
         raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
-    part = load_part(args.mesh, units=args.units)
+    part = load_part_from_args(args)
     cands = read_candidates(args.candidates, require_normals=False)
     over = {k: v for k, v in (("tip_radius", args.finger_radius),
                               ("body_length", args.body_length),

@@ -76,3 +76,30 @@ def test_null_vector_matches_svd():
     sign = np.sign(np.einsum("bi,bi->b", v, ref))
     assert np.abs(v - sign[:, None] * ref).max() < 1e-12
     assert np.abs(np.einsum("bij,bj->bi", Wb, v)).max() < 1e-13
+
+
+def test_vectorised_cholesky_and_inverse_match_lapack():
+    from synth.scores.gram import _cholesky, _tri_inverse
+
+    rng = np.random.default_rng(6)
+    W = rng.normal(size=(30, 6, 9))
+    G = W @ np.transpose(W, (0, 2, 1))
+    ok = np.ones(30, dtype=bool)
+    L = _cholesky(G, ok)
+    assert ok.all()
+    assert np.allclose(L, np.linalg.cholesky(G), rtol=1e-12, atol=1e-12)
+    assert np.allclose(_tri_inverse(L), np.linalg.inv(L), rtol=1e-10, atol=1e-10)
+    G[3] = 0.0  # not positive definite: flagged, no exception
+    ok = np.ones(30, dtype=bool)
+    _cholesky(G, ok)
+    assert not ok[3] and ok.sum() == 29
+
+
+def test_mixed_batch_uses_the_fallback_factor():
+    rng = np.random.default_rng(7)
+    good = rng.normal(size=(5, 6, 12))
+    bad = rng.normal(size=(2, 6, 3)) @ rng.normal(size=(2, 3, 12))  # rank 3
+    W = np.concatenate([good, bad])
+    X, cert = gram_inverse_factor(W)
+    assert cert.tolist() == [True] * 5 + [False] * 2
+    assert rank_of_balanced(W, cert).tolist() == [6] * 5 + [3] * 2

@@ -154,7 +154,7 @@ def form_closure_batch(W: ArrayLike) -> BatchScores:
         hi = np.concatenate([np.ones(n), [np.inf], np.zeros(m)])
         c = np.zeros(n + 1 + m)
         c[n] = 1.0
-        sol = solve_batch(Afull, np.zeros((k, m)), c, hi, np.arange(n + 1, n + 1 + m))
+        sol = solve_batch(Afull, np.zeros((k, m)), c, hi, np.arange(n + 1, n + 1 + m), crash=True)
         s = sol.x[:, n]
         d[ii] = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
         bad = ii[sol.status > UNBOUNDED]

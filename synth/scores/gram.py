@@ -56,22 +56,25 @@ def gram_inverse_factor(
     B, m, _ = W.shape
     G = np.matmul(W, np.transpose(W, (0, 2, 1)))
     trG = np.trace(G, axis1=1, axis2=2)
-    L = np.zeros((B, m, m))
     ok = trG > 0
-    tiny = np.where(ok, trG, 1.0) * 1e-300
     with np.errstate(all="ignore"):  # uncertified matrices may overflow; they are discarded
-        X = _factor(G, L, ok, tiny)
+        try:  # LAPACK is fast, but one matrix that is not positive definite fails the stack
+            L = np.linalg.cholesky(G)
+            ok &= (np.diagonal(L, axis1=1, axis2=2) > 0).all(axis=1)
+        except np.linalg.LinAlgError:
+            L = _cholesky(G, ok)
+        X = _tri_inverse(L)
         bound = trG * np.einsum("bij,bij->b", X, X)
     certified = ok & np.isfinite(bound) & (bound <= GRAM_COND2_MAX)
     return X, certified
 
 
-def _factor(
-    G: NDArray[np.float64], L: NDArray[np.float64], ok: NDArray[np.bool_], tiny: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Cholesky ``G = L L^T`` into ``L`` (B, m, m) and return ``L^-1``; clears ``ok`` where a
-    pivot is not positive."""
-    m = G.shape[1]
+def _cholesky(G: NDArray[np.float64], ok: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Cholesky factors ``G = L L^T`` (B, m, m), vectorised over the stack; clears ``ok`` where
+    a pivot is not positive (that factor is then garbage, but finite or inf, never raising)."""
+    B, m, _ = G.shape
+    L = np.zeros((B, m, m))
+    tiny = np.abs(np.trace(G, axis1=1, axis2=2)) * 1e-300 + 1e-300
     for j in range(m):
         d = G[:, j, j] - np.einsum("bk,bk->b", L[:, j, :j], L[:, j, :j])
         ok &= d > 0
@@ -80,6 +83,12 @@ def _factor(
         if j + 1 < m:
             s = G[:, j + 1 :, j] - np.einsum("bik,bk->bi", L[:, j + 1 :, :j], L[:, j, :j])
             L[:, j + 1 :, j] = s / ljj[:, None]
+    return L
+
+
+def _tri_inverse(L: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Inverses (B, m, m) of lower-triangular matrices (B, m, m), by forward substitution."""
+    m = L.shape[1]
     X = np.zeros_like(L)
     for i in range(m):
         row = -np.einsum("bk,bkj->bj", L[:, i, :i], X[:, :i, :])

@@ -26,6 +26,9 @@ __all__ = ["BatchLP", "solve_batch"]
 
 _PIVOT_TOL = 1e-9
 _DEGENERATE_RUN = 8
+_COMPACT = 0.75
+#: Crash pivots must exceed this fraction of the row's largest entry in ``A``.
+_CRASH_TOL = 1e-6
 OPTIMAL, UNBOUNDED, UNVERIFIED = 0, 1, 2
 
 
@@ -58,6 +61,7 @@ def solve_batch(
     hi: NDArray[np.float64],
     basis0: NDArray[np.int64],
     max_iter: int = 500,
+    crash: bool = False,
 ) -> BatchLP:
     """Solve ``B`` bounded LPs ``max c^T x, A x = b, 0 <= x <= hi`` in lock step.
 
@@ -75,6 +79,10 @@ def solve_batch(
         Initial basic columns.
     max_iter : int
         Iteration cap; problems still running are reported unverified.
+    crash : bool
+        Replace the basic fixed columns (artificials) by movable ones before the simplex
+        starts, by Gauss-Jordan pivots on each row's largest entry. Only valid when ``b = 0``
+        (then every basis is feasible at ``x = 0``).
 
     Returns
     -------
@@ -129,6 +137,34 @@ def solve_batch(
         if mask.any():
             stash.append((idx[mask], basis[mask], sgn[mask] < 0))
 
+    if crash:
+        # crash basis, replacing the degenerate pivots that would drive out the artificials
+        # (with b = 0 every basis is feasible at x = 0): first the column with the largest
+        # objective coefficient enters at its largest entry (Dantzig's first pivot), then each
+        # row still holding an artificial takes its largest movable entry (Gauss-Jordan)
+        ar = np.arange(Bn)
+        rowscale = np.abs(A).max(axis=2)  # (B, M)
+        E = eye_k
+        for i in range(-1, M):
+            if i >= 0:
+                row = np.abs(T[:, i, :])
+                q = np.argmax(row, axis=1)
+                p = np.full(Bn, i)
+                go = (basis[:, i] == basis0[i]) & (wpos[basis0[i]] < 0)
+            else:
+                q = np.full(Bn, np.argmax(c_w))
+                p = np.argmax(np.abs(T[:, :M, q[0]]), axis=1)
+                go = np.full(Bn, c_w.max() > 0) & (wpos[basis0] < 0)[p]
+            colq = T[ar, :, q]
+            go &= np.abs(colq[ar, p]) > _CRASH_TOL * rowscale[ar, p]
+            pv = np.where(go, colq[ar, p], 1.0)
+            eta = colq * (np.where(go, -1.0, 0.0) / pv)[:, None]
+            eta[ar, p] = 1.0 / pv
+            E[ar, :, p] = eta
+            np.matmul(E, T, out=buf)
+            T, buf = buf, T
+            E[ar, :, p] = eye_m[p]
+            basis[ar, p] = np.where(go, wcols[q], basis[ar, p])
     for _ in range(max_iter):
         K = idx.size
         if K == 0:
@@ -195,7 +231,7 @@ def solve_batch(
             status[idx[unbounded & live]] = UNBOUNDED
             retire(done & ~unbounded)
             live &= ~done
-            if live.sum() <= 0.75 * K:
+            if live.sum() <= _COMPACT * K:
                 iters[idx] = n_it
                 idx, T, xB, basis = idx[live], T[live], xB[live], basis[live]
                 sgn, degen, n_it, live = sgn[live], degen[live], n_it[live], live[live]

@@ -41,6 +41,10 @@ from synth.scores import (
 )
 from synth.scores.quality import conditioning, epsilon_quality, scaled_wrenches
 from synth.scores.friction import friction_cone_wrenches
+from synth.scores.friction_batch import (
+    friction_edge_wrenches_batch,
+    frictional_form_closure_batch,
+)
 
 __all__ = ["plan_part", "Progress"]
 
@@ -98,17 +102,14 @@ class _Scorer:
             if ok.any():  # conditioning matters only for closure grasps
                 cond[ok] = np.asarray(conditioning(W[ok])).reshape(-1)
         else:
-            d = np.empty(B)
-            ok = np.empty(B, dtype=bool)
-            cond = np.empty(B)
-            for b in range(B):
-                r = frictional_form_closure(P[b], N[b], prm.mu, center=self.center,
-                                            edges=prm.edges)
-                d[b], ok[b] = r.d_star, r.is_closure
-                G = friction_cone_wrenches(P[b], N[b], prm.mu, self.center, prm.edges)
-                G = G.reshape(6, -1).copy()
-                G[3:] /= self.length
-                cond[b] = conditioning(G)
+            res = frictional_form_closure_batch(P, N, prm.mu, center=self.center,
+                                                edges=prm.edges)
+            d, ok = res.d_star, res.closure
+            cond = np.zeros(B)
+            if ok.any():  # conditioning of the cone-edge wrenches, moments scaled by L
+                G = friction_edge_wrenches_batch(P[ok], N[ok], prm.mu, self.center, prm.edges)
+                G[:, 3:] /= self.length
+                cond[ok] = np.asarray(conditioning(G)).reshape(-1)
         tips = P - self.r * N
         k = P.shape[1]
         iu = np.triu_indices(k, 1)
@@ -170,7 +171,7 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
     k = prm.contacts
     L = float(part.length)
     say = progress or (lambda f, m: None)
-    budget = prm.evals if prm.mu == 0 else max(100, prm.evals // 100)
+    budget = prm.evals if prm.mu == 0 else max(100, prm.evals // 5)
 
     # 1. seeds --------------------------------------------------------------------------
     say(0.0, "sampling contacts")
@@ -230,8 +231,8 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
     say(0.45, f"region LPs solved: {len(lp_found)}")
 
     # 3. refinement ---------------------------------------------------------------------
-    pop_size = 16 if prm.mu == 0 else 6
-    moves = 24 if prm.mu == 0 else 6
+    pop_size = 16
+    moves = 24
     pop = archive.take(_distinct_top(archive, pop_size, 1e-6 * L))
     sigma = np.full(len(pop.d), 0.05 * L)
     stopped_by_time = False

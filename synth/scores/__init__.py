@@ -8,6 +8,7 @@ from synth.scores.friction import (
     friction_cone_wrenches,
     frictional_form_closure,
 )
+from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.strong import StrongForceClosure, squeezable_contacts, strong_force_closure
 from synth.scores.wrench import numerical_rank, wrench_matrix
 
@@ -22,6 +23,7 @@ __all__ = [
     "form_closure_batch",
     "friction_cone_wrenches",
     "frictional_form_closure",
+    "frictional_form_closure_batch",
     "numerical_rank",
     "squeezable_contacts",
     "strong_force_closure",

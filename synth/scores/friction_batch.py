@@ -1,0 +1,139 @@
+"""Frictional d* (see :mod:`synth.scores.friction`) for many grasps at once.
+
+With ``lam_ij = d / E + (1 - d) f_ij`` the frictional LP becomes
+
+    maximise s  s.t.  G f + s G 1 / E = 0,   sum_j f_ij <= 1 (each contact),   f >= 0,
+
+with ``d* = s / (1 + s)``: 6 equality rows plus one row per contact, solved for the whole batch
+by the bounded simplex of :mod:`synth.scores.simplex`; optima not verified are re-solved with
+HiGHS through :func:`synth.frictional_form_closure`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from synth.errors import InputError
+from synth.scores.batch import BatchScores
+from synth.scores.friction import frictional_form_closure
+from synth.scores.simplex import UNBOUNDED, solve_batch
+from synth.scores.wrench import balance_rows
+from synth.tolerances import D_STAR_TOL, RANK_RTOL
+
+__all__ = ["frictional_form_closure_batch", "friction_edge_wrenches_batch"]
+
+
+def friction_edge_wrenches_batch(
+    points: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    mu: float,
+    center: NDArray[np.float64],
+    edges: int,
+) -> NDArray[np.float64]:
+    """Edge wrenches of linearised cones for a batch of spatial grasps.
+
+    Parameters
+    ----------
+    points, normals : (B, k, 3) float
+        Contacts and unit inward normals.
+    mu : float
+    center : (3,) or (B, 3) float
+        Moment reference.
+    edges : int
+
+    Returns
+    -------
+    G : (B, 6, k * edges) float
+        Column ``i * edges + j`` is edge ``j`` of contact ``i`` (as in
+        :func:`synth.friction_cone_wrenches`).
+    """
+    B, k, _ = points.shape
+    N = normals / np.linalg.norm(normals, axis=2, keepdims=True)
+    helper = np.where(np.abs(N[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = np.cross(N, helper)
+    u /= np.linalg.norm(u, axis=2, keepdims=True)
+    v = np.cross(N, u)
+    a = 2.0 * np.pi * np.arange(edges) / edges
+    F = N[:, :, None, :] + mu * (np.cos(a)[None, None, :, None] * u[:, :, None, :]
+                                 + np.sin(a)[None, None, :, None] * v[:, :, None, :])
+    R = points - np.asarray(center, dtype=np.float64).reshape(-1, 1, 3)
+    tau = np.cross(R[:, :, None, :], F)
+    return np.concatenate([F, tau], axis=3).reshape(B, k * edges, 6).transpose(0, 2, 1)
+
+
+def frictional_form_closure_batch(
+    points: ArrayLike,
+    normals: ArrayLike,
+    mu: float,
+    center: ArrayLike | None = None,
+    edges: int = 8,
+) -> BatchScores:
+    """Frictional d*, closure flag and rank of many spatial grasps with one friction coefficient.
+
+    Same answers as :func:`synth.frictional_form_closure` (to 1e-7 on d*).
+
+    Parameters
+    ----------
+    points, normals : (B, k, 3) float
+        Contacts and inward normals.
+    mu : float
+        Coulomb coefficient (> 0; use :func:`synth.form_closure_batch` without friction).
+    center : (3,) float, optional
+        Moment reference (default: each grasp's centroid); d* does not depend on it.
+    edges : int
+        Cone edges (>= 3).
+
+    Returns
+    -------
+    BatchScores
+        ``closure`` is frictional form closure.
+    """
+    t0 = time.perf_counter()
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
+        raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
+                         f"and {N.shape}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
+        raise InputError("points and normals must be finite")
+    if not (np.isfinite(mu) and mu > 0):
+        raise InputError(f"mu must be a finite number > 0, got {mu!r}")
+    if int(edges) != edges or edges < 3:
+        raise InputError(f"edges must be an integer >= 3, got {edges!r}")
+    B, k, _ = P.shape
+    E = int(edges)
+    if B == 0:
+        return BatchScores(np.zeros(0), np.zeros(0, bool), np.zeros(0, np.int64))
+    o = P.mean(axis=1) if center is None else np.asarray(center, dtype=np.float64)
+    G = friction_edge_wrenches_batch(P, N, float(mu), o, E)
+    Gb, _ = balance_rows(G)
+    S = np.linalg.svd(Gb, compute_uv=False)
+    rank = np.sum(S > RANK_RTOL * S[:, :1], axis=1).astype(np.int64)
+    nE = k * E
+    # columns: f (nE) | s | slacks (k) | artificials (6); rows: 6 wrench rows | k contact rows
+    M = np.concatenate([Gb, Gb.sum(axis=2, keepdims=True) / E], axis=2)
+    rowmax = np.abs(M).max(axis=2, keepdims=True)
+    M /= np.where(rowmax > 0, rowmax, 1.0)
+    A = np.zeros((B, 6 + k, nE + 1 + k + 6))
+    A[:, :6, : nE + 1] = M
+    A[:, :6, nE + 1 + k :] = np.eye(6)
+    A[:, 6:, :nE] = np.kron(np.eye(k), np.ones((1, E)))
+    A[:, 6:, nE + 1 : nE + 1 + k] = np.eye(k)
+    b = np.zeros((B, 6 + k))
+    b[:, 6:] = 1.0
+    hi = np.concatenate([np.ones(nE), [np.inf], np.full(k, np.inf), np.zeros(6)])
+    c = np.zeros(nE + 1 + k + 6)
+    c[nE] = 1.0
+    basis0 = np.concatenate([np.arange(nE + 1 + k, nE + 1 + k + 6), np.arange(nE + 1, nE + 1 + k)])
+    sol = solve_batch(A, b, c, hi, basis0)
+    s = sol.x[:, nE]
+    d = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
+    bad = np.nonzero(sol.status > UNBOUNDED)[0]
+    for j in bad:
+        d[j] = frictional_form_closure(P[j], N[j], mu, center=None, edges=E).d_star
+    d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)
+    closure = (d > 0) & (rank == 6)
+    return BatchScores(d, closure, rank, int(bad.size), time.perf_counter() - t0)

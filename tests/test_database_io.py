@@ -219,6 +219,22 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
         assert "Traceback" not in r.stderr
 
 
+def test_cli_help_is_plain_text(capsys: pytest.CaptureFixture[str]) -> None:
+    from synth.cli import main
+
+    texts = {}
+    for args in ((), ("build",), ("info",), ("top",), ("export",)):
+        with pytest.raises(SystemExit) as exit_:
+            main(["db", *args, "--help"])
+        assert exit_.value.code == 0
+        texts[args] = " ".join(capsys.readouterr().out.split())
+        assert texts[args].startswith("usage: synth db")
+        assert "``" not in texts[args] and ":func:" not in texts[args], texts[args]
+    build = texts[("build",)]
+    assert "default 5000, for throughput" in build and "20000" in build
+    assert "resumable" in build and "SYNTH_DB_PLANNER" in build
+
+
 class _Tty(io.StringIO):
     def isatty(self) -> bool:
         return True

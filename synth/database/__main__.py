@@ -1,4 +1,4 @@
-"""``python -m synth.database ARGS`` is ``synth db ARGS`` (until the main CLI wires ``db``)."""
+"""``python -m synth.database ARGS`` is ``synth db ARGS`` (also ``python -m synth db ARGS``)."""
 
 from __future__ import annotations
 

@@ -5,8 +5,10 @@ Solves, for each of ``B`` problems of the same shape,
     maximise  c^T x   subject to  A x = b,  0 <= x <= hi,
 
 starting from a basis whose columns form the identity (slacks or artificials fixed at 0) and
-which is feasible with every other variable at 0. All problems pivot in lock step; finished
-ones drop out of the working set. Pricing is Dantzig's rule, switching to Bland's rule (which
+which is feasible with every other variable at 0 (optionally, when ``b = 0``, a crash basis of
+movable columns replaces the artificials first). All problems pivot in lock step, each pivot a
+batched eta-matrix product on (M + 1) x N' tableaux that carry the reduced costs as their last
+row; finished ones are dropped from the working set in batches. Pricing is Dantzig's rule, switching to Bland's rule (which
 cannot cycle) for a problem after a run of degenerate pivots. Every answer is then verified from
 scratch: the final basis is refactorised, the basic values and the duals are recomputed and
 primal and dual feasibility are checked. A problem whose check fails (or that hits the

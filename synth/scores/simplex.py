@@ -141,32 +141,25 @@ def solve_batch(
 
     if crash:
         # crash basis, replacing the degenerate pivots that would drive out the artificials
-        # (with b = 0 every basis is feasible at x = 0): first the column with the largest
-        # objective coefficient enters at its largest entry (Dantzig's first pivot), then each
-        # row still holding an artificial takes its largest movable entry (Gauss-Jordan)
+        # (with b = 0 every basis is feasible at x = 0): each row still holding an artificial
+        # takes its largest movable entry (Gauss-Jordan with row-wise complete pivoting)
         ar = np.arange(Bn)
         rowscale = np.abs(A).max(axis=2)  # (B, M)
         E = eye_k
-        for i in range(-1, M):
-            if i >= 0:
-                row = np.abs(T[:, i, :])
-                q = np.argmax(row, axis=1)
-                p = np.full(Bn, i)
-                go = (basis[:, i] == basis0[i]) & (wpos[basis0[i]] < 0)
-            else:
-                q = np.full(Bn, np.argmax(c_w))
-                p = np.argmax(np.abs(T[:, :M, q[0]]), axis=1)
-                go = np.full(Bn, c_w.max() > 0) & (wpos[basis0] < 0)[p]
+        for i in range(M):
+            if wpos[basis0[i]] >= 0:
+                continue
+            q = np.argmax(np.abs(T[:, i, :]), axis=1)
             colq = T[ar, :, q]
-            go &= np.abs(colq[ar, p]) > _CRASH_TOL * rowscale[ar, p]
-            pv = np.where(go, colq[ar, p], 1.0)
+            go = np.abs(colq[:, i]) > _CRASH_TOL * rowscale[:, i]
+            pv = np.where(go, colq[:, i], 1.0)
             eta = colq * (np.where(go, -1.0, 0.0) / pv)[:, None]
-            eta[ar, p] = 1.0 / pv
-            E[ar, :, p] = eta
+            eta[:, i] = 1.0 / pv
+            E[:, :, i] = eta
             np.matmul(E, T, out=buf)
             T, buf = buf, T
-            E[ar, :, p] = eye_m[p]
-            basis[ar, p] = np.where(go, wcols[q], basis[ar, p])
+            E[:, :, i] = eye_m[i]
+            basis[:, i] = np.where(go, wcols[q], basis[:, i])
     for _ in range(max_iter):
         K = idx.size
         if K == 0:

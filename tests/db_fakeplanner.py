@@ -127,3 +127,10 @@ def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     if not grasps:
         doc["message"] = f"no form-closure grasp among {evals} random {k}-contact sets"
     return doc
+
+
+def plan_cut_by_time(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, but reports that the wall-clock cap cut the search."""
+    doc = plan_mesh_file(path, params)
+    doc["timing"] = dict(doc.get("timing", {}), stopped_by_time=True)
+    return doc

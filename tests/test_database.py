@@ -204,3 +204,17 @@ def test_bad_sources_and_parameters_write_nothing(tmp_path: Path, mesh_dir: Path
     with pytest.raises(InputError, match="cannot import planner module"):
         build_database([mesh_dir], reference, PARAMS, planner="no_such_module:plan")
     assert snapshot(reference) == before
+
+
+def test_plan_cut_by_the_time_cap_is_a_failure_not_a_result(tmp_path):
+    from synth.database import GraspDatabase
+
+    mesh_dir = make_mesh_dir(tmp_path)
+    out = tmp_path / "cut.sqlite"
+    build_database([mesh_dir], out, PARAMS, workers=0, quiet=True,
+                   planner="tests.db_fakeplanner:plan_cut_by_time")
+    with GraspDatabase(out) as db:
+        info = db.info()
+        assert info.grasps == 0 and info.done == 0 and info.failed >= 1
+        failed = [m for m in db.meshes() if m.status == "failed"]
+        assert any(m.error_kind == "time_cap" and "time cap" in m.error for m in failed)

@@ -211,10 +211,10 @@ def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> 
 def test_cli_errors_are_one_line(tmp_path: Path) -> None:
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"\x00" * 100)
-    for args in (("info", str(bad)), ("top", str(bad), "box"),
-                 ("build", str(tmp_path / "nope"), "--out", str(bad))):  # fmt: skip
+    for code, args in ((1, ("info", str(bad))), (1, ("top", str(bad), "box")),
+                       (2, ("build", str(tmp_path / "nope"), "--out", str(bad)))):  # fmt: skip
         r = _cli(*args)
-        assert r.returncode == 1
+        assert r.returncode == code, r.stderr
         assert r.stderr.startswith("synth: error: ") and r.stderr.count("\n") == 1, r.stderr
         assert "Traceback" not in r.stderr
 

@@ -49,6 +49,9 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "seed": 0,
     "finger_radius": None,
     "evals": 5000,
+    # the planner's wall-clock cap; far above a normal plan, so the evaluation budget (not the
+    # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
+    "time": 600.0,
 }
 _Task = tuple[int, str]  # (mesh id, path)
 # BLAS/OpenMP threads per local worker: the CPUs divided among the workers (unless already set),
@@ -160,6 +163,9 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
             raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
     if out["contacts"] < 1 or out["top"] < 1 or out["evals"] < 1:
         raise InputError("planner parameters contacts, top and evals must be at least 1")
+    out["time"] = float(out["time"])
+    if not out["time"] > 0.0:
+        raise InputError(f"planner parameter 'time' must be > 0 seconds, got {out['time']!r}")
     out["mu"] = float(out["mu"])
     if not out["mu"] >= 0.0:
         raise InputError(f"planner parameter 'mu' must be >= 0, got {out['mu']!r}")

@@ -282,6 +282,12 @@ def run_one(
         )
     except (KeyError, TypeError, ValueError) as e:
         return _failure(path, "invalid_result", f"planner returned an invalid document: {e}", start)
+    if timing.get("stopped_by_time"):
+        return _failure(
+            path, "time_cap",
+            "the planner's time cap cut the search, so its result would depend on the "
+            "machine's speed; raise 'time' or lower 'evals' and run with --retry-failed", start,
+        )
     if not rows:
         message = doc.get("message")
         reason = "no grasp found" + (f": {message}" if message else "")

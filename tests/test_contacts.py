@@ -148,3 +148,56 @@ def test_rays(parts: dict[str, Part]) -> None:
     assert len(g) == 2 and (g.finger == 0).all() and (g.features == "edge").all()
     with pytest.raises(InputError, match="zero length"):
         contacts_from_rays(cube, [[0, 0, 2.0]], [[0, 0, 0]])
+
+
+def _ray_cases(part: Part, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Random rays, rays aimed at vertices and edge midpoints (ties between faces),
+    axis-aligned rays and rays starting on or inside the surface."""
+    m = part.mesh
+    c, size = m.bounds.mean(axis=0), part.length
+    o1 = c + rng.normal(size=(150, 3)) * size
+    d1 = c + rng.normal(size=(150, 3)) * 0.2 * size - o1
+    v = m.vertices[rng.integers(0, len(m.vertices), 60)]
+    e = m.vertices[m.edges_unique[rng.integers(0, len(m.edges_unique), 60)]].mean(axis=1)
+    tgt = np.r_[v, e]
+    o2 = tgt + rng.normal(size=tgt.shape) * size
+    o3 = c + rng.uniform(-0.5, 0.5, (60, 3)) * m.extents
+    ax = rng.integers(0, 3, 60)
+    o3[np.arange(60), ax] = c[ax] + 2 * size
+    d3 = np.zeros((60, 3))
+    d3[np.arange(60), ax] = -1.0
+    s, _ = trimesh.sample.sample_surface(m, 40, seed=3)
+    o4 = np.r_[s, c + rng.normal(size=(40, 3)) * 0.1 * size]
+    o = np.r_[o1, o2, o3, o4]
+    d = np.r_[d1, tgt - o2, d3, rng.normal(size=(80, 3))]
+    return o, d / np.linalg.norm(d, axis=1)[:, None]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_first_hits_identical_to_trimesh(parts: dict[str, Part], name: str) -> None:
+    from synth.contacts.rays import _first_hits_trimesh, first_hits
+
+    part = parts[name]
+    o, d = _ray_cases(part, np.random.default_rng(5))
+    loc, ray, tri = first_hits(part, o, d)
+    loc0, ray0, tri0 = _first_hits_trimesh(part, o, d)
+    assert len(ray) > 100
+    assert np.array_equal(ray, ray0) and np.array_equal(tri, tri0)
+    assert np.array_equal(loc, loc0)
+
+
+def test_first_hits_fine_mesh_matches_brute_force() -> None:
+    """A 8k-face torus, rays in every direction: same faces and points as trimesh."""
+    import manifold3d as mf
+
+    from synth.contacts.rays import _first_hits_trimesh, first_hits
+
+    m = mf.Manifold.revolve(mf.CrossSection.circle(0.2, 40).translate((0.6, 0.0)), 100)
+    mesh = m.to_mesh()
+    part = Part(trimesh.Trimesh(np.asarray(mesh.vert_properties, float)[:, :3],
+                                np.asarray(mesh.tri_verts, np.int64)))
+    o, d = _ray_cases(part, np.random.default_rng(6))
+    a, b = first_hits(part, o, d), _first_hits_trimesh(part, o, d)
+    assert len(a[1]) > 100
+    for x, y in zip(a, b):
+        assert np.array_equal(x, y)

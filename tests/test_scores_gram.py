@@ -103,3 +103,11 @@ def test_mixed_batch_uses_the_fallback_factor():
     X, cert = gram_inverse_factor(W)
     assert cert.tolist() == [True] * 5 + [False] * 2
     assert rank_of_balanced(W, cert).tolist() == [6] * 5 + [3] * 2
+
+
+def test_certificate_threshold_stays_above_the_rank_tolerance():
+    # the Gram certificate may only vouch for full rank where the SVD test surely agrees
+    from synth.scores.gram import GRAM_COND2_MAX
+    from synth.tolerances import RANK_RTOL
+
+    assert GRAM_COND2_MAX ** -0.5 >= 10 * RANK_RTOL

@@ -10,7 +10,7 @@ scores are far from rank loss, and for those a cheap certificate settles the ran
   (an m x m loop, m = 6 or 3), so ``trace(G^-1) = ||L^-1||_F^2``.
 
 When the bound says ``sigma_min / sigma_max >= 1 / sqrt(GRAM_COND2_MAX) = 1e-5``, the matrix has
-full row rank with four orders of magnitude to spare over ``RANK_RTOL = 1e-9`` (the computed
+full row rank with an order of magnitude to spare over ``RANK_RTOL = 1e-6`` (the computed
 bound itself is accurate to about ``cond(G) * eps <= 1e-5`` relative, and the SVD's singular
 values to ``eps * sigma_max``), so :func:`synth.scores.wrench.numerical_rank` reports full rank
 too. Every matrix without the certificate gets the exact SVD rank, so the ranks are identical.
@@ -31,7 +31,7 @@ from synth.tolerances import RANK_RTOL
 __all__ = ["GRAM_COND2_MAX", "gram_inverse_factor", "rank_of_balanced", "null_vector_m1"]
 
 #: Largest certified ``trace(G) trace(G^-1)`` (a bound on ``cond(W)^2``): 1e10 means
-#: ``sigma_min / sigma_max >= 1e-5``, far above ``RANK_RTOL`` and far below double round-off.
+#: ``sigma_min / sigma_max >= 1e-5``, above ``RANK_RTOL`` (1e-6) and far below double round-off.
 GRAM_COND2_MAX: float = 1e10
 
 

@@ -172,3 +172,95 @@ def test_form_closure_never_on_a_cylinder_in_double_precision() -> None:
 def test_form_closure_never_on_the_float32_cylinder_stl(cylinder: Part) -> None:
     # float32 coordinates: normals exact to ~1e-7 rad; synth.tolerances.RANK_RTOL is set above that
     assert _form_closure_count(cylinder) == 0
+
+
+ALL_MESHES = ["cube", "prism", "bracket", "tee", "nut", "cylinder", "sphere", "torus"]
+
+
+def _query_points(part: Part, rng: np.random.Generator) -> np.ndarray:
+    """On the surface, just off it (inside the tolerances and well beyond), at vertices and
+    edge midpoints (ties between faces), and far away."""
+    m = part.mesh
+    s, fi = trimesh.sample.sample_surface(m, 150, seed=int(rng.integers(1 << 30)))
+    nrm = m.face_normals[fi]
+    size = part.length
+    scales = np.r_[np.zeros(30), rng.uniform(-1, 1, 40) * part.surface_tolerance,
+                   rng.normal(size=80) * 1e-3 * size]
+    v = m.vertices[rng.integers(0, len(m.vertices), 30)]
+    e = m.vertices[m.edges_unique[rng.integers(0, len(m.edges_unique), 30)]].mean(axis=1)
+    far = m.bounds.mean(axis=0) + rng.normal(size=(30, 3)) * size
+    near = np.r_[v, e] + rng.normal(size=(60, 3)) * 1e-2 * size
+    return np.r_[s + scales[:, None] * nrm, v, e, near, far]
+
+
+def _brute(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distance to every face (n, f) and the minimum (n,)."""
+    from synth.part.closest import closest_on_triangles
+
+    tri = part._triangles
+    d = np.empty((len(points), len(tri)))
+    for i, p in enumerate(points):
+        q = closest_on_triangles(tri, np.broadcast_to(p, (len(tri), 3)))
+        d[i] = np.linalg.norm(q - p, axis=1)
+    return d, d.min(axis=1)
+
+
+def _fine_torus() -> Part:
+    import manifold3d as mf
+
+    m = mf.Manifold.revolve(mf.CrossSection.circle(0.2, 40).translate((0.6, 0.0)), 100)
+    mesh = m.to_mesh()
+    return Part(trimesh.Trimesh(np.asarray(mesh.vert_properties, float)[:, :3],
+                                np.asarray(mesh.tri_verts, np.int64)))
+
+
+def test_closest_kernel_identical_to_trimesh() -> None:
+    from synth.part.closest import closest_on_triangles
+
+    rng = np.random.default_rng(3)
+    tri = rng.normal(size=(5000, 3, 3))
+    tri[:50, 1] = tri[:50, 0]  # collapsed edges
+    p = np.r_[rng.normal(size=(4950, 3)), tri[:50, 0]]
+    assert np.array_equal(closest_on_triangles(tri, p), trimesh.triangles.closest_point(tri, p))
+
+
+@pytest.mark.parametrize("name", [*ALL_MESHES, "fine_torus"])
+def test_closest_points_exact(name: str) -> None:
+    """Against a brute force over all faces and trimesh.proximity.closest_point."""
+    from synth.part.resolve import closest_points
+
+    part = _fine_torus() if name == "fine_torus" else \
+        load_part(MESHES / f"{name}.stl", units="decimeters")
+    pts = _query_points(part, np.random.default_rng(8))
+    q, f, d = closest_points(part, pts)
+    all_d, best = _brute(part, pts)
+    tol = part.surface_tolerance
+    rows = np.arange(len(pts))
+    # the fast pass takes a point within surface_tolerance of a face's plane, inside it,
+    # as on that face (its projection); every other answer is exact
+    fast = d <= tol
+    assert np.all(np.abs(d - best)[~fast] <= 1e-12 * part.length)
+    assert np.all(d[fast] - best[fast] <= tol)
+    # the returned point lies on the returned face, at the returned distance
+    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, rtol=0, atol=1e-12 * part.length)
+    assert np.all(np.abs(all_d[rows, f] - d)[~fast] <= 1e-12 * part.length)
+    # trimesh: same distances and points except where its near-tie rule (squared distances
+    # within tol.merge) took a slightly farther face; faces differ only on ties
+    c_tm, d_tm, f_tm = trimesh.proximity.closest_point(part.mesh, pts)
+    exact = ~fast
+    assert np.all(d[exact] <= d_tm[exact] + 1e-12 * part.length)
+    swapped = exact & (np.abs(d - d_tm) > 1e-12 * part.length)
+    assert np.all(d_tm[swapped] ** 2 - d[swapped] ** 2 < trimesh.tol.merge)
+    same = exact & ~swapped
+    assert np.allclose(q[same], c_tm[same], rtol=0, atol=1e-12 * part.length)
+    other = same & (f != f_tm)
+    assert np.all(np.abs(all_d[rows, f_tm] - all_d[rows, f])[other] <= 1e-12 * part.length)
+    # the contacts: resolving the exact points with the brute-force face (the first of
+    # tied faces) gives the same points and normals (ties: the point is on a feature the
+    # faces share)
+    c = part.resolve(pts[exact], snap=True)
+    bf_face = np.argmin(all_d, axis=1)
+    c_bf = part.resolve(q[exact], bf_face[exact], snap=True)
+    assert np.array_equal(c.finger, c_bf.finger)
+    assert np.allclose(c.points, c_bf.points, rtol=0, atol=1e-12 * part.length)
+    assert np.allclose(c.normals, c_bf.normals, rtol=0, atol=1e-12)

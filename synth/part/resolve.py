@@ -28,23 +28,37 @@ import trimesh
 
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
+from synth.part.closest import MeshIndex, closest_on_mesh, closest_on_triangles, plane_and_sides
 
 if TYPE_CHECKING:
     from synth.part.model import Part
 
 __all__ = ["closest_points", "resolve_points"]
 
-_K_NEAREST = 16
 _K_FAST = 8
+
+
+def mesh_index(part: Part) -> MeshIndex:
+    """The part's closest-point search structures (see :class:`MeshIndex`).
+
+    Faces whose stored normal disagrees with their winding (or is degenerate) are marked
+    ``unbounded``: the search always evaluates them exactly.
+    """
+    tri = part._triangles
+    pn = part._plane_normals
+    wind = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), pn)
+    return MeshIndex(tri, part._centroid_tree, part._face_radius_max, pn, part._plane_offsets,
+                     part._edge_normals, part._edge_offsets, ~(wind > 0))
 
 
 def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest surface point, its face and distance for each query point (exact).
 
     A point within ``surface_tolerance`` of one of the faces with the 8 nearest centroids
-    (inside it by ``feature_tolerance``) is taken as on that face. Otherwise candidates are
-    the faces with the 16 nearest centroids; a query whose answer cannot be certified by
-    the bound ``|p - c_f| - r_f`` falls back to trimesh.proximity.
+    (inside it by ``feature_tolerance``; the first such face in centroid order) is taken as
+    on that face. Otherwise the exact search :func:`synth.part.closest.closest_on_mesh` runs
+    on those 8 faces, widened to every face that could be closer when the bound
+    ``|p - c_f| - r`` cannot certify the answer.
 
     Parameters
     ----------
@@ -57,50 +71,48 @@ def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     faces : (n,) int
     distance : (n,) float
     """
+    index = mesh_index(part)
+    n = len(points)
     closest = np.array(points, dtype=float)
-    face = np.full(len(points), -1, np.int64)
-    dist = np.zeros(len(points))
-    # fast pass: points already on the surface (within surface_tolerance) of a nearby face
+    face = np.full(n, -1, np.int64)
+    dist = np.zeros(n)
     k1 = min(_K_FAST, len(part._triangles))
-    _, cand = part._centroid_tree.query(points, k=k1, workers=-1)
-    cand = cand.reshape(len(points), k1)
-    normals = part._plane_normals[cand]
-    h = np.einsum("ijk,ijk->ij", normals, points[:, None, :]) - part._plane_offsets[cand]
-    side = np.einsum("ijlk,ijk->ijl", part._edge_normals[cand], points[:, None, :])
-    inside = (side >= part._edge_offsets[cand] - part.feature_tolerance).all(axis=2)
-    ok = inside & (np.abs(h) <= part.surface_tolerance)
+    dist_c, cand = part._centroid_tree.query(points, k=k1, workers=-1)
+    dist_c, cand = dist_c.reshape(n, k1), cand.reshape(n, k1).astype(np.int64)
+    ftol, stol = part.feature_tolerance, part.surface_tolerance
+
+    def on_face(rows: np.ndarray, cols: slice) -> tuple[np.ndarray, ...]:
+        h, side = plane_and_sides(index, cand[rows, cols], points[rows])
+        ok = (side >= -ftol).all(axis=2) & (np.abs(h) <= stol)
+        return h, side, ok
+
+    # fast pass: points already on the surface (within surface_tolerance) of a nearby
+    # face; the nearest centroid's face first, the others only where it fails
+    h0, _, ok0 = on_face(np.arange(n), slice(0, 1))
+    rows = np.flatnonzero(ok0[:, 0])
+    face[rows] = cand[rows, 0]
+    hh = h0[rows, 0]
+    closest[rows] = points[rows] - hh[:, None] * index.plane_normals[face[rows]]
+    dist[rows] = np.abs(hh)
+    rest = np.flatnonzero(~ok0[:, 0])
+    if not len(rest):
+        return closest, face, dist
+    h, side, ok = on_face(rest, slice(None))
     hit = ok.any(axis=1)
     first = np.argmax(ok, axis=1)
-    rows = np.flatnonzero(hit)
-    face[rows] = cand[rows, first[rows]]
-    hh = h[rows, first[rows]]
-    closest[rows] = points[rows] - hh[:, None] * normals[rows, first[rows]]
+    sel = np.flatnonzero(hit)
+    rows = rest[sel]
+    face[rows] = cand[rows, first[sel]]
+    hh = h[sel, first[sel]]
+    closest[rows] = points[rows] - hh[:, None] * index.plane_normals[face[rows]]
     dist[rows] = np.abs(hh)
-    rest = np.flatnonzero(~hit)
-    if len(rest):
-        c2, f2, d2 = _closest_exact(part, points[rest])
-        closest[rest], face[rest], dist[rest] = c2, f2, d2
+    sel = np.flatnonzero(~hit)
+    if len(sel):
+        rows = rest[sel]
+        c2, f2, d2 = closest_on_mesh(index, points[rows], cand=cand[rows], dist_c=dist_c[rows],
+                                     h=h[sel], side=side[sel])
+        closest[rows], face[rows], dist[rows] = c2, f2, d2
     return closest, face, dist
-
-
-def _closest_exact(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    mesh = part.mesh
-    tri = part._triangles
-    k = min(_K_NEAREST, len(tri))
-    dist_c, cand = part._centroid_tree.query(points, k=k, workers=-1)
-    dist_c, cand = dist_c.reshape(len(points), k), cand.reshape(len(points), k)
-    cand_tri = tri[cand.ravel()]
-    q = trimesh.triangles.closest_point(cand_tri, np.repeat(points, k, axis=0)).reshape(-1, k, 3)
-    d = np.linalg.norm(q - points[:, None, :], axis=2)
-    best = np.argmin(d, axis=1)
-    rows = np.arange(len(points))
-    closest, face, dist = q[rows, best], cand[rows, best], d[rows, best]
-    if k < len(tri):
-        unsure = dist > dist_c[:, -1] - part._face_radius_max
-        if unsure.any():
-            c2, d2, f2 = trimesh.proximity.closest_point(mesh, points[unsure])
-            closest[unsure], dist[unsure], face[unsure] = c2, d2, f2
-    return closest, face.astype(np.int64), dist
 
 
 def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -144,7 +156,7 @@ def resolve_points(
         if len(f) and (f.min() < 0 or f.max() >= n_f):
             raise InputError(f"faces: indices must lie in [0, {n_f}), got {f.min()}..{f.max()}")
         f = f.astype(np.int64)
-        q = trimesh.triangles.closest_point(part._triangles[f], pts)
+        q = closest_on_triangles(part._triangles[f], pts)
         dist = np.linalg.norm(q - pts, axis=1)
     tol = part.surface_tolerance
     if not snap and len(dist) and dist.max() > tol:

@@ -285,11 +285,11 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
                 pu = p[unsure]
                 balls = tree.query_ball_point(pu, d[unsure] + radius, workers=-1)
                 counts = np.fromiter(map(len, balls), np.int64, len(balls))
-                full = np.flatnonzero(counts > 0)  # (an empty ball: rounding; keep pass 1)
-                unsure, pu = unsure[full], pu[full]
                 cand2 = np.fromiter(itertools.chain.from_iterable(balls), np.int64,
                                     int(counts.sum()))
-                counts = counts[full]
+                full = np.flatnonzero(counts > 0)  # (an empty ball: rounding; keep pass 1)
+                unsure, pu, counts = unsure[full], pu[full], counts[full]
+            if len(unsure):
                 owner = np.repeat(np.arange(len(full)), counts)
                 starts = np.r_[0, np.cumsum(counts)[:-1]]
                 h2, in2 = plane_and_sides(index, cand2[:, None], pu[owner])

@@ -227,3 +227,15 @@ def test_bad_inputs() -> None:
     part = load_part(MESHES / "cube.stl")
     with pytest.raises(AttributeError):
         part.units = "meters"  # type: ignore[misc]
+
+
+def test_unit_abbreviations_are_accepted():
+    from pathlib import Path
+
+    from synth import MeshError, load_part
+
+    cube = Path(__file__).resolve().parent.parent / "meshes" / "cube.stl"
+    assert load_part(cube, units="mm").units == "millimeters"
+    assert load_part(cube, units="dm").units == "decimeters"
+    with pytest.raises(MeshError, match="unknown length unit 'furlongs'"):
+        load_part(cube, units="furlongs")

@@ -31,6 +31,15 @@ __all__ = ["SUPPORTED_FORMATS", "load_part"]
 SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 
 
+
+#: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
+UNIT_ALIASES: dict[str, str] = {
+    "mm": "millimeters", "cm": "centimeters", "dm": "decimeters", "m": "meters",
+    "in": "inches", "inch": "inches", "ft": "feet", "um": "microns", "µm": "microns",
+    "millimetres": "millimeters", "centimetres": "centimeters", "decimetres": "decimeters",
+    "metres": "meters",
+}
+
 def _fail(name: str, reason: str) -> MeshError:
     return MeshError(f"{name}: {reason}")
 
@@ -266,6 +275,7 @@ def load_part(
         mesh = _clean(_choose(bodies, body, name, repairs), name, repairs, warnings)
     unit = units if units is not None else _valid_unit(declared)
     if unit is not None:
+        unit = UNIT_ALIASES.get(str(unit).strip().lower(), unit)
         try:
             trimesh.units.to_inch(unit)
         except Exception as e:

@@ -12,7 +12,6 @@ from tests.scoring_cases import (
     TABLE1,
     TABLE2,
     blob_contacts,
-    cube_contacts,
     example1_exact,
     example1_W,
     example2_exact,

@@ -12,7 +12,6 @@ import sys
 from typing import Any
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS
-from synth.errors import InputError, SynthError
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -182,23 +181,14 @@ def _export(args: argparse.Namespace) -> int:
 def run_db(args: argparse.Namespace) -> int:
     """Run a parsed ``synth db`` command; returns the exit status.
 
-    0 on success (a build that records failed meshes still succeeds), 2 on bad input (a missing
-    source, a bad option), 1 on any other error (a file that is not a synth database, ...),
-    each printed as one ``synth: error: ...`` line; 130 when interrupted (what is stored is kept).
+    0 on success (a build that records failed meshes still succeeds); 130 when interrupted (what
+    is stored is kept). Errors propagate to :func:`synth.cli.main`, which prints them as one
+    ``synth: error: ...`` line and exits 2 for bad input, 1 otherwise.
     """
     commands = {"build": _build, "info": _info, "top": _top, "export": _export}
     try:
         return commands[args.db_command](args)
-    except InputError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
-        return 2
-    except SynthError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("synth: interrupted; finished meshes are stored, run the same command to resume",
               file=sys.stderr)  # fmt: skip
         return 130
-    except OSError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
-        return 1

@@ -147,21 +147,19 @@ def friction_cone_wrenches(
     o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
     if o.shape != (d,):
         raise InputError(f"center must be a ({d},) vector, got {o.shape}")
-    R = P - o
     if d == 2:
+        R = P - o
         T = np.stack([-N[:, 1], N[:, 0]], axis=1)
         F = N[:, None, :] + mu_a[:, None, None] * np.stack([T, -T], axis=1)  # (n, 2, 2)
         tau = R[:, None, 0] * F[..., 1] - R[:, None, 1] * F[..., 0]
         return np.concatenate([F.transpose(2, 0, 1), tau[None]], axis=0)
     if int(edges) != edges or edges < 3:
         raise InputError(f"edges must be an integer >= 3, got {edges!r}")
+    from synth.scores.friction_batch import friction_edge_wrenches_batch
+
     E = int(edges)
-    u, v = tangent_basis(N)
-    a = 2.0 * np.pi * np.arange(E) / E
-    tang = np.cos(a)[None, :, None] * u[:, None, :] + np.sin(a)[None, :, None] * v[:, None, :]
-    F = N[:, None, :] + mu_a[:, None, None] * tang  # (n, E, 3)
-    tau = np.cross(R[:, None, :], F)
-    return np.concatenate([F, tau], axis=2).transpose(2, 0, 1)
+    G = friction_edge_wrenches_batch(P[None], N[None], mu_a, o, E)[0]  # (6, n * E)
+    return G.reshape(6, n, E)
 
 
 def frictional_form_closure(

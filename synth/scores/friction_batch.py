@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
-from synth.scores.friction import frictional_form_closure
+from synth.scores.friction import frictional_form_closure, tangent_basis
 from synth.scores.simplex import UNBOUNDED, solve_batch
 from synth.scores.wrench import balance_rows
 from synth.tolerances import D_STAR_TOL, RANK_RTOL
@@ -29,7 +29,7 @@ __all__ = ["frictional_form_closure_batch", "friction_edge_wrenches_batch"]
 def friction_edge_wrenches_batch(
     points: NDArray[np.float64],
     normals: NDArray[np.float64],
-    mu: float,
+    mu: float | NDArray[np.float64],
     center: NDArray[np.float64],
     edges: int,
 ) -> NDArray[np.float64]:
@@ -39,7 +39,8 @@ def friction_edge_wrenches_batch(
     ----------
     points, normals : (B, k, 3) float
         Contacts and unit inward normals.
-    mu : float
+    mu : float or (k,) float
+        Friction coefficient, shared or one per contact.
     center : (3,) or (B, 3) float
         Moment reference.
     edges : int
@@ -52,13 +53,12 @@ def friction_edge_wrenches_batch(
     """
     B, k, _ = points.shape
     N = normals / np.linalg.norm(normals, axis=2, keepdims=True)
-    helper = np.where(np.abs(N[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    u = np.cross(N, helper)
-    u /= np.linalg.norm(u, axis=2, keepdims=True)
-    v = np.cross(N, u)
+    u, v = tangent_basis(N.reshape(-1, 3))
+    u, v = u.reshape(B, k, 1, 3), v.reshape(B, k, 1, 3)
     a = 2.0 * np.pi * np.arange(edges) / edges
-    F = N[:, :, None, :] + mu * (np.cos(a)[None, None, :, None] * u[:, :, None, :]
-                                 + np.sin(a)[None, None, :, None] * v[:, :, None, :])
+    mu_b = np.asarray(mu, dtype=np.float64).reshape(1, -1, 1, 1)
+    F = N[:, :, None, :] + mu_b * (np.cos(a)[None, None, :, None] * u
+                                   + np.sin(a)[None, None, :, None] * v)
     R = points - np.asarray(center, dtype=np.float64).reshape(-1, 1, 3)
     tau = np.cross(R[:, :, None, :], F)
     return np.concatenate([F, tau], axis=3).reshape(B, k * edges, 6).transpose(0, 2, 1)

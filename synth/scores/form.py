@@ -154,8 +154,7 @@ def form_closure(W: ArrayLike, free: tuple[int, ...] | list[int] = ()) -> FormCl
     d = float(res.x[-1])
     d_star = d if d > D_STAR_TOL else 0.0
     c_null = np.asarray(res.x[:n], dtype=np.float64)
-    rank = numerical_rank(A)
-    assert isinstance(rank, int)
+    rank = int(numerical_rank(A))
     closure = "form" if (d_star > 0.0 and rank == m) else "force"
     esc: NDArray[np.float64] | None = None
     words: str | None = None

@@ -222,8 +222,7 @@ def frictional_form_closure(
     d = float(res.x[-1])
     d_star = d if d > D_STAR_TOL else 0.0
     lam = np.asarray(res.x[:-1]).reshape(n, E)
-    rank = numerical_rank(G)
-    assert isinstance(rank, int)
+    rank = int(numerical_rank(G))
     ok = d_star > 0.0 and rank == m
     closure = ("frictional form" if np.any(mu_a > 0) else "form") if ok else "force"
     esc = words = None

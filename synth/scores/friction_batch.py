@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
 from synth.scores.friction import frictional_form_closure, tangent_basis
-from synth.scores.simplex import UNBOUNDED, solve_batch
+from synth.scores.simplex import UNBOUNDED, UNVERIFIED, solve_batch
 from synth.scores.wrench import balance_rows
 from synth.tolerances import D_STAR_TOL, RANK_RTOL
 
@@ -131,7 +131,7 @@ def frictional_form_closure_batch(
     sol = solve_batch(A, b, c, hi, basis0)
     s = sol.x[:, nE]
     d = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
-    bad = np.nonzero(sol.status > UNBOUNDED)[0]
+    bad = np.nonzero(sol.status == UNVERIFIED)[0]
     for j in bad:
         d[j] = frictional_form_closure(P[j], N[j], mu, center=None, edges=E).d_star
     d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)

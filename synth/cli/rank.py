@@ -104,9 +104,10 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> lis
                                         f"{label}: {len(P)} contacts are too few"))
             continue
         if m == 0:
-            r = form_closure(scaled_wrenches(P, N, center, L))
+            W = scaled_wrenches(P, N, center, L)
+            r = form_closure(W)
             d, closure = r.d_star, r.closure
-            cond = float(conditioning(scaled_wrenches(P, N, center, L)))
+            cond = float(conditioning(W))
         else:
             fr = frictional_form_closure(P, N, m, center=center)
             d, closure, cond = fr.d_star, fr.closure, 0.0

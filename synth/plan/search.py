@@ -39,12 +39,13 @@ from synth.scores import (
     form_closure_batch,
     frictional_form_closure,
 )
-from synth.scores.quality import conditioning, epsilon_quality, scaled_wrenches
-from synth.scores.friction import friction_cone_wrenches
-from synth.scores.friction_batch import (
-    friction_edge_wrenches_batch,
-    frictional_form_closure_batch,
+from synth.scores.quality import (
+    conditioning,
+    epsilon_quality,
+    grasp_wrenches,
+    scaled_wrenches,
 )
+from synth.scores.friction_batch import frictional_form_closure_batch
 
 __all__ = ["plan_part", "Progress"]
 
@@ -85,6 +86,11 @@ class _Scorer:
         self.r = float(fingers.tip_radius)
         self.evaluations = 0
 
+    def matrix(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The scaled wrench matrix (or matrices) whose conditioning is reported."""
+        prm = self.params
+        return grasp_wrenches(P, N, self.center, self.length, prm.mu, prm.edges)
+
     def __call__(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> tuple[
         NDArray[np.float64], NDArray[np.float64]
     ]:
@@ -98,18 +104,13 @@ class _Scorer:
             for s in range(0, B, _CHUNK):
                 res = form_closure_batch(W[s : s + _CHUNK])
                 d[s : s + _CHUNK], ok[s : s + _CHUNK] = res.d_star, res.closure
-            cond = np.zeros(B)
-            if ok.any():  # conditioning matters only for closure grasps
-                cond[ok] = np.asarray(conditioning(W[ok])).reshape(-1)
         else:
             res = frictional_form_closure_batch(P, N, prm.mu, center=self.center,
                                                 edges=prm.edges)
             d, ok = res.d_star, res.closure
-            cond = np.zeros(B)
-            if ok.any():  # conditioning of the cone-edge wrenches, moments scaled by L
-                G = friction_edge_wrenches_batch(P[ok], N[ok], prm.mu, self.center, prm.edges)
-                G[:, 3:] /= self.length
-                cond[ok] = np.asarray(conditioning(G)).reshape(-1)
+        cond = np.zeros(B)
+        if ok.any():  # conditioning matters only for closure grasps
+            cond[ok] = np.asarray(conditioning(self.matrix(P[ok], N[ok]))).reshape(-1)
         tips = P - self.r * N
         k = P.shape[1]
         iu = np.triu_indices(k, 1)
@@ -274,17 +275,18 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
         cand.regions[rows, which[sel]] = c.region[j]
         cand.d, cand.fit = score(cand.points, cand.normals)
         archive = _Batch.concat([archive, cand.take(np.nonzero(cand.fit > 0)[0])])
+        # best move of each member (first one among equals), without a Python loop
+        member = who[sel]
+        order = np.lexsort((np.arange(member.size), -cand.fit, member))
+        head = order[np.r_[True, member[order][1:] != member[order][:-1]]]
         best = np.full(M, -np.inf)
         arg = np.full(M, -1)
-        for r_i, m_i in enumerate(who[sel]):
-            if cand.fit[r_i] > best[m_i]:
-                best[m_i], arg[m_i] = cand.fit[r_i], r_i
+        best[member[head]], arg[member[head]] = cand.fit[head], head
         improve = best > pop.fit + 1e-12
-        for m_i in np.nonzero(improve)[0]:
-            r_i = arg[m_i]
-            for f in ("points", "normals", "faces", "regions"):
-                getattr(pop, f)[m_i] = getattr(cand, f)[r_i]
-            pop.d[m_i], pop.fit[m_i] = cand.d[r_i], cand.fit[r_i]
+        m_i = np.nonzero(improve)[0]
+        r_i = arg[m_i]
+        for f in ("points", "normals", "faces", "regions", "d", "fit"):
+            getattr(pop, f)[m_i] = getattr(cand, f)[r_i]
         sigma = np.where(improve, sigma * 1.2, sigma * 0.5)
         say(0.45 + 0.45 * min(1.0, score.evaluations / budget),
             f"refining: best d* {max(0.0, pop.fit.max()):.4f}")
@@ -379,16 +381,8 @@ def _select(part, archive: _Batch, prm: PlanParams, fingers: Fingers, score: _Sc
             N = archive.normals[i]
             placement = chk.placement(j).to_dict()
             placement["contact_finger"] = list(range(len(P)))
-            W = scaled_wrenches(P, N, score.center, score.length)
-            if prm.mu == 0:
-                cond = float(conditioning(W))
-                closure = "form"
-            else:
-                G = friction_cone_wrenches(P, N, prm.mu, score.center, prm.edges).reshape(6, -1)
-                G = G.copy()
-                G[3:] /= score.length
-                cond = float(conditioning(G))
-                closure = "frictional form"
+            cond = float(conditioning(score.matrix(P, N)))
+            closure = "form" if prm.mu == 0 else "frictional form"
             eps = epsilon_quality(P, N, score.center, score.length, prm.mu, prm.edges)
             c = part.resolve(P, faces=archive.faces[i])
             chosen.append(PlannedGrasp(P.copy(), N.copy(), tuple(c.features[: len(P)]),
@@ -418,13 +412,7 @@ def _why_none(archive: _Batch, prm: PlanParams, score: _Scorer) -> str | None:
     best, best_cond = int(order[0]), -1.0
     mats = {}
     for i in order:
-        P, N = archive.points[i], archive.normals[i]
-        if prm.mu == 0:
-            W = scaled_wrenches(P, N, score.center, score.length)
-        else:
-            W = friction_cone_wrenches(P, N, prm.mu, score.center, prm.edges).reshape(6, -1)
-            W = W.copy()
-            W[3:] /= score.length
+        W = score.matrix(archive.points[i], archive.normals[i])
         mats[int(i)] = W
         c = float(conditioning(W))
         if archive.d[i] > 0 and c > best_cond:

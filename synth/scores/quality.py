@@ -22,7 +22,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from synth.scores.friction import friction_cone_wrenches
 
-__all__ = ["scaled_wrenches", "conditioning", "epsilon_quality"]
+__all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "epsilon_quality"]
 
 
 def scaled_wrenches(
@@ -46,6 +46,42 @@ def scaled_wrenches(
     N = N / np.linalg.norm(N, axis=-1, keepdims=True)
     tau = np.cross(P - np.asarray(center, dtype=np.float64), N) / float(length)
     return np.concatenate([N, tau], axis=-1).swapaxes(-1, -2)
+
+
+def grasp_wrenches(
+    points: ArrayLike,
+    normals: ArrayLike,
+    center: ArrayLike,
+    length: float,
+    mu: float = 0.0,
+    edges: int = 8,
+) -> NDArray[np.float64]:
+    """The wrench matrix whose conditioning is reported: contact wrenches without friction,
+    cone-edge wrenches with it; moments about ``center`` divided by ``length``.
+
+    Parameters
+    ----------
+    points, normals : (k, 3) or (B, k, 3) float
+    center : (3,) float
+    length : float
+    mu : float
+    edges : int
+
+    Returns
+    -------
+    W : (6, k) or (6, k * edges), batched as (B, 6, ...) for batched input
+    """
+    if mu == 0:
+        return scaled_wrenches(points, normals, center, length)
+    from synth.scores.friction_batch import friction_edge_wrenches_batch
+
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    single = P.ndim == 2
+    G = friction_edge_wrenches_batch(P[None] if single else P, N[None] if single else N,
+                                     mu, np.asarray(center, dtype=np.float64), edges)
+    G[:, 3:] /= float(length)
+    return G[0] if single else G
 
 
 def conditioning(W: ArrayLike) -> NDArray[np.float64] | float:

@@ -1,22 +1,35 @@
-"""Benchmark: batched d* (form_closure_batch) vs a per-grasp scipy linprog (HiGHS) loop.
+"""Benchmark: batched d* vs a per-grasp scipy linprog (HiGHS) loop of the same LP.
 
-Both score the same random grasps (fixed seed) in one run; the script prints per-grasp times,
-the speed-up and the largest |difference| in d*. Each timing is the best of ``--repeat`` runs,
-interleaved (batch, loop, batch, loop, ...), so load from other jobs on the machine affects both
-sides alike. Usage:
+Three parts, each on random grasps (fixed seeds) scored both ways in one run, printing
+per-grasp times, the speed-up and the largest |difference| in d*:
 
-    python scripts/bench_closure.py [--batch 4000] [--loop 300] [--repeat 3]
+1. frictionless d* (``form_closure_batch``) at 7, 12 and 20 contacts;
+2. Trinkle's frictional d* (``frictional_form_closure_batch``, mu = 0.5, 8 cone edges) at 3, 4
+   and 7 contacts, against linprog of the same LP (edge intensities, normal intensities in
+   [d, 1]);
+3. ``synth score`` end to end on 100,000 candidates of 7 contacts (read, score, rank, print the
+   top rows, write --json), from NPZ and from JSON, as a separate process.
+
+Each timing is the best of ``--repeat`` runs, interleaved (batch, loop, batch, loop, ...), so
+load from other jobs on the machine affects both sides alike. Usage:
+
+    python scripts/bench_closure.py [--batch 4000] [--loop 300] [--repeat 3] [--no-score]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linprog
 
-from synth import form_closure_batch, wrench_matrix
+from synth import form_closure_batch, frictional_form_closure_batch, wrench_matrix
 
 
 def linprog_d_star(W: np.ndarray) -> float:
@@ -49,13 +62,91 @@ def grasps(rng: np.random.Generator, B: int, n: int) -> np.ndarray:
     return out
 
 
+def linprog_frictional(P: np.ndarray, N: np.ndarray, mu: float, edges: int) -> float:
+    """Trinkle's frictional LP of one grasp, one HiGHS call: edge intensities lam >= 0 of
+    inscribed cones, d <= sum_j lam_ij <= 1, equilibrium."""
+    k = len(P)
+    helper = np.where(np.abs(N[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    u = np.cross(N, helper)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(N, u)
+    a = 2 * np.pi * np.arange(edges) / edges
+    F = N[:, None] + mu * (np.cos(a)[None, :, None] * u[:, None] + np.sin(a)[None, :, None]
+                           * v[:, None])
+    r = P - P.mean(axis=0)
+    G = np.concatenate([F, np.cross(r[:, None], F)], axis=2).reshape(-1, 6).T
+    sums = np.kron(np.eye(k), np.ones((1, edges)))
+    cost = np.zeros(k * edges + 1)
+    cost[-1] = -1.0
+    res = linprog(cost, A_ub=np.block([[-sums, np.ones((k, 1))], [sums, np.zeros((k, 1))]]),
+                  b_ub=np.r_[np.zeros(k), np.ones(k)], A_eq=np.hstack([G, np.zeros((6, 1))]),
+                  b_eq=np.zeros(6), bounds=[(0, None)] * (k * edges + 1), method="highs")
+    d = float(res.x[-1])
+    return d if d > 1e-9 else 0.0
+
+
+def contacts(rng: np.random.Generator, B: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Random contacts on the unit sphere with unit normals tilted around the inward normal."""
+    P = rng.normal(size=(B, n, 3))
+    P /= np.linalg.norm(P, axis=2, keepdims=True)
+    N = -P + 0.5 * rng.normal(size=(B, n, 3))
+    return P, N / np.linalg.norm(N, axis=2, keepdims=True)
+
+
+def frictional(args: argparse.Namespace) -> None:
+    """Part 2: the frictional batch scorer against linprog of the same LP."""
+    rng = np.random.default_rng(7)
+    mu, edges = 0.5, 8
+    print(f"\nfrictional d*, mu = {mu}, {edges} cone edges")
+    print(f"{'n':>3} {'closure %':>15} {'batch us/grasp':>15} {'linprog us/grasp':>17} "
+          f"{'speed-up':>9} {'max |diff d*|':>14} {'fallbacks':>9}")
+    for n in (3, 4, 7):
+        P, N = contacts(rng, args.batch, n)
+        frictional_form_closure_batch(P[:10], N[:10], mu, edges=edges)  # warm up
+        t_batch = t_loop = np.inf
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            res = frictional_form_closure_batch(P, N, mu, edges=edges)
+            t_batch = min(t_batch, (time.perf_counter() - t0) / args.batch)
+            t0 = time.perf_counter()
+            ref = np.array([linprog_frictional(P[i], N[i], mu, edges) for i in range(args.loop)])
+            t_loop = min(t_loop, (time.perf_counter() - t0) / args.loop)
+        diff = np.abs(res.d_star[: args.loop] - ref).max()
+        print(f"{n:>3} {100 * res.closure.mean():>15.1f} {1e6 * t_batch:>15.1f} "
+              f"{1e6 * t_loop:>17.1f} {t_loop / t_batch:>8.0f}x {diff:>14.2e} {res.fallback:>9}")
+
+
+def score_cli() -> None:
+    """Part 3: synth score on 100,000 candidates, from NPZ and from JSON."""
+    rng = np.random.default_rng(3)
+    B = 100_000
+    P, N = contacts(rng, B, 7)
+    names = [f"g{i}" for i in range(B)]
+    print(f"\nsynth score, {B} candidates of 7 contacts (read, score, rank, print the top 20, "
+          "write --json; a new process)")
+    with tempfile.TemporaryDirectory() as tmp:
+        npz, js, out = Path(tmp) / "c.npz", Path(tmp) / "c.json", Path(tmp) / "out.json"
+        np.savez(npz, points=P, normals=N, names=np.array(names))
+        js.write_text(json.dumps([{"name": a, "points": p, "normals": q}
+                                  for a, p, q in zip(names, P.tolist(), N.tolist())]))
+        for path in (npz, js):
+            t0 = time.perf_counter()
+            proc = subprocess.run([sys.executable, "-m", "synth", "score", str(path), "--json",
+                                   str(out)], capture_output=True, text=True)
+            dt = time.perf_counter() - t0
+            print(f"{path.suffix[1:]:>4} ({path.stat().st_size / 1e6:5.1f} MB): {dt:6.2f} s, "
+                  f"exit {proc.returncode}: {proc.stderr.strip().splitlines()[-1]}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--batch", type=int, default=4000, help="grasps scored by the batch scorer")
     ap.add_argument("--loop", type=int, default=300, help="grasps scored by the linprog loop")
     ap.add_argument("--repeat", type=int, default=3, help="timings are the best of this many")
+    ap.add_argument("--no-score", action="store_true", help="skip the synth score part")
     args = ap.parse_args()
     rng = np.random.default_rng(2024)
+    print("frictionless d*")
     print(f"{'n':>3} {'form-closure %':>15} {'batch us/grasp':>15} {'linprog us/grasp':>17} "
           f"{'speed-up':>9} {'max |diff d*|':>14} {'fallbacks':>9}")
     for n in (7, 12, 20):
@@ -72,6 +163,9 @@ def main() -> None:
         diff = np.abs(res.d_star[: args.loop] - ref).max()
         print(f"{n:>3} {100 * res.closure.mean():>15.1f} {1e6 * t_batch:>15.1f} "
               f"{1e6 * t_loop:>17.1f} {t_loop / t_batch:>8.0f}x {diff:>14.2e} {res.fallback:>9}")
+    frictional(args)
+    if not args.no_score:
+        score_cli()
 
 
 if __name__ == "__main__":

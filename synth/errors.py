@@ -3,7 +3,9 @@
 Every error synth raises on purpose is a :class:`SynthError`. Errors caused by what a user
 handed in (a file, a field, an array) are :class:`InputError`, which is also a ``ValueError``
 so ordinary ``except ValueError`` code keeps working. Messages name the file or the field,
-what was expected and what was found.
+what was expected and what was found. A failure of synth itself (a broken internal promise,
+such as the planner's own contacts being refused by its own part model) is an
+:class:`InternalError`: a bug to report, never the user's fault.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ __all__ = [
     "CandidateError",
     "SolverError",
     "DatabaseError",
+    "OutputError",
+    "InternalError",
 ]
 
 
@@ -40,3 +44,12 @@ class SolverError(SynthError):
 
 class DatabaseError(SynthError):
     """A grasp database is missing, locked, of another version or not a synth database."""
+
+
+class OutputError(SynthError):
+    """A result could not be written (no such folder, no permission, disk full); the file it
+    was to replace is left as it was."""
+
+
+class InternalError(SynthError):
+    """synth failed on input it accepted: a bug in synth, not a problem with the input."""

@@ -134,3 +134,24 @@ def plan_cut_by_time(path: str, params: dict[str, Any]) -> dict[str, Any]:
     doc = plan_mesh_file(path, params)
     doc["timing"] = dict(doc.get("timing", {}), stopped_by_time=True)
     return doc
+
+
+def plan_without_mesh(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, but the document has no ``mesh`` object."""
+    doc = plan_mesh_file(path, params)
+    del doc["mesh"]
+    return doc
+
+
+def plan_with_report(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, with a loading report holding numpy values and a NaN."""
+    doc = plan_mesh_file(path, params)
+    doc["mesh"].update(
+        center_mass=np.zeros(3),
+        volume=np.float64("nan"),
+        repairs=("welded 3 vertices",),
+        warnings=[],
+        dropped=["dropped object 1"],
+        extra={"count": np.int64(2)},
+    )
+    return doc

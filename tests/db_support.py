@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -12,7 +13,10 @@ import trimesh
 
 from synth.database import GraspDatabase
 
-__all__ = ["TESTS_DIR", "REPO_DIR", "PLANNER", "PARAMS", "make_mesh_dir", "planner_env", "snapshot"]
+__all__ = [
+    "TESTS_DIR", "REPO_DIR", "PLANNER", "PARAMS", "V1_DDL", "make_mesh_dir", "planner_env",
+    "snapshot", "write_v1_copy",
+]  # fmt: skip
 
 TESTS_DIR = str(Path(__file__).resolve().parent)
 REPO_DIR = str(Path(TESTS_DIR).parent)
@@ -51,13 +55,102 @@ def planner_env(extra: dict[str, str] | None = None) -> dict[str, str]:
     return env
 
 
-def snapshot(path: str | os.PathLike[str]) -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
-    """Everything stored except timings: mesh rows and grasps (as the planner's dicts)."""
+def snapshot(
+    path: str | os.PathLike[str], report: bool = True
+) -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
+    """Everything stored except timings: mesh rows and grasps (as the planner's dicts).
+
+    ``report=False`` leaves the loading reports out (to compare with a schema-1 copy).
+    """
     with GraspDatabase(path) as db:
         meshes = [
             (m.id, m.path, m.name, m.sha256, m.size, m.status, m.error_kind, m.error,
              m.duplicate_of, m.units, m.length, m.n_grasps, m.params, m.planner)
+            + ((m.report,) if report else ())
             for m in db.meshes()
         ]  # fmt: skip
         grasps = [(g.mesh_id, g.rank, g.to_dict()) for g in db.grasps()]
     return meshes, grasps
+
+
+# The DDL of schema version 1 (synth before ``meshes.mesh_report``), kept to make old files.
+V1_DDL = """
+CREATE TABLE meta (
+    key   TEXT PRIMARY KEY,
+    value TEXT NOT NULL
+);
+CREATE TABLE meshes (
+    id             INTEGER PRIMARY KEY,
+    path           TEXT NOT NULL UNIQUE,
+    name           TEXT NOT NULL,
+    sha256         TEXT,
+    size           INTEGER,
+    status         TEXT NOT NULL CHECK (status IN ('pending', 'done', 'failed', 'duplicate')),
+    error_kind     TEXT,
+    error          TEXT,
+    duplicate_of   INTEGER REFERENCES meshes(id),
+    units          TEXT,
+    length         REAL,
+    params         TEXT NOT NULL,
+    planner_params TEXT,
+    planner        TEXT NOT NULL,
+    synth_version  TEXT,
+    n_grasps       INTEGER NOT NULL DEFAULT 0,
+    plan_s         REAL,
+    worker_s       REAL,
+    finished_at    TEXT
+);
+CREATE INDEX meshes_sha256 ON meshes(sha256);
+CREATE INDEX meshes_name ON meshes(name);
+CREATE INDEX meshes_status ON meshes(status);
+CREATE TABLE grasps (
+    mesh_id      INTEGER NOT NULL REFERENCES meshes(id),
+    rank         INTEGER NOT NULL,
+    d_star       REAL NOT NULL,
+    closure      TEXT NOT NULL,
+    conditioning REAL NOT NULL,
+    epsilon      REAL NOT NULL,
+    n_contacts   INTEGER NOT NULL,
+    points       BLOB NOT NULL,
+    normals      BLOB NOT NULL,
+    features     TEXT NOT NULL,
+    regions      BLOB NOT NULL,
+    n_fingers    INTEGER NOT NULL,
+    tip_centers  BLOB NOT NULL,
+    tip_radius   REAL NOT NULL,
+    approach     BLOB NOT NULL,
+    body_length  REAL NOT NULL,
+    body_radius  REAL NOT NULL,
+    PRIMARY KEY (mesh_id, rank)
+) WITHOUT ROWID;
+CREATE INDEX grasps_d_star ON grasps(d_star);
+"""
+_V1_MESH_COLUMNS = (
+    "id, path, name, sha256, size, status, error_kind, error, duplicate_of, units, length, "
+    "params, planner_params, planner, synth_version, n_grasps, plan_s, worker_s, finished_at"
+)
+
+
+def write_v1_copy(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None:
+    """Write at ``dst`` the content of the database ``src`` as a schema-1 file (as old synth did).
+
+    Every row of ``meta``, ``meshes`` (without ``mesh_report``) and ``grasps`` is copied;
+    ``meta.schema_version`` and ``PRAGMA user_version`` are 1.
+    """
+    conn = sqlite3.connect(dst, isolation_level=None)
+    try:
+        conn.execute("PRAGMA journal_mode = WAL")
+        conn.execute("PRAGMA application_id = 1398361684")  # 0x53594E54, "SYNT"
+        conn.execute("PRAGMA user_version = 1")
+        conn.executescript("BEGIN;" + V1_DDL)
+        conn.execute("ATTACH DATABASE ? AS src", (os.fspath(src),))
+        conn.execute("INSERT INTO meta SELECT key, value FROM src.meta")
+        conn.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
+        conn.execute(
+            f"INSERT INTO meshes({_V1_MESH_COLUMNS}) SELECT {_V1_MESH_COLUMNS} FROM src.meshes"
+        )
+        conn.execute("INSERT INTO grasps SELECT * FROM src.grasps")
+        conn.execute("COMMIT")
+        conn.execute("DETACH DATABASE src")
+    finally:
+        conn.close()

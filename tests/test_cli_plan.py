@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import trimesh
 
 MESHES = Path(__file__).resolve().parent.parent / "meshes"
@@ -79,3 +80,45 @@ def test_rank_end_to_end(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text('[{"name": "x"}]')
     assert "missing field 'points'" in _one_line_error(synth("rank", MESHES / "cube.stl", bad))
+
+
+def test_internal_error_is_one_line_with_its_own_exit_status(monkeypatch, capsys):
+    """A failure inside synth is never reported as bad input and never as a traceback."""
+    import synth.plan.search as search
+    from synth.cli import EXIT_INTERNAL, main
+    from synth.errors import InputError, InternalError
+
+    def broken(*args, **kwargs):
+        raise InputError("points: 1 of 600 lie farther than 1e-08 from the surface")
+
+    monkeypatch.setattr(search, "sample_contacts", broken)
+    with pytest.raises(InternalError, match="planner failed"):
+        search.plan_part(synth_part(), search.PlanParams(evals=500))
+    code = main(["plan", str(MESHES / "cube.stl"), "--no-files", "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == EXIT_INTERNAL == 3 and len(err) == 1
+    assert err[0].startswith("synth: internal error: ") and "bug in synth" in err[0]
+    monkeypatch.setattr(search, "sample_contacts", lambda *a, **k: 1 / 0)
+    assert main(["plan", str(MESHES / "cube.stl"), "--no-files", "--quiet"]) == 3
+    assert "ZeroDivisionError" in capsys.readouterr().err
+    monkeypatch.setenv("SYNTH_TRACEBACK", "1")
+    assert main(["plan", str(MESHES / "cube.stl"), "--no-files", "--quiet"]) == 3
+    assert "Traceback" in capsys.readouterr().err
+
+
+def synth_part():
+    from synth import load_part
+
+    return load_part(MESHES / "cube.stl")
+
+
+def test_plan_json_reports_bodies_and_repairs(tmp_path):
+    out = tmp_path / "g.json"
+    proc = synth("plan", MESHES / "bracket.stl", "--evals", "2000", "--out", out, "--no-files")
+    assert proc.returncode == 0
+    proc = synth("plan", MESHES / "bracket.stl", "--evals", "2000", "--out", out, "--png",
+                 tmp_path / "g.png", "--glb", tmp_path / "g.glb", "--quiet")
+    mesh = json.loads(out.read_text())["mesh"]
+    assert mesh["repairs"] == [] and mesh["dropped"] == [] and len(mesh["bodies"]) == 1
+    assert mesh["bodies"][0]["closed"] and mesh["precision"] > 0
+    assert len(mesh["center_mass"]) == 3 and mesh["volume"] > 0

@@ -41,6 +41,7 @@ def test_ranked_table_and_json(tmp_path, capsys):
     assert "free to translate along +z" in text
     doc = json.loads(out.read_text())
     assert [c["name"] for c in doc["candidates"]] == ["good", "no-top"]
+    assert [c["rank"] for c in doc["candidates"]] == [1, 2]
     assert doc["candidates"][0]["d_star"] == pytest.approx(0.5)
     assert doc["candidates"][0]["closure"] == "form"
 
@@ -71,16 +72,47 @@ BAD = [
 
 
 @pytest.mark.parametrize("obj, message", BAD)
-def test_malformed_input_one_line_no_traceback(tmp_path, obj, message):
+def test_malformed_input_one_line_each_no_traceback(tmp_path, obj, message):
     f = _write(tmp_path, obj)
     proc = subprocess.run([sys.executable, "-m", "synth", "score", str(f)],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("synth: error: ")
-    assert message in lines[0]
-    assert str(f) in lines[0] or "candidate" in lines[0]
+    errors = [line for line in proc.stderr.strip().splitlines() if line.startswith("synth: ")]
+    assert len(errors) == 1 and errors[0].startswith("synth: error: ")
+    assert message in errors[0]
+    assert str(f) in errors[0] or "candidate" in errors[0]
+
+
+def test_a_bad_candidate_does_not_stop_the_others(tmp_path):
+    bad = dict(NO_TOP, name="broken", normals=[[0, 0, 0]] + NO_TOP["normals"][1:])
+    f = _write(tmp_path, {"candidates": [NO_TOP, bad, CUBE_FC, {"name": "x"}]})
+    out = tmp_path / "out.json"
+    proc = subprocess.run([sys.executable, "-m", "synth", "score", str(f), "--json", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("synth: error:")]
+    assert len(errors) == 2
+    assert "candidate 1 (broken): field 'normals' row 0 has zero length" in errors[0]
+    assert "candidate 3 (x): missing field 'points'" in errors[1]
+    assert proc.stdout.index("good") < proc.stdout.index("no-top")
+    doc = json.loads(out.read_text())
+    assert [(c["rank"], c["name"]) for c in doc["candidates"]] == [(1, "good"), (2, "no-top")]
+    assert [e["index"] for e in doc["errors"]] == [1, 3]
+
+
+def test_closure_ranks_above_rank_deficient_grasps(tmp_path, capsys):
+    """A grasp with d* > 0 but rank < 6 is not form closure and never outranks one."""
+    flat = {"name": "flat", "points": [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0],
+                                       [0.5, 0.5, 0], [-0.5, -0.5, 0], [0.5, -0.5, 0]],
+            "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [-1, -1, 0], [1, 1, 0],
+                        [-1, 1, 0]]}
+    f = _write(tmp_path, [flat, CUBE_FC])
+    assert main(["score", str(f), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [c["name"] for c in doc["candidates"]] == ["good", "flat"]
+    assert doc["candidates"][1]["closure"] == "force" and doc["candidates"][1]["d_star"] > 0
+    assert doc["candidates"][1]["matrix_rank"] < 6
 
 
 def test_unreadable_files(tmp_path, capsys):

@@ -87,6 +87,20 @@ def test_export_npz_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None
             assert z["conditioning"][i] == g.conditioning and z["closure"][i] == g.closure
 
 
+def test_export_writes_exactly_the_named_file_and_keeps_the_old_one_on_failure(
+        built: tuple[Path, Path], tmp_path: Path) -> None:
+    _, db_path = built
+    out = tmp_path / "grasps.dat"
+    export_database(db_path, out, "npz")  # numpy alone would have written grasps.dat.npz
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["grasps.dat"]
+    with np.load(out, allow_pickle=False) as z:
+        assert "contact_start" in z
+    before = out.read_bytes()
+    with pytest.raises(DatabaseError):
+        export_database(tmp_path / "missing.sqlite", out, "npz")
+    assert out.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["grasps.dat"]
+
+
 def test_export_json_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
     _, db_path = built
     out = tmp_path / "g.json"
@@ -231,7 +245,7 @@ def test_cli_help_is_plain_text(capsys: pytest.CaptureFixture[str]) -> None:
         assert texts[args].startswith("usage: synth db")
         assert "``" not in texts[args] and ":func:" not in texts[args], texts[args]
     build = texts[("build",)]
-    assert "default 5000, for throughput" in build and "20000" in build
+    assert "same evaluation budget as 'synth plan'" in build
     assert "resumable" in build and "SYNTH_DB_PLANNER" in build
 
 

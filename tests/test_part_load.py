@@ -36,8 +36,10 @@ def test_sample_meshes_load_closed_and_small(name: str) -> None:
     assert path.stat().st_size < 300_000
     part = load_part(path, units="decimeters")
     assert part.watertight and part.volume > 0
-    # STL stores three vertices per triangle: welding is the only repair a clean file needs
-    assert [r.split()[0] for r in part.repairs] == ["welded"] and part.warnings == ()
+    # STL stores three vertices per triangle: welding them is reading, not a repair, and a
+    # clean file needs no repair
+    assert part.repairs == () and part.warnings == () and part.dropped == ()
+    assert len(part.bodies) == 1 and part.bodies[0].closed
     assert part.units == "decimeters" and part.source == str(path)
     assert len(part.sha256) == 64
     assert part.length == pytest.approx(np.linalg.norm(part.mesh.extents))
@@ -139,7 +141,7 @@ def test_several_bodies_default_largest_and_choice(tmp_path: Path) -> None:
     scene.export(path)
     part = load_part(path)
     assert part.volume == pytest.approx(1.0)
-    assert any("largest" in r for r in part.repairs)
+    assert any("largest" in r for r in part.dropped)
     assert load_part(path, body="small").volume == pytest.approx(0.008)
     assert load_part(path, body="all").volume == pytest.approx(1.008)
     with pytest.raises(MeshError, match="not found"):

@@ -214,14 +214,51 @@ def _fine_torus() -> Part:
                                 np.asarray(mesh.tri_verts, np.int64)))
 
 
-def test_closest_kernel_identical_to_trimesh() -> None:
+def _closest_reference(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Closest points by a different route: the plane projection when it falls inside the
+    triangle (by signed areas), else the nearest of the three edge segments."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    q = p - np.einsum("ij,ij->i", p - a, n)[:, None] * n
+    inside = np.ones(len(p), bool)
+    best = np.full(len(p), np.inf)
+    out = q.copy()
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("ij,ij->i", np.cross(v - u, q - u), n) >= 0
+        t = np.clip(np.einsum("ij,ij->i", p - u, v - u) / np.einsum("ij,ij->i", v - u, v - u),
+                    0, 1)
+        e = u + t[:, None] * (v - u)
+        d = np.linalg.norm(e - p, axis=1)
+        closer = d < best
+        best[closer], out[closer] = d[closer], e[closer]
+    out[inside] = q[inside]
+    return out
+
+
+@pytest.mark.parametrize("scale, offset", [(1.0, 0.0), (1e-3, 0.0), (1e-2, 5.0), (1e3, 1e6),
+                                           (1e-3, 1.0)])
+def test_closest_kernel_exact_at_any_scale_and_placement(scale: float, offset: float) -> None:
+    """Points inside thin triangles stay inside at any unit and placement (an absolute zero in
+    the region tests sent them to a vertex for parts in metres)."""
     from synth.part.closest import closest_on_triangles
 
     rng = np.random.default_rng(3)
-    tri = rng.normal(size=(5000, 3, 3))
-    tri[:50, 1] = tri[:50, 0]  # collapsed edges
-    p = np.r_[rng.normal(size=(4950, 3)), tri[:50, 0]]
-    assert np.array_equal(closest_on_triangles(tri, p), trimesh.triangles.closest_point(tri, p))
+    tri = rng.normal(size=(6000, 3, 3))
+    tri[:2000, 2] = tri[:2000, 0] + 1e-3 * (tri[:2000, 2] - tri[:2000, 0])  # slivers
+    w = rng.dirichlet([1, 1, 1], size=6000)
+    inside = np.einsum("ij,ijk->ik", w, tri)
+    p = np.r_[rng.normal(size=(3000, 3)) * 2, inside[3000:]]
+    tri, p = tri * scale + offset, p * scale + offset
+    q = closest_on_triangles(tri, p)
+    ref = _closest_reference(tri, p)
+    size = scale * np.sqrt(3)
+    d, d_ref = np.linalg.norm(q - p, axis=1), np.linalg.norm(ref - p, axis=1)
+    # float64 round-off of the coordinates (offset) and of the geometry (scale)
+    err = 1e-12 * size + 1e-14 * abs(offset)
+    assert np.all(d <= d_ref + err)
+    assert np.all(np.abs(d - d_ref) <= err)
+    assert np.all(d[3000:] <= err)  # points on the triangle are their own closest point
 
 
 @pytest.mark.parametrize("name", [*ALL_MESHES, "fine_torus"])
@@ -264,3 +301,26 @@ def test_closest_points_exact(name: str) -> None:
     assert np.array_equal(c.finger, c_bf.finger)
     assert np.allclose(c.points, c_bf.points, rtol=0, atol=1e-12 * part.length)
     assert np.allclose(c.normals, c_bf.normals, rtol=0, atol=1e-12)
+
+
+def test_closest_within_radius_against_brute_force() -> None:
+    """Exact wherever the mesh comes within the radius, on a mesh with long slivers (the
+    size groups keep the search local)."""
+    from synth.part.closest import build_index, closest_within
+
+    mesh = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide()
+    sliver = trimesh.Trimesh([[-5, 2, 0], [5, 2, 0], [0, 2.001, 0.0]], [[0, 1, 2]])
+    mesh = trimesh.util.concatenate([mesh, sliver])
+    index = build_index(np.asarray(mesh.triangles), np.asarray(mesh.face_normals))
+    rng = np.random.default_rng(5)
+    pts = np.r_[rng.uniform(-1, 1, size=(2500, 3)),
+                rng.uniform([-6, 1.7, -0.3], [6, 2.3, 0.3], size=(500, 3))]
+    radius = 0.2
+    q, f, d, found = closest_within(index, pts, radius)
+    brute = np.array([np.linalg.norm(trimesh.triangles.closest_point(
+        index.triangles, np.broadcast_to(p, (len(index.triangles), 3))) - p, axis=1).min()
+        for p in pts])
+    assert np.array_equal(found, brute <= radius)
+    assert np.allclose(d[found], brute[found], rtol=0, atol=1e-12)
+    assert np.allclose(np.linalg.norm(q[found] - pts[found], axis=1), d[found], atol=1e-12)
+    assert 200 < found.sum() < 2900

@@ -130,3 +130,24 @@ def test_support_plane_keeps_fingers_above_the_table():
         ends = tips + f["body_length"] * np.array(f["approach"])
         assert (tips[:, 2] - f["tip_radius"] >= -3.0 - 1e-9).all()
         assert (ends[:, 2] - f["body_radius"] >= -3.0 - 1e-9).all()
+
+
+def test_ranking_ties_by_conditioning_and_rank_by():
+    """d* within 1e-6 are equal for ranking; the better-conditioned grasp comes first, and
+    --rank-by orders by conditioning or epsilon instead."""
+    from types import SimpleNamespace
+
+    from synth.plan.search import rank_grasps
+
+    g = [SimpleNamespace(name=n, d_star=d, conditioning=c, epsilon=e) for n, d, c, e in [
+        ("a", 0.5000000004, 0.01, 0.3), ("b", 0.5, 0.2, 0.1), ("c", 0.4999999998, 0.05, 0.2),
+        ("d", 0.6, 0.001, 0.05), ("e", 0.45, 0.9, 0.4)]]
+    assert [x.name for x in rank_grasps(g)] == ["d", "b", "c", "a", "e"]
+    assert [x.name for x in rank_grasps(g, "conditioning")] == ["e", "b", "c", "a", "d"]
+    assert [x.name for x in rank_grasps(g, "epsilon")] == ["e", "a", "c", "b", "d"]
+    plan = plan_part(load_part(MESHES / "cube.stl"), PlanParams(top=4, rank_by="conditioning"))
+    cond = [x.conditioning for x in plan.grasps]
+    assert cond == sorted(cond, reverse=True)
+    assert [x["rank"] for x in plan.to_json()["grasps"]] == [1, 2, 3, 4]
+    with pytest.raises(InputError, match="rank_by"):
+        PlanParams(rank_by="volume")

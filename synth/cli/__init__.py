@@ -1,20 +1,34 @@
 """The ``synth`` command line: ``synth score``, ``synth plan``, ``synth rank``, ``synth db``.
 
-Every command returns an exit status instead of raising: 0 on success, 2 for bad input (a
-missing or malformed file, a bad option), 1 when the work itself failed. Errors print one
-readable line, ``synth: error: ...``, never a traceback.
+Every command returns an exit status instead of raising:
+
+=====  ======================================================================================
+0      success
+1      the work found nothing (``synth plan``: no grasp), or the system refused (a file that
+       cannot be written, a locked database)
+2      the input is bad (a missing or malformed file, a bad option); the line says what is wrong
+3      an internal error: synth failed on input it accepted. This is a bug in synth; the line
+       says so and how to report it (``SYNTH_TRACEBACK=1`` prints the traceback)
+130    interrupted
+=====  ======================================================================================
+
+Errors print one readable line, ``synth: error: ...``, never a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 from collections.abc import Callable, Sequence
 
 from synth import __version__
-from synth.errors import InputError, SynthError
+from synth.errors import InputError, InternalError, SolverError, SynthError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL"]
+
+EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
 Runner = Callable[[argparse.Namespace], int]
 
@@ -23,17 +37,20 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     parser = argparse.ArgumentParser(
         prog="synth",
-        description="Grasp synthesis on triangle meshes, ranked by Trinkle's form-closure "
-        "measure d* (Trinkle 1992).",
+        description="Grasp synthesis on triangle meshes, ranked by the quantitative "
+        "form-closure measure d* of Trinkle (1992).",
+        epilog="exit status: 0 done; 1 nothing found or the system refused; 2 bad input (the "
+        "line says what is wrong); 3 internal error, a bug in synth (SYNTH_TRACEBACK=1 "
+        "prints the traceback).",
     )
     parser.add_argument("--version", action="version", version=f"synth {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     from synth.cli import plan, rank, score
     from synth.database.cli import add_db_parser
 
-    score.add_parser(sub)
     plan.add_parser(sub)
     rank.add_parser(sub)
+    score.add_parser(sub)
     add_db_parser(sub)
     return parser
 
@@ -50,13 +67,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         return run(args)
     except InputError as e:
         print(f"synth: error: {e}", file=sys.stderr)
-        return 2
-    except SynthError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
-        return 1
+        return EXIT_INPUT
     except KeyboardInterrupt:
         print("synth: interrupted", file=sys.stderr)
         return 130
+    except (InternalError, SolverError) as e:
+        return _internal(e)
+    except SynthError as e:
+        print(f"synth: error: {e}", file=sys.stderr)
+        return EXIT_FAILED
     except OSError as e:
         print(f"synth: error: {e}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
+    except Exception as e:  # anything else is a bug in synth: one line, never a traceback
+        return _internal(e)
+
+
+def _internal(e: BaseException) -> int:
+    """Report a failure of synth itself (exit status 3)."""
+    if os.environ.get("SYNTH_TRACEBACK"):
+        traceback.print_exception(e)
+    what = str(e).splitlines()[0] if str(e) else ""
+    print(f"synth: internal error: {type(e).__name__}{': ' + what if what else ''} -- this is a "
+          f"bug in synth {__version__}, not a problem with your input; please report it with "
+          "the command line and the input files (SYNTH_TRACEBACK=1 prints the traceback)",
+          file=sys.stderr)
+    return EXIT_INTERNAL

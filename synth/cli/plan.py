@@ -8,17 +8,20 @@ import sys
 from pathlib import Path
 
 __all__ = ["add_parser", "run", "add_finger_options", "add_part_options", "format_plan_table",
-           "load_part_from_args"]
+           "load_part_from_args", "report_part"]
 
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
     """Options of mesh loading, shared by ``plan`` and ``rank``."""
     g = p.add_argument_group("mesh")
-    g.add_argument("--units", default=None,
-                   help="length unit of the mesh when the file does not say (e.g. mm)")
-    g.add_argument("--body", default="largest",
-                   help="which body of a file with several: 'largest' (default), an index, a "
-                   "name, or 'all' to keep them together")
+    g.add_argument("--units", default=None, metavar="UNIT",
+                   help="length unit of the mesh when the file does not say (STL never does): "
+                   "mm, cm, dm, m, um, in, ft or a trimesh unit name")
+    g.add_argument("--body", default="largest", metavar="WHICH",
+                   help="which object to plan when the file holds several far apart: "
+                   "'largest' (default), an index, the name of one of its bodies, or 'all'. "
+                   "Bodies that touch or overlap, like the pieces of a convex decomposition, "
+                   "are always one part")
     g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
                    help="dihedral angle above which an edge is sharp (default 30)")
 
@@ -32,6 +35,27 @@ def load_part_from_args(args: argparse.Namespace):
     body = int(args.body) if str(args.body).lstrip("-").isdigit() else args.body
     return load_part(args.mesh, units=args.units, body=body,
                      sharp_angle=math.radians(args.sharp_angle))
+
+
+def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
+    """Say on stderr what loading did: one line per dropped body (always, ``--quiet`` too),
+    and unless quiet one line per repair, the bodies held as one part, and each warning."""
+    for line in part.dropped:
+        print(f"synth: {line}", file=sys.stderr)
+    if quiet:
+        return
+    for line in part.repairs:
+        print(f"repair: {line}", file=sys.stderr)
+    if len(part.bodies) > 1:
+        n_closed = sum(b.closed for b in part.bodies)
+        area = sum(b.area for b in part.bodies)
+        hidden = 1.0 - sum(b.exposed_area for b in part.bodies) / area
+        print(f"bodies: {len(part.bodies)} bodies ({n_closed} closed, "
+              f"{len(part.bodies) - n_closed} open) held as one rigid part; {100 * hidden:.0f}% "
+              "of their surface lies against or inside another body and is never touched",
+              file=sys.stderr)
+    for w in part.warnings:
+        print(f"warning: {w}", file=sys.stderr)
 
 
 def add_finger_options(p: argparse.ArgumentParser) -> None:
@@ -57,18 +81,36 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         description="Search a mesh for the point-contact grasps with the highest d* "
         "(Trinkle 1992), check fingers for collisions with FCL, print a ranked table and "
         "write JSON, PNG and GLB files.",
+        epilog="exit status: 0 grasps found; 1 none found (the message names the motion left "
+        "free); 2 bad input (the line says what is wrong); 3 internal error (a bug in synth).",
     )
     p.add_argument("mesh", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
-    p.add_argument("--contacts", type=int, default=7, help="contacts per grasp (default 7)")
-    p.add_argument("--mu", type=float, default=0.0,
+    from synth.plan.params import PlanParams
+
+    d = PlanParams()
+    p.add_argument("--contacts", type=int, default=d.contacts, metavar="K",
+                   help=f"contacts per grasp, one fingertip each (default {d.contacts})")
+    p.add_argument("--fingers", default=None, metavar="N|auto",
+                   help="plan grasps of N fingertips instead of --contacts: a tip in a groove "
+                   "makes 2 contacts, in an inside corner 3; 'auto' finds the fewest fingers "
+                   "that hold the part")
+    p.add_argument("--mu", type=float, default=0.0, metavar="MU",
                    help="Coulomb friction coefficient (default 0: frictionless form closure)")
-    p.add_argument("--top", type=int, default=10, help="grasps to return (default 10)")
-    p.add_argument("--time", type=float, default=10.0,
-                   help="wall-clock cap in seconds (default 10; the search usually ends sooner)")
-    p.add_argument("--evals", type=int, default=20_000,
-                   help="grasp evaluations (default 20000); with --seed this fixes the result")
-    p.add_argument("--min-d-star", type=float, default=0.0, help="drop grasps below this d*")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--top", type=int, default=d.top, metavar="N",
+                   help=f"grasps to return (default {d.top})")
+    p.add_argument("--time", type=float, default=d.time, metavar="SECONDS",
+                   help=f"wall-clock cap in seconds (default {d.time:g}; the search usually ends "
+                   "sooner)")
+    p.add_argument("--evals", type=int, default=d.evals, metavar="N",
+                   help=f"budget of grasp evaluations (default {d.evals}): the search stops when "
+                   "it is spent; with --seed it fixes the result on any machine")
+    p.add_argument("--min-d-star", type=float, default=0.0, metavar="D",
+                   help="return no grasp with a lower d* (default 0)")
+    p.add_argument("--rank-by", choices=("d_star", "conditioning", "epsilon"), default="d_star",
+                   help="order of the grasps returned (default d_star: d* values equal to the "
+                   "LPs' accuracy, 1e-6, are ordered by conditioning)")
+    p.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
+                   help=f"random seed (default {d.seed})")
     p.add_argument("--table", type=float, default=None, metavar="Z",
                    help="a support plane z = Z under the part that fingers must not cross")
     add_part_options(p)
@@ -80,7 +122,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     o.add_argument("--glb", default=None, help="3-D scene (default: MESHNAME.grasps.glb)")
     o.add_argument("--no-files", action="store_true", help="write no files, only print")
     o.add_argument("--json", action="store_true", help="print the JSON document, not a table")
-    o.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    o.add_argument("--quiet", action="store_true",
+                   help="print only the table and the result line: no progress bar, no loading "
+                   "notes (dropped objects are still said), no list of files written")
     p.set_defaults(run=run)
 
 
@@ -97,18 +141,33 @@ def format_plan_table(plan) -> str:
     return "\n".join(lines)
 
 
+def _fingers(text: str | None) -> int | str | None:
+    """``--fingers``: None, 'auto' or a number of fingertips."""
+    if text is None or text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        from synth.errors import InputError
+
+        raise InputError(f"--fingers: expected a number of fingertips or 'auto', got {text!r}")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``synth plan``; exit status 1 when no grasp was found."""
     from synth.cli.progress import LineProgress
+    from synth.files import write_atomic
     from synth.plan import PlanParams, export_glb, plan_part, render_png
 
     params = PlanParams(
-        contacts=args.contacts, mu=args.mu, top=args.top, time=args.time, evals=args.evals,
+        contacts=args.contacts, fingers=_fingers(args.fingers), mu=args.mu, top=args.top,
+        time=args.time, evals=args.evals,
         seed=args.seed, finger_radius=args.finger_radius, body_length=args.body_length,
         body_radius=args.body_radius, approach_cone=args.approach_cone,
-        min_d_star=args.min_d_star, support_z=args.table,
+        min_d_star=args.min_d_star, support_z=args.table, rank_by=args.rank_by,
     )
     part = load_part_from_args(args)
+    report_part(part, args.quiet or args.json)
     bar = LineProgress(enabled=not (args.quiet or args.json))
     try:
         plan = plan_part(part, params, progress=bar)
@@ -119,16 +178,13 @@ def run(args: argparse.Namespace) -> int:
     written = []
     if not args.no_files:
         out = Path(args.out or f"{stem}.grasps.json")
-        out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        write_atomic(out, json.dumps(doc, indent=1) + "\n")
         png = render_png(part, plan, args.png or f"{stem}.grasps.png")
         glb = export_glb(part, plan, args.glb or f"{stem}.grasps.glb")
         written = [str(out), str(png), str(glb)]
     if args.json:
         print(json.dumps(doc, indent=1))
     else:
-        if not args.quiet:
-            for w in part.warnings:
-                print(f"warning: {w}", file=sys.stderr)
         if plan.grasps:
             print(format_plan_table(plan))
         print(plan.message)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from synth.errors import InputError
+from synth.files import write_atomic
 
 __all__ = ["add_parser", "run", "rank_candidates", "RankedCandidate"]
 
@@ -57,6 +58,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "with the part model (given normals are ignored), check the fingers with FCL, score "
         "by d* and print the candidates ranked. CANDIDATES is JSON (a list of {points[, name]}"
         " or an object with a 'candidates' or 'grasps' list) or NPZ.",
+        epilog="exit status: 0 ranked; 2 bad input, or no candidate could be used (each "
+        "unusable candidate is listed with its reason); 3 internal error (a bug in synth).",
     )
     p.add_argument("mesh", help="mesh file")
     p.add_argument("candidates", help="candidate file (.json or .npz)")
@@ -73,10 +76,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> list[RankedCandidate]:
-    """Snap, resolve, check and score candidates on a part; best first (errors last)."""
-    import trimesh
+    """Snap, resolve, check and score candidates on a part; best first (errors last).
 
+    A point is snapped to the closest point of the part's surface when it lies within
+    ``max_distance`` of it; a point whose snapped place is not on the exposed surface (it
+    lies against or inside another body of the part) makes its candidate unusable.
+    """
     from synth.fingers import check_fingers
+    from synth.part.resolve import closest_points
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.quality import conditioning, scaled_wrenches
 
@@ -87,7 +94,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> lis
         if c.points.shape[1] != 3:
             rows.append(RankedCandidate(c.name, "error", f"{label}: points must be 3-D"))
             continue
-        closest, dist, _ = trimesh.proximity.closest_point(part.mesh, c.points)
+        closest, _, dist = closest_points(part, c.points)
         far = np.nonzero(dist > max_distance)[0]
         if far.size:
             j = int(far[0])
@@ -97,6 +104,15 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> lis
                 f"{max_distance:.4g} allowed)"))
             continue
         con = part.resolve(closest, snap=True)
+        toward = np.zeros((len(closest), 3))
+        np.add.at(toward, con.finger, con.normals)
+        hidden = np.flatnonzero(~part.exposed(closest, toward))
+        if hidden.size:
+            rows.append(RankedCandidate(
+                c.name, "error", f"{label}: point {int(hidden[0])} lies on a hidden part of the "
+                "surface (against or inside another body of the part), where no finger can "
+                "touch"))
+            continue
         P, N = con.points, con.normals
         m = c.mu if c.mu is not None else mu
         if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
@@ -117,20 +133,25 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> lis
         rows.append(RankedCandidate(
             c.name, "ok" if chk.mask[0] else "fingers", None if chk.mask[0] else chk.reasons[0],
             d, closure, cond, P, N, tuple(con.features), fing))
-    order = {"ok": 0, "fingers": 1, "error": 2}
-    return sorted(rows, key=lambda r: (order[r.status], -r.d_star))
+    from synth.plan.search import rank_grasps
+
+    # usable first, then those the fingers cannot make, then errors; each best first (d*
+    # equal within the LPs' accuracy ordered by conditioning, as synth plan does)
+    return [r for status in ("ok", "fingers", "error")
+            for r in rank_grasps([r for r in rows if r.status == status])]  # type: ignore[arg-type]
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``synth rank``."""
     from synth.fingers import default_fingers
     from synth.grasps import read_candidates
-    from synth.cli.plan import load_part_from_args
+    from synth.cli.plan import load_part_from_args, report_part
 
     if not np.isfinite(args.mu) or args.mu < 0:
         raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
-    part = load_part_from_args(args)
     cands = read_candidates(args.candidates, require_normals=False)
+    part = load_part_from_args(args)
+    report_part(part, args.quiet or args.json)
     over = {k: v for k, v in (("tip_radius", args.finger_radius),
                               ("body_length", args.body_length),
                               ("body_radius", args.body_radius)) if v is not None}
@@ -144,8 +165,7 @@ def run(args: argparse.Namespace) -> int:
            "mu": args.mu, "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
     if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
-            json.dump(doc, f, indent=1)
+        write_atomic(args.out, json.dumps(doc, indent=1) + "\n")
     if args.json:
         print(json.dumps(doc, indent=1))
     else:

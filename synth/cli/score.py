@@ -1,4 +1,10 @@
-"""``synth score FILE``: rank candidate contact sets by d*."""
+"""``synth score FILE``: rank candidate contact sets by d*.
+
+Every valid candidate is scored in vectorised batches (one per shape and friction
+coefficient); a malformed one is reported by position, name and field and the others are still
+scored (exit status 2 at the end). The motion a failing grasp leaves free, and the contacts it
+can still squeeze, are worked out only for the rows shown (``--top``).
+"""
 
 from __future__ import annotations
 
@@ -9,35 +15,51 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from synth.errors import CandidateError, InputError
+from synth.errors import InputError
+from synth.files import write_atomic
 
-__all__ = ["add_parser", "run", "score_candidates", "ScoredCandidate", "format_table"]
+__all__ = ["add_parser", "run", "score_table", "explain", "Scores", "format_table"]
+
+#: Rows printed (and explained) when ``--top`` is not given.
+DEFAULT_TOP = 20
 
 
 @dataclass(frozen=True)
-class ScoredCandidate:
-    """One row of ``synth score``'s output."""
+class Scores:
+    """Scores of every candidate of a :class:`synth.grasps.CandidateTable`, in file order.
 
-    name: str
-    contacts: int
-    mu: float
-    d_star: float
-    closure: str
-    rank: int
-    why_not: str | None
+    Attributes
+    ----------
+    names : tuple of str
+    contacts : (B,) int
+    mu : (B,) float
+        Friction coefficient used (the candidate's own, else the default).
+    d_star : (B,) float
+    closure : (B,) str
+        ``"form"``, ``"frictional form"`` or ``"force"``; ``""`` for malformed candidates.
+    rank : (B,) int
+    valid : (B,) bool
+        False for malformed candidates (see ``errors``).
+    errors : tuple of (int, str)
+    """
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary."""
-        return {
-            "name": self.name,
-            "contacts": self.contacts,
-            "mu": self.mu,
-            "d_star": self.d_star,
-            "closure": self.closure,
-            "rank": self.rank,
-            "why_not": self.why_not,
-        }
+    names: tuple[str, ...]
+    contacts: NDArray[np.int64]
+    mu: NDArray[np.float64]
+    d_star: NDArray[np.float64]
+    closure: NDArray[np.str_]
+    rank: NDArray[np.int64]
+    valid: NDArray[np.bool_]
+    errors: tuple[tuple[int, str], ...]
+
+    def order(self) -> NDArray[np.int64]:
+        """Valid candidates best first: closure before non-closure, then by d*, then by
+        position in the file."""
+        idx = np.flatnonzero(self.valid)
+        is_closure = self.closure[idx] != "force"
+        return idx[np.lexsort((idx, -self.d_star[idx], ~is_closure))]
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -48,7 +70,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         description="Score candidate contact sets by Trinkle's form-closure measure d* and "
         "print them ranked. FILE is JSON (a list of {points, normals[, name, mu]}, or an "
         "object with a 'candidates' or 'grasps' list) or NPZ (arrays points, normals of "
-        "shape (B, k, 3)). Normals point into the part.",
+        "shape (B, k, 3), optional names (B,) and mu). Normals point into the part.",
+        epilog="A malformed candidate is reported on its own line and the others are still "
+        "scored; the exit status is then 2. Ranking: closure grasps first, then by d*.",
     )
     p.add_argument("file", help="candidate file (.json or .npz)")
     p.add_argument(
@@ -61,90 +85,182 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument(
         "--edges", type=int, default=8, help="edges of each linearised friction cone (default 8)"
     )
-    p.add_argument("--top", type=int, default=None, help="print only the best N rows")
+    p.add_argument("--top", type=int, default=None,
+                   help=f"rows to print and explain (default {DEFAULT_TOP}; 0 for all)")
     p.add_argument(
         "--json",
         nargs="?",
         const="-",
         default=None,
         metavar="PATH",
-        help="write the ranked results as JSON to PATH (or to stdout without PATH)",
+        help="write every candidate's score as JSON to PATH (or to stdout without PATH)",
     )
     p.set_defaults(run=run)
 
 
-def score_candidates(cands: list[Any], mu: float = 0.0, edges: int = 8) -> list[ScoredCandidate]:
-    """Score candidates (see :func:`synth.grasps.read_candidates`) and sort them, best first."""
+def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Wrench matrices (b, m, k) of contacts (b, k, d), moments about each centroid."""
+    R = P - P.mean(axis=1, keepdims=True)
+    if P.shape[2] == 3:
+        tau = np.cross(R, N)
+    else:
+        tau = (R[..., 0] * N[..., 1] - R[..., 1] * N[..., 0])[..., None]
+    return np.concatenate([N, tau], axis=2).swapaxes(1, 2)
+
+
+def score_table(table: Any, mu: float = 0.0, edges: int = 8) -> Scores:
+    """Score every valid candidate of a :class:`synth.grasps.CandidateTable`.
+
+    Parameters
+    ----------
+    table : CandidateTable
+    mu : float
+        Friction coefficient of candidates that give none.
+    edges : int
+        Edges of each linearised friction cone.
+
+    Returns
+    -------
+    Scores
+    """
     from synth.grasps import min_contacts
-    from synth.scores import form_closure, form_closure_batch, frictional_form_closure
-    from synth.scores.wrench import wrench_matrix
+    from synth.scores import form_closure_batch, frictional_form_closure
+    from synth.scores.friction_batch import frictional_form_closure_batch
 
-    rows: list[ScoredCandidate | None] = [None] * len(cands)
-    batch_groups: dict[tuple[int, int], list[int]] = {}
-    for i, c in enumerate(cands):
-        m = c.mu if c.mu is not None else mu
-        need = min_contacts(c.points.shape[1], m)
-        if len(c) < need:
-            kind = "with friction" if m > 0 else "without friction (use --mu for friction)"
-            space = "in space" if c.points.shape[1] == 3 else "in the plane"
-            raise CandidateError(
-                f"candidate {i} ({c.name}): {len(c)} contacts, but at least {need} are needed "
-                f"{space} {kind}"
-            )
+    B = len(table)
+    d = np.zeros(B)
+    closure = np.full(B, "", dtype="<U15")
+    rank = np.zeros(B, np.int64)
+    k_all = np.zeros(B, np.int64)
+    mu_used = np.where(np.isnan(table.mu), mu, table.mu)
+    valid = np.zeros(B, bool)
+    errors = dict(table.errors)
+    for g in table.groups:
+        b, k, dim = g.points.shape
+        k_all[g.index] = k
+        for m_val in np.unique(mu_used[g.index]):
+            sel = mu_used[g.index] == m_val
+            idx = g.index[sel]
+            need = min_contacts(dim, m_val)
+            if k < need:
+                kind = "with friction" if m_val > 0 else "without friction (use --mu for friction)"
+                space = "in space" if dim == 3 else "in the plane"
+                for i in idx.tolist():
+                    name = f" ({table.names[i]})" if not table.names[i].startswith("#") else ""
+                    errors[i] = (f"{table.source}: candidate {i}{name}: {k} contacts, but at "
+                                 f"least {need} are needed {space} {kind}")
+                continue
+            P, N = g.points[sel], g.normals[sel]
+            if m_val == 0:
+                res = form_closure_batch(_wrenches(P, N))
+                d[idx], rank[idx] = res.d_star, res.rank
+                closure[idx] = np.where(res.closure, "form", "force")
+            elif dim == 3:
+                res = frictional_form_closure_batch(P, N, float(m_val), edges=edges)
+                d[idx], rank[idx] = res.d_star, res.rank
+                closure[idx] = np.where(res.closure, "frictional form", "force")
+            else:  # planar with friction: small problems, one LP each
+                for j, i in enumerate(idx.tolist()):
+                    r = frictional_form_closure(P[j], N[j], float(m_val), edges=edges)
+                    d[i], rank[i], closure[i] = r.d_star, r.rank, r.closure
+            valid[idx] = True
+    return Scores(tuple(table.names), k_all, mu_used, d, closure, rank, valid,
+                  tuple(sorted(errors.items())))
+
+
+def explain(table: Any, scores: Scores, rows: NDArray[np.int64], edges: int = 8
+            ) -> dict[int, tuple[str | None, list[int] | None]]:
+    """For the failing candidates among ``rows``: the motion left free, in words, and the
+    contacts that can still be squeezed without bound (Trinkle's strong force closure, with
+    friction where the candidate has it)."""
+    from synth.scores import form_closure, squeezable_contacts
+    from synth.scores.friction import frictional_form_closure, frictional_squeezable
+
+    where = {}
+    for g in table.groups:
+        for j, i in enumerate(g.index.tolist()):
+            where[i] = (g, j)
+    out: dict[int, tuple[str | None, list[int] | None]] = {}
+    for i in rows.tolist():
+        if scores.closure[i] != "force":
+            continue
+        g, j = where[i]
+        P, N = g.points[j], g.normals[j]
+        m = float(scores.mu[i])
         if m == 0:
-            batch_groups.setdefault((len(c), c.points.shape[1]), []).append(i)
+            W = _wrenches(P[None], N[None])[0]
+            words = form_closure(W).escape_words
+            squeeze = squeezable_contacts(W)
         else:
-            r = frictional_form_closure(c.points, c.normals, m, edges=edges)
-            rows[i] = ScoredCandidate(c.name, len(c), m, r.d_star, r.closure, r.rank, r.escape_words)
-    for idx in batch_groups.values():
-        W = np.stack([wrench_matrix(cands[i].points, cands[i].normals) for i in idx])
-        res = form_closure_batch(W)
-        for j, i in enumerate(idx):
-            closure = "form" if res.closure[j] else "force"
-            why = None
-            if not res.closure[j]:
-                why = form_closure(W[j]).escape_words
-            rows[i] = ScoredCandidate(
-                cands[i].name, len(cands[i]), 0.0, float(res.d_star[j]), closure,
-                int(res.rank[j]), why,
-            )
-    done = [r for r in rows if r is not None]
-    order = sorted(range(len(done)), key=lambda k: (-done[k].d_star, k))
-    return [done[k] for k in order]
+            words = frictional_form_closure(P, N, m, edges=edges).escape_words
+            squeeze = frictional_squeezable(P, N, m, edges=edges).squeezable
+        out[i] = (words, np.flatnonzero(squeeze).tolist())
+    return out
 
 
-def format_table(rows: list[ScoredCandidate]) -> str:
-    """A plain-text table, one candidate per line, best first."""
-    name_w = max([len("name")] + [len(r.name) for r in rows])
+def format_table(scores: Scores, rows: NDArray[np.int64],
+                 why: dict[int, tuple[str | None, list[int] | None]]) -> str:
+    """A plain-text table of the given rows, in the given order."""
+    name_w = max([len("name")] + [len(scores.names[i]) for i in rows.tolist()])
     lines = [f"{'#':>4}  {'name':<{name_w}}  {'k':>3}  {'mu':>5}  {'d*':>8}  {'closure':<15}  "
              f"{'rank':>4}  why not"]
-    for i, r in enumerate(rows, 1):
+    for n, i in enumerate(rows.tolist(), 1):
+        words, squeeze = why.get(i, (None, None))
+        note = words or ""
+        if squeeze:
+            note += f" (contacts {','.join(map(str, squeeze))} can still be squeezed)"
         lines.append(
-            f"{i:>4}  {r.name:<{name_w}}  {r.contacts:>3}  {r.mu:>5.2f}  {r.d_star:>8.5f}  "
-            f"{r.closure:<15}  {r.rank:>4}  {r.why_not or ''}".rstrip()
+            f"{n:>4}  {scores.names[i]:<{name_w}}  {scores.contacts[i]:>3}  {scores.mu[i]:>5.2f}  "
+            f"{scores.d_star[i]:>8.5f}  {scores.closure[i]:<15}  {scores.rank[i]:>4}  "
+            f"{note}".rstrip()
         )
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``synth score``."""
-    from synth.grasps import read_candidates
+    from synth.grasps import read_candidate_table
 
-    if args.mu < 0 or not np.isfinite(args.mu):
+    if not np.isfinite(args.mu) or args.mu < 0:
         raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
     if args.edges < 3:
         raise InputError(f"--edges must be at least 3, got {args.edges}")
-    rows = score_candidates(read_candidates(args.file), args.mu, args.edges)
-    shown = rows if args.top is None else rows[: max(args.top, 0)]
+    if args.top is not None and args.top < 0:
+        raise InputError(f"--top must be 0 (all) or a positive number of rows, got {args.top}")
+    table = read_candidate_table(args.file)
+    scores = score_table(table, args.mu, args.edges)
+    order = scores.order()
+    top = DEFAULT_TOP if args.top is None else args.top
+    shown = order if top == 0 else order[:top]
+    why = explain(table, scores, shown, args.edges)
     if args.json is not None:
-        doc = {"file": str(args.file), "candidates": [r.to_dict() for r in shown]}
-        text = json.dumps(doc, indent=2)
+        rank_of = np.zeros(len(scores.names), np.int64)
+        rank_of[order] = np.arange(1, len(order) + 1)
+        def row(i: int) -> str:  # one JSON object, without json.dumps' per-call overhead
+            words, squeeze = why.get(i, (None, None))
+            return (f'{{"rank": {rank_of[i]}, "index": {i}, "name": {json.dumps(scores.names[i])}, '
+                    f'"contacts": {scores.contacts[i]}, "mu": {float(scores.mu[i])!r}, '
+                    f'"d_star": {float(scores.d_star[i])!r}, "closure": "{scores.closure[i]}", '
+                    f'"matrix_rank": {scores.rank[i]}, "why_not": {json.dumps(words)}, '
+                    f'"squeezable": {json.dumps(squeeze)}}}')
+
+        rows = [row(i) for i in order.tolist()]
+        errs = [{"index": i, "name": scores.names[i], "error": e} for i, e in scores.errors]
+        # one candidate per line: readable, and json's fast C encoder (indent= is pure Python)
+        text = ('{"format": "synth.scores", "version": 1, "file": ' + json.dumps(str(args.file))
+                + ',\n "candidates": [\n' + ",\n".join(rows)
+                + '],\n "errors": [\n' + ",\n".join(map(json.dumps, errs)) + "]}")
         if args.json == "-":
             print(text)
-            return 0
-        with open(args.json, "w", encoding="utf-8") as f:
-            f.write(text + "\n")
-    print(format_table(shown))
-    n_form = sum(r.closure != "force" for r in rows)
-    print(f"{len(rows)} candidates, {n_form} with closure", file=sys.stderr)
-    return 0
+        else:
+            write_atomic(args.json, text + "\n")
+    if args.json != "-":
+        print(format_table(scores, shown, why))
+    for _, message in scores.errors:
+        print(f"synth: error: {message}", file=sys.stderr)
+    n_closure = int((scores.closure[order] != "force").sum())
+    more = f"; showing the best {len(shown)} (--top 0 for all)" if len(shown) < len(order) else ""
+    print(f"{len(order)} candidates scored, {n_closure} with closure"
+          f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
+          file=sys.stderr)
+    return 2 if scores.errors else 0

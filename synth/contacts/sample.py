@@ -19,13 +19,14 @@ __all__ = ["SAMPLE_METHODS", "sample_contacts"]
 SAMPLE_METHODS: tuple[str, ...] = ("uniform", "even", "edges", "corners")
 
 _EVEN_OVERSAMPLE = 8
+_MAX_ROUNDS = 20
 
 
 def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
-    area = np.asarray(part.mesh.area_faces, float)[faces]
+    area = np.asarray(part.mesh.area_faces, float)[faces] * (part.face_exposure[faces] > 0)
     if area.sum() <= 0:
-        raise InputError("sample_contacts: the chosen faces have zero area")
+        raise InputError("sample_contacts: the chosen faces have no exposed area")
     f = faces[rng.choice(len(faces), size=n, p=area / area.sum())]
     u = rng.random((n, 2))
     flip = u.sum(axis=1) > 1.0
@@ -33,6 +34,30 @@ def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarra
     tri = part._triangles[f]
     pts = tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0])
     return pts, f
+
+
+def _exposed_points(part: Part, pts: np.ndarray, faces: np.ndarray) -> tuple[Contacts, np.ndarray]:
+    """Resolve points on known faces; which of them a fingertip can touch (every contact
+    of the point on the exposed surface)."""
+    c = part.resolve(pts, faces)
+    toward = np.zeros((len(pts), 3))
+    np.add.at(toward, c.finger, c.normals)  # a shared fingertip: the sum of its normals
+    return c, part.exposed(pts, toward)
+
+
+def _draw(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` area-uniform points of the exposed surface of ``faces`` (rejection sampling;
+    fewer only when almost nothing of those faces is exposed)."""
+    pts, fs = np.zeros((0, 3)), np.zeros(0, np.int64)
+    for _ in range(_MAX_ROUNDS):
+        need = n - len(pts)
+        if need <= 0:
+            break
+        p, f = _faces_points(part, rng, max(need, 16) * (1 if part._solids is None else 2), faces)
+        _, good = _exposed_points(part, p, f)
+        pts, fs = np.concatenate([pts, p[good]]), np.concatenate([fs, f[good]])
+    return pts[:n], fs[:n]
 
 
 def _farthest(points: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -61,7 +86,9 @@ def sample_contacts(
     n : int
         Number of fingertip placements. Each gives one contact, except on concave edges
         and in concave corners (2 or 3 contacts sharing a ``finger`` id), so
-        ``contacts.n_fingers == n`` and ``len(contacts) >= n``.
+        ``contacts.n_fingers == n`` and ``len(contacts) >= n``. Only the exposed surface is
+        sampled (:meth:`synth.part.Part.exposed`); where almost nothing of the chosen faces
+        or edges is exposed, fewer placements may come back.
     seed : int or numpy.random.Generator, optional
         Seed of ``np.random.default_rng``; the same seed gives the same contacts.
     method : {"uniform", "even", "edges", "corners"}
@@ -97,10 +124,10 @@ def sample_contacts(
                 )
             faces = np.flatnonzero(np.isin(part.face_region, r))
         if method == "uniform":
-            pts, f = _faces_points(part, rng, n, faces)
+            pts, f = _draw(part, rng, n, faces)
         else:
-            pts, f = _faces_points(part, rng, max(n, 1) * _EVEN_OVERSAMPLE, faces)
-            keep = _farthest(pts, n, rng) if n else np.zeros(0, np.int64)
+            pts, f = _draw(part, rng, max(n, 1) * _EVEN_OVERSAMPLE, faces)
+            keep = _farthest(pts, min(n, len(pts)), rng) if n else np.zeros(0, np.int64)
             pts, f = pts[keep], f[keep]
         return part.resolve(pts, f)
     if regions is not None:
@@ -111,15 +138,26 @@ def sample_contacts(
         if len(e) == 0:
             raise InputError("sample_contacts: the part has no sharp edges (method='edges')")
         length = feats.edge_length[e]
-        pick = e[rng.choice(len(e), size=n, p=length / length.sum())]
-        t = rng.random(n)[:, None]
         v = np.asarray(part.mesh.vertices, float)
-        a, b = v[feats.edges[pick, 0]], v[feats.edges[pick, 1]]
-        return part.resolve(a + t * (b - a), feats.edge_faces[pick, 0])
+        pts, fs = np.zeros((0, 3)), np.zeros(0, np.int64)
+        for _ in range(_MAX_ROUNDS):
+            if len(pts) >= n:
+                break
+            pick = e[rng.choice(len(e), size=max(n, 16), p=length / length.sum())]
+            t = rng.random(len(pick))[:, None]
+            a, b = v[feats.edges[pick, 0]], v[feats.edges[pick, 1]]
+            p, f = a + t * (b - a), feats.edge_faces[pick, 0]
+            _, good = _exposed_points(part, p, f)
+            pts, fs = np.concatenate([pts, p[good]]), np.concatenate([fs, f[good]])
+        return part.resolve(pts[:n], fs[:n])
     corners = np.flatnonzero(feats.vertex_kind >= 2)
     corners = corners[feats.vertex_kind[corners] <= 4]
     if len(corners) == 0:
         raise InputError("sample_contacts: the part has no corners (method='corners')")
-    pick = rng.choice(corners, size=n, replace=n > len(corners))
-    vf = np.asarray(part.mesh.vertex_faces)[pick, 0]
-    return part.resolve(np.asarray(part.mesh.vertices, float)[pick], vf)
+    vf = np.asarray(part.mesh.vertex_faces)[corners, 0]
+    _, good = _exposed_points(part, np.asarray(part.mesh.vertices, float)[corners], vf)
+    corners, vf = corners[good], vf[good]
+    if len(corners) == 0:
+        raise InputError("sample_contacts: no corner of the part is exposed (method='corners')")
+    pick = rng.choice(len(corners), size=n, replace=n > len(corners))
+    return part.resolve(np.asarray(part.mesh.vertices, float)[corners[pick]], vf[pick])

@@ -28,6 +28,7 @@ from typing import Any, TextIO
 from synth.database.progress import ProgressBar, format_duration
 from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
+from synth.plan.params import PlanParams
 from synth.database.worker import PlanOutcome, load_planner, resolve_planner, run_one
 from synth.errors import InputError
 
@@ -48,7 +49,7 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "top": 10,
     "seed": 0,
     "finger_radius": None,
-    "evals": 5000,
+    "evals": PlanParams().evals,  # the same search effort as 'synth plan'
     # the planner's wall-clock cap; far above a normal plan, so the evaluation budget (not the
     # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
     "time": 600.0,
@@ -299,7 +300,7 @@ def _prepare(
                     "finished_at) VALUES (?, ?, 'failed', ?, ?, ?, ?, ?) ON CONFLICT(path) DO "
                     "UPDATE SET status='failed', error_kind=excluded.error_kind, "
                     "error=excluded.error, sha256=NULL, size=NULL, n_grasps=0, duplicate_of=NULL, "
-                    "finished_at=excluded.finished_at",
+                    "mesh_report=NULL, finished_at=excluded.finished_at",
                     (path, os.path.basename(path), kind, h, params_text, planner, now),
                 )
                 continue
@@ -337,7 +338,8 @@ def _prepare(
                     "params, planner, finished_at) VALUES (?, ?, ?, ?, 'duplicate', ?, ?, ?, ?, ?) "
                     "ON CONFLICT(path) DO UPDATE SET sha256=excluded.sha256, size=excluded.size, "
                     "status='duplicate', error_kind=NULL, error=excluded.error, n_grasps=0, "
-                    "duplicate_of=excluded.duplicate_of, finished_at=excluded.finished_at",
+                    "duplicate_of=excluded.duplicate_of, mesh_report=NULL, "
+                    "finished_at=excluded.finished_at",
                     (path, os.path.basename(path), sha, size, f"same content as {first[0]}",
                      primary, params_text, planner, now),
                 )  # fmt: skip
@@ -539,7 +541,8 @@ def build_database(
     InputError
         On bad sources, parameters, engine or planner (nothing is written then).
     DatabaseError
-        If ``out`` is not a synth database of this version or was built with other parameters.
+        If ``out`` is not a synth database of this version or an older one (a schema-1 file is
+        migrated to this version before the first write), or was built with other parameters.
 
     Examples
     --------

@@ -31,9 +31,8 @@ grasps, whatever the number of workers or the engine.
 """
 
 _BUILD_EPILOG = """\
-evals: 'synth plan' evaluates 20000 grasps per mesh by default; a database build defaults to
-5000 for throughput over many meshes (on the sample meshes, 2 to 3 times less planning time
-per mesh for nearly the same best d*). Give --evals 20000 to match 'synth plan'.
+evals: a database build defaults to the same evaluation budget as 'synth plan', so the
+database holds the grasps plan would give; a smaller --evals trades quality for throughput.
 
 planner hook: set SYNTH_DB_PLANNER=module:function (or --planner) to plan with any function
 plan_mesh_file(path, params) -> dict returning synth's grasp document.
@@ -80,8 +79,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    metavar="R",
                    help="fingertip radius in the mesh's units (default: sized from each part)")
     b.add_argument("--evals", type=int, default=DEFAULT_PARAMS["evals"],
-                   help="grasp evaluations per mesh (default %(default)s, for throughput; "
-                   "'synth plan' uses 20000); with --seed this fixes the result")
+                   help="grasp evaluations per mesh (default %(default)s, as 'synth plan'); "
+                   "with --seed this fixes the result")
     b.add_argument("--workers", type=_positive_int, default=None,
                    help="worker processes (default: all CPUs; 0 = plan in this process)")
     b.add_argument("--engine", choices=("local", "dask"), default="local",
@@ -144,11 +143,24 @@ def _info(args: argparse.Namespace) -> int:
     print(f"meshes: {info.meshes} ({info.done} done, {info.failed} failed, "
           f"{info.duplicates} duplicates, {info.pending} pending)")  # fmt: skip
     print(f"grasps: {info.grasps}\nplanner time: {info.plan_s:.1f} s")
+    print(_loading_line(info))
     if info.failures:
         print("failures:")
         for path, kind, error in info.failures:
             print(f"  {path}: [{kind}] {error}")
     return 0
+
+
+def _loading_line(info: Any) -> str:
+    """What loading did to the meshes, from their reports (``meshes.mesh_report``)."""
+    if info.with_report == 0:
+        why = " (schema 1 file)" if info.schema_version < 2 else ""
+        return f"loading: no mesh reports{why}"
+    noun = "mesh" if info.repaired == 1 else "meshes"
+    return (
+        f"loading: {info.repaired} {noun} repaired, {info.with_dropped} with dropped objects, "
+        f"{info.with_warnings} with warnings (of {info.with_report} with a loading report)"
+    )
 
 
 def _top(args: argparse.Namespace) -> int:

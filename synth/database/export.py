@@ -19,6 +19,9 @@ mesh_units             (m,) str      units, ``""`` if unknown
 mesh_length            (m,) float64  characteristic length, NaN if unknown
 mesh_n_grasps          (m,) int64    grasps stored
 mesh_duplicate_of      (m,) int64    id of the original of a duplicate, -1 otherwise
+mesh_report            (m,) str      what loading did to the mesh: JSON text of its report
+                                     (``meshes.mesh_report``: repairs, warnings, dropped,
+                                     bodies, ...), ``""`` if none
 grasp_mesh_id, rank    (n,) int64    mesh of each grasp and its rank (1 = best)
 d_star, conditioning,  (n,) float64  quality figures
 epsilon
@@ -38,20 +41,23 @@ In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the 
 the others of the group ``grasps``; datasets are chunked and gzip-compressed; the file's
 attributes hold ``format``, ``schema_version``, ``params`` (JSON) and ``planner``. NPZ uses the
 flat names above plus ``params`` and ``planner`` (0-d strings). JSON is one object with
-``meshes``, each carrying its ``grasps`` in the planner's format.
+``meshes``, each carrying its loading ``report`` (an object, or null) and its ``grasps`` in the
+planner's format.
 """
 
 from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from synth.database.schema import SCHEMA_VERSION
+from synth.database.schema import SCHEMA_VERSION, canonical_json
 from synth.database.store import GraspDatabase
 from synth.errors import InputError
+from synth.files import atomic_path
 
 __all__ = ["EXPORT_FORMATS", "export_columns", "export_database"]
 
@@ -81,6 +87,9 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         "mesh_n_grasps": np.array([m.n_grasps for m in meshes], dtype=np.int64),
         "mesh_duplicate_of": np.array(
             [-1 if m.duplicate_of is None else m.duplicate_of for m in meshes], dtype=np.int64
+        ),
+        "mesh_report": _str_array(
+            ["" if m.report is None else canonical_json(m.report) for m in meshes]
         ),
     }
     lists: dict[str, list[Any]] = {
@@ -121,7 +130,7 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
     return cols
 
 
-def _write_h5(db: GraspDatabase, out: str) -> None:
+def _write_h5(db: GraspDatabase, out: Path) -> None:
     try:
         import h5py
     except ImportError as e:
@@ -148,7 +157,7 @@ def _write_h5(db: GraspDatabase, out: str) -> None:
             group.create_dataset(key, data=data, dtype=dtype, **opts)
 
 
-def _write_json(db: GraspDatabase, out: str) -> None:
+def _write_json(db: GraspDatabase, out: Path) -> None:
     by_mesh: dict[int, list[dict[str, Any]]] = {}
     for g in db.grasps():
         by_mesh.setdefault(g.mesh_id, []).append(g.to_dict())
@@ -159,7 +168,7 @@ def _write_json(db: GraspDatabase, out: str) -> None:
                 "id": m.id, "path": m.path, "name": m.name, "sha256": m.sha256, "size": m.size,
                 "status": m.status, "error_kind": m.error_kind, "error": m.error,
                 "duplicate_of": m.duplicate_of, "units": m.units, "length": m.length,
-                "synth_version": m.synth_version, "n_grasps": m.n_grasps,
+                "synth_version": m.synth_version, "n_grasps": m.n_grasps, "report": m.report,
                 "grasps": by_mesh.get(m.id, []),
             }
         )  # fmt: skip
@@ -185,7 +194,8 @@ def export_database(
     database : path
         A grasp database.
     out : path
-        The file to write (replaced if it exists).
+        The file to write, under exactly this name (replaced if it exists, and only once the
+        new file is complete: see :mod:`synth.files`).
     fmt : {"h5", "npz", "json"}, optional
         Default: from the extension of ``out`` (``.h5``/``.hdf5``, ``.npz``, ``.json``).
 
@@ -212,14 +222,15 @@ def export_database(
         fmt = {"hdf5": "h5"}.get(ext, ext)
     if fmt not in EXPORT_FORMATS:
         raise InputError(f"export format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
-    with GraspDatabase(database) as db:
+    with GraspDatabase(database) as db, atomic_path(out) as tmp:
         if fmt == "h5":
-            _write_h5(db, out)
+            _write_h5(db, tmp)
         elif fmt == "npz":
             cols = export_columns(db)
             cols["params"] = np.array(json.dumps(db.params, sort_keys=True))
             cols["planner"] = np.array(db.planner)
-            np.savez_compressed(out, **cols)
+            with open(tmp, "wb") as fh:  # a file object: numpy adds no ".npz" to the name
+                np.savez_compressed(fh, **cols)
         else:
-            _write_json(db, out)
+            _write_json(db, tmp)
     return fmt

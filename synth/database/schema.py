@@ -1,4 +1,4 @@
-"""The SQLite schema of a synth grasp database (schema version 1) and its record types.
+"""The SQLite schema of a synth grasp database (schema version 2) and its record types.
 
 A grasp database is one SQLite file in WAL mode, written by ``synth db build`` (one writer, the
 parent process) and readable by anyone while it is written. It holds three tables.
@@ -9,7 +9,7 @@ parent process) and readable by anyone while it is written. It holds three table
 key                value
 =================  ===========================================================================
 application        ``synth.grasps.db`` (also ``PRAGMA application_id = 0x53594E54``)
-schema_version     ``1`` (also ``PRAGMA user_version = 1``)
+schema_version     ``2`` (also ``PRAGMA user_version = 2``)
 synth_version      the library version that created the file
 params             canonical JSON of the planner parameters every mesh of this file is planned with
 planner            the planner used, ``"module:function"``
@@ -41,6 +41,14 @@ n_grasps       INTEGER    number of grasps stored for the mesh
 plan_s         REAL       planner-reported time (``timing.total_s``), seconds
 worker_s       REAL       wall time of the whole task on the worker (load, plan, pack), seconds
 finished_at    TEXT       UTC ISO 8601 time the row reached its status
+mesh_report    TEXT       what loading did to the mesh: canonical JSON of the planner document's
+                          ``mesh`` object without ``path`` and ``sha256`` (with the real planner:
+                          ``units``, ``length``, ``precision``, ``center_mass``, ``volume``,
+                          ``bodies``, ``repairs``, ``warnings``, ``dropped``; a plugged-in
+                          planner's object as it is); NULL when the planner returned no document
+                          (the mesh failed before planning, timed out, crashed...) or no ``mesh``
+                          object, for ``pending`` and ``duplicate`` rows, and for rows written
+                          under schema version 1 (new in version 2)
 =============  =========  ======================================================================
 
 ``grasps`` -- one row per grasp, ``PRIMARY KEY (mesh_id, rank)``, ``WITHOUT ROWID``:
@@ -72,6 +80,12 @@ Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``mesh
 
 A mesh's grasps are written in the same transaction as its ``done`` status, so a reader never
 sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``done``.
+
+Versions: schema version 1 lacks ``meshes.mesh_report``. A version-1 file is read as it is
+(every :attr:`MeshRecord.report` is None) and is migrated in place to version 2 -- ``ALTER TABLE
+meshes ADD COLUMN mesh_report TEXT``, ``meta.schema_version`` and ``PRAGMA user_version`` set to
+2, in one transaction -- the first time a build writes to it (:func:`migrate_schema`). A file of
+a newer version than this synth's is refused.
 """
 
 from __future__ import annotations
@@ -87,6 +101,7 @@ from synth.errors import DatabaseError
 
 __all__ = [
     "SCHEMA_VERSION",
+    "READABLE_VERSIONS",
     "APPLICATION",
     "APPLICATION_ID",
     "MESH_STATUSES",
@@ -95,11 +110,15 @@ __all__ = [
     "canonical_json",
     "create_schema",
     "check_schema",
+    "schema_version",
+    "migrate_schema",
     "pack_array",
     "unpack_array",
 ]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Schema versions this synth reads; the older ones are migrated by :func:`migrate_schema`.
+READABLE_VERSIONS = (1, 2)
 APPLICATION = "synth.grasps.db"
 APPLICATION_ID = 0x53594E54  # "SYNT"
 MESH_STATUSES = ("pending", "done", "failed", "duplicate")
@@ -128,7 +147,8 @@ CREATE TABLE meshes (
     n_grasps       INTEGER NOT NULL DEFAULT 0,
     plan_s         REAL,
     worker_s       REAL,
-    finished_at    TEXT
+    finished_at    TEXT,
+    mesh_report    TEXT
 );
 CREATE INDEX meshes_sha256 ON meshes(sha256);
 CREATE INDEX meshes_name ON meshes(name);
@@ -193,6 +213,10 @@ class MeshRecord:
         Planner time and whole-task time, seconds.
     finished_at : str or None
         UTC ISO 8601 time of the status.
+    report : dict or None
+        What loading did to the mesh: the planner document's ``mesh`` object without ``path``
+        and ``sha256`` (``repairs``, ``warnings``, ``dropped``, ``bodies``, ... with the synth
+        planner); None if the planner returned none, and for rows of a schema-1 database.
     """
 
     id: int
@@ -213,6 +237,7 @@ class MeshRecord:
     plan_s: float | None
     worker_s: float | None
     finished_at: str | None
+    report: dict[str, Any] | None = None
 
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> MeshRecord:
@@ -236,7 +261,14 @@ class MeshRecord:
             plan_s=row["plan_s"],
             worker_s=row["worker_s"],
             finished_at=row["finished_at"],
+            report=_decode_report(row),
         )
+
+
+def _decode_report(row: sqlite3.Row) -> dict[str, Any] | None:
+    """The decoded ``mesh_report`` of a ``meshes`` row; None if NULL or a schema-1 row."""
+    text = row["mesh_report"] if "mesh_report" in row.keys() else None
+    return None if text is None else dict(json.loads(text))
 
 
 @dataclass(frozen=True, eq=False)
@@ -391,12 +423,16 @@ def create_schema(conn: sqlite3.Connection, meta: dict[str, str]) -> None:
 
 
 def check_schema(conn: sqlite3.Connection, path: str) -> dict[str, str]:
-    """Check that ``conn`` is a synth grasp database of this schema version; return its meta.
+    """Check that ``conn`` is a synth grasp database of a readable schema version; return its meta.
+
+    The readable versions are :data:`READABLE_VERSIONS` (this one and the older ones
+    :func:`migrate_schema` upgrades); :func:`schema_version` gives the version of the meta.
 
     Raises
     ------
     DatabaseError
-        Naming ``path``, if the file is not SQLite, not a synth database, or of another version.
+        Naming ``path``, if the file is not SQLite, not a synth database, or of a version this
+        synth does not read (a newer one).
     """
     try:
         tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
@@ -413,13 +449,65 @@ def check_schema(conn: sqlite3.Connection, path: str) -> dict[str, str]:
             f"{path}: not a synth grasp database (meta.application is "
             f"{meta.get('application')!r}, expected {APPLICATION!r})"
         )
-    if meta.get("schema_version") != str(SCHEMA_VERSION):
+    if meta.get("schema_version") not in {str(v) for v in READABLE_VERSIONS}:
         raise DatabaseError(
             f"{path}: grasp database of schema version {meta.get('schema_version')}, this synth "
-            f"reads version {SCHEMA_VERSION}; rebuild it with this version of synth or use the "
-            "version that wrote it"
+            f"reads versions {READABLE_VERSIONS[0]} to {SCHEMA_VERSION}; rebuild it with this "
+            "version of synth or use the version that wrote it"
         )
     missing = {"meshes", "grasps"} - tables
     if missing:
         raise DatabaseError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
     return meta
+
+
+def schema_version(meta: dict[str, str]) -> int:
+    """The schema version recorded in a meta dict checked by :func:`check_schema`."""
+    return int(meta["schema_version"])
+
+
+def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
+    """Upgrade a readable database of an older schema version to this one, in one transaction.
+
+    Version 1 to 2: ``ALTER TABLE meshes ADD COLUMN mesh_report TEXT`` (NULL in every existing
+    row), then ``meta.schema_version`` and ``PRAGMA user_version`` set to 2. The version is read
+    again inside the transaction, so a file another process has just migrated is left alone.
+    Either the whole migration is committed or nothing is.
+
+    Returns
+    -------
+    int
+        The version the file had before (``SCHEMA_VERSION`` if there was nothing to do).
+
+    Raises
+    ------
+    DatabaseError
+        Naming ``path``, if the migration fails (the file is then unchanged).
+    """
+    try:
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            row = conn.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            before = int(row[0])
+            if before not in READABLE_VERSIONS:
+                raise DatabaseError(
+                    f"{path}: cannot migrate a grasp database of schema version {before} to "
+                    f"version {SCHEMA_VERSION}"
+                )
+            if before < 2:
+                conn.execute("ALTER TABLE meshes ADD COLUMN mesh_report TEXT")
+            if before != SCHEMA_VERSION:
+                conn.execute(
+                    "UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),)
+                )
+                conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+            conn.execute("COMMIT")
+        except BaseException:
+            if conn.in_transaction:
+                conn.execute("ROLLBACK")
+            raise
+    except sqlite3.Error as e:
+        raise DatabaseError(
+            f"{path}: cannot migrate the grasp database to schema version {SCHEMA_VERSION}: {e}"
+        ) from e
+    return before

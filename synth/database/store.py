@@ -24,6 +24,8 @@ from synth.database.schema import (
     canonical_json,
     check_schema,
     create_schema,
+    migrate_schema,
+    schema_version,
 )
 from synth.database.worker import PlanOutcome
 from synth.errors import DatabaseError, InputError
@@ -47,7 +49,7 @@ class DatabaseInfo:
     path : str
         The database file.
     schema_version : int
-        Schema version of the file.
+        Schema version of the file (1 for a file no build of this synth has written to yet).
     synth_version : str
         Version of synth that created it.
     params : dict
@@ -60,6 +62,11 @@ class DatabaseInfo:
         ``(path, error_kind, error)`` of every failed mesh, by path.
     plan_s : float
         Sum of the planner times of the done meshes, seconds.
+    with_report : int
+        Meshes with a loading report (``meshes.mesh_report`` not NULL).
+    repaired, with_dropped, with_warnings : int
+        Of those, the meshes whose report lists repairs, dropped objects or warnings (a
+        non-empty ``repairs``, ``dropped`` or ``warnings`` list).
     """
 
     path: str
@@ -75,6 +82,10 @@ class DatabaseInfo:
     grasps: int
     failures: tuple[tuple[str, str, str], ...]
     plan_s: float
+    with_report: int = 0
+    repaired: int = 0
+    with_dropped: int = 0
+    with_warnings: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (``failures`` as a list of objects)."""
@@ -100,7 +111,9 @@ class GraspDatabase:
     ------
     DatabaseError
         Naming the file, if it is missing (``"r"``), not SQLite, not a synth database, or of
-        another schema version. A file that is not a synth database is never modified.
+        a newer schema version. A file that is not a synth database is never modified. A file
+        of schema version 1 is read as it is, and migrated to version 2 the first time it is
+        written to (:meth:`bind`, :meth:`transaction`, :meth:`store_outcome`), not on opening.
 
     Examples
     --------
@@ -118,6 +131,8 @@ class GraspDatabase:
         self.mode = mode
         self._conn = self._connect(meta)
         self.meta: dict[str, str] = check_schema(self._conn, self.path)
+        #: Schema version of the file (older than ``SCHEMA_VERSION`` until migrated).
+        self.schema_version: int = schema_version(self.meta)
 
     # -- opening --------------------------------------------------------------------------
     def _connect(self, meta: dict[str, str] | None) -> sqlite3.Connection:
@@ -214,9 +229,10 @@ class GraspDatabase:
         failures = self._query(
             "SELECT path, error_kind, error FROM meshes WHERE status = 'failed' ORDER BY path"
         )
+        loading = self._loading_counts()
         return DatabaseInfo(
             path=self.path,
-            schema_version=SCHEMA_VERSION,
+            schema_version=self.schema_version,
             synth_version=self.meta.get("synth_version", ""),
             params=self.params,
             planner=self.planner,
@@ -228,7 +244,35 @@ class GraspDatabase:
             grasps=int(n_grasps),
             failures=tuple((r[0], r[1] or "", r[2] or "") for r in failures),
             plan_s=float(plan_s),
+            **loading,
         )
+
+    def _loading_counts(self) -> dict[str, int]:
+        """Meshes with a loading report, and those with repairs, dropped objects or warnings."""
+        keys = ("with_report", "repaired", "with_dropped", "with_warnings")
+        if self.schema_version < 2:  # no mesh_report column yet
+            return dict.fromkeys(keys, 0)
+        lists = ("repairs", "dropped", "warnings")
+        sql = "SELECT count(*), " + ", ".join(
+            f"coalesce(sum(coalesce(json_array_length(mesh_report, '$.{k}'), 0) > 0), 0)"
+            for k in lists
+        ) + " FROM meshes WHERE mesh_report IS NOT NULL"  # fmt: skip
+        try:
+            row = tuple(self._conn.execute(sql).fetchone())
+        except sqlite3.OperationalError:  # an SQLite without the JSON functions
+            import json
+
+            counts = [0, 0, 0, 0]
+            for (text,) in self._query(
+                "SELECT mesh_report FROM meshes WHERE mesh_report IS NOT NULL"
+            ):
+                report = json.loads(text)
+                counts[0] += 1
+                for i, k in enumerate(lists, 1):
+                    value = report.get(k) if isinstance(report, dict) else None
+                    counts[i] += isinstance(value, list) and len(value) > 0
+            row = tuple(counts)
+        return {k: int(v) for k, v in zip(keys, row)}
 
     def meshes(self, status: str | None = None) -> Iterator[MeshRecord]:
         """Iterate over mesh records in id order, optionally only those of one ``status``."""
@@ -317,9 +361,14 @@ class GraspDatabase:
         return MeshRecord.from_row(rows[0])
 
     # -- writing (synth.database.build) ---------------------------------------------------
-    def _require_write(self) -> None:
+    def _require_write(self, migrate: bool = True) -> None:
+        """Refuse writes on a read-only handle; migrate an older schema before the first write."""
         if self.mode != "w":
             raise DatabaseError(f"{self.path}: opened read-only")
+        if migrate and self.schema_version < SCHEMA_VERSION:
+            migrate_schema(self._conn, self.path)
+            self.meta = check_schema(self._conn, self.path)
+            self.schema_version = schema_version(self.meta)
 
     def bind(self, params: dict[str, Any], planner: str) -> None:
         """Fix this database's parameters and planner, or check they match the stored ones.
@@ -329,10 +378,11 @@ class GraspDatabase:
         DatabaseError
             If the database was built with other parameters or another planner.
         """
-        self._require_write()
+        self._require_write(migrate=False)  # a refused build leaves an old file as it is
         text = canonical_json(params)
         stored = self.meta.get("params")
         if stored is None:
+            self._require_write()
             with self._conn:
                 self._conn.execute("BEGIN IMMEDIATE")
                 self._conn.executemany(
@@ -357,6 +407,7 @@ class GraspDatabase:
                 f"{self.path}: this database was built with planner {self.meta.get('planner')!r}, "
                 f"not {planner!r}; use the same planner to resume, or another --out file"
             )
+        self._require_write()  # the build goes on: migrate an older schema now
 
     @contextmanager
     def transaction(self) -> Iterator[sqlite3.Cursor]:
@@ -372,7 +423,7 @@ class GraspDatabase:
     def store_outcome(
         self, mesh_id: int, sha256: str | None, size: int | None, outcome: PlanOutcome
     ) -> None:
-        """Write one mesh's grasps and its final status in a single transaction."""
+        """Write one mesh's grasps, its final status and its loading report in one transaction."""
         self._require_write()
         cols = ", ".join(("mesh_id",) + PlanOutcome.GRASP_COLUMNS)
         marks = ", ".join("?" * (len(PlanOutcome.GRASP_COLUMNS) + 1))
@@ -387,13 +438,13 @@ class GraspDatabase:
                 self._conn.execute(
                     "UPDATE meshes SET sha256 = ?, size = ?, status = ?, error_kind = ?, "
                     "error = ?, duplicate_of = NULL, units = ?, length = ?, planner_params = ?, "
-                    "synth_version = ?, n_grasps = ?, plan_s = ?, worker_s = ?, finished_at = ? "
-                    "WHERE id = ?",
+                    "synth_version = ?, n_grasps = ?, plan_s = ?, worker_s = ?, finished_at = ?, "
+                    "mesh_report = ? WHERE id = ?",
                     (
                         sha256, size, "done" if outcome.ok else "failed", outcome.error_kind,
                         outcome.error, outcome.units, outcome.length, outcome.planner_params,
                         outcome.synth_version, len(outcome.rows), outcome.plan_s,
-                        outcome.worker_s, _now(), mesh_id,
+                        outcome.worker_s, _now(), outcome.report, mesh_id,
                     ),
                 )  # fmt: skip
         except sqlite3.Error as e:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
 import os
 import signal
 import threading
@@ -28,7 +29,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
-from synth.database.schema import pack_array
+from synth.database.schema import canonical_json, pack_array
 from synth.errors import InputError, MeshError, SynthError
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "load_planner",
     "plan_one",
     "run_one",
+    "mesh_report",
 ]
 
 PLANNER_ENV = "SYNTH_DB_PLANNER"
@@ -81,6 +83,10 @@ class PlanOutcome:
         Planner-reported time.
     worker_s : float
         Wall time of the task on the worker.
+    report : str or None
+        What loading did to the mesh, for ``meshes.mesh_report``: canonical JSON of the
+        document's ``mesh`` object without ``path`` and ``sha256`` (see :func:`mesh_report`);
+        None when the planner returned no document or no ``mesh`` object.
     """
 
     path: str
@@ -94,6 +100,7 @@ class PlanOutcome:
     rows: tuple[tuple[Any, ...], ...]
     plan_s: float | None
     worker_s: float
+    report: str | None = None
 
     GRASP_COLUMNS = _GRASP_COLUMNS
 
@@ -221,10 +228,58 @@ def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
     )
 
 
-def _failure(path: str, kind: str, error: str, start: float) -> PlanOutcome:
+def _failure(
+    path: str, kind: str, error: str, start: float, report: str | None = None
+) -> PlanOutcome:
     return PlanOutcome(
-        path, False, kind, error, None, None, None, None, (), None, time.perf_counter() - start
-    )
+        path, False, kind, error, None, None, None, None, (), None, time.perf_counter() - start,
+        report,
+    )  # fmt: skip
+
+
+def _json_ready(value: Any) -> Any:
+    """``value`` with only JSON types: numpy values as Python ones, non-finite floats as None."""
+    if isinstance(value, dict):
+        return {str(k): _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):  # numpy arrays, scalars
+        return _json_ready(value.tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    return str(value)
+
+
+def mesh_report(mesh: Any) -> str | None:
+    """The ``meshes.mesh_report`` text of a planner document's ``mesh`` object.
+
+    Canonical JSON (sorted keys, no spaces) of ``mesh`` without ``path`` and ``sha256``, which
+    the database keeps in columns of their own. Whatever else the planner put there is kept as
+    it is, made JSON-safe (numpy values as numbers and lists, NaN and infinities as null).
+
+    Parameters
+    ----------
+    mesh : dict or None
+        The document's ``mesh`` object.
+
+    Returns
+    -------
+    str or None
+        None if ``mesh`` is None.
+
+    Raises
+    ------
+    ValueError
+        If ``mesh`` is neither None nor a JSON object (a dict).
+    """
+    if mesh is None:
+        return None
+    if not isinstance(mesh, dict):
+        raise ValueError(f"'mesh' is a {type(mesh).__name__}, not an object")
+    report = {k: v for k, v in mesh.items() if k not in ("path", "sha256")}
+    return canonical_json(_json_ready(report))
 
 
 def run_one(
@@ -268,7 +323,9 @@ def run_one(
             raise ValueError(f"format version {doc.get('version')!r}, expected 1")
         grasps = doc["grasps"]
         rows = tuple(_pack_grasp(i + 1, g) for i, g in enumerate(grasps))
-        mesh = doc.get("mesh", {})
+        mesh = doc.get("mesh")
+        report = mesh_report(mesh)
+        mesh = mesh or {}
         timing = doc.get("timing", {})
         units = mesh.get("units")
         length = mesh.get("length")
@@ -287,15 +344,16 @@ def run_one(
             path, "time_cap",
             "the planner's time cap cut the search, so its result would depend on the "
             "machine's speed; raise 'time' or lower 'evals' and run with --retry-failed", start,
+            report,
         )
     if not rows:
         message = doc.get("message")
         reason = "no grasp found" + (f": {message}" if message else "")
         return PlanOutcome(
             path, False, "no_grasp", reason, outcome_meta[0], outcome_meta[1], outcome_meta[2],
-            outcome_meta[3], (), outcome_meta[4], time.perf_counter() - start,
+            outcome_meta[3], (), outcome_meta[4], time.perf_counter() - start, report,
         )  # fmt: skip
     return PlanOutcome(
         path, True, None, None, outcome_meta[0], outcome_meta[1], outcome_meta[2],
-        outcome_meta[3], rows, outcome_meta[4], time.perf_counter() - start,
+        outcome_meta[3], rows, outcome_meta[4], time.perf_counter() - start, report,
     )  # fmt: skip

@@ -62,6 +62,9 @@ __all__ = [
     "APPROACH_BLOCKED",
     "STATUS_NAMES",
     "DEGENERATE_AXIS_TOL",
+    "MAX_SINK_ANGLE",
+    "SINK_STEP",
+    "facet_sink",
     "FingerCheck",
     "FingerChecker",
     "checker_for",
@@ -72,6 +75,12 @@ __all__ = [
 #: Per-finger status codes of :attr:`FingerCheck.status`.
 OK, ABSENT, UNCHECKED = 0, -2, -1
 MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2, 3, 4, 5, 6
+#: Largest angle between a contact's normal and its facet's for which a fingertip may sink into
+#: the facet (see :func:`facet_sink`): half the default sharp-edge angle, 15 degrees, so about
+#: 3.4% of the tip radius at most.
+MAX_SINK_ANGLE: float = float(np.radians(15.0))
+#: Extra sinks are rounded down to multiples of this fraction of the tip radius.
+SINK_STEP: float = 2.5e-3
 #: A finger's summed outward normals shorter than this (the sum of unit vectors) count as
 #: cancelling out (a tip pinched between opposite faces); see ``_approach_axes``.
 DEGENERATE_AXIS_TOL: float = 1e-6
@@ -164,19 +173,22 @@ class FingerChecker:
         mesh = part_mesh(part)
         vertices = np.asarray(mesh.vertices, dtype=float)
         faces = np.asarray(mesh.faces, dtype=np.int64)
+        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        self.center: np.ndarray = (lo + hi) / 2.0
+        self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
+        # FCL works with absolute tolerances: give it the part centred and of unit size, so
+        # a part of 1 mm in metres or 1 km far from the origin is checked like one of 1 m
+        self._scale = self.radius if self.radius > 0 else 1.0
         try:
             bvh = fcl.BVHModel()
             bvh.beginModel(len(vertices), len(faces))
-            bvh.addSubModel(vertices, faces)
+            bvh.addSubModel((vertices - self.center) / self._scale, faces)
             bvh.endModel()
         except Exception as e:  # pragma: no cover - FCL rejects malformed arrays
             raise InputError(f"part: FCL could not build a BVH of the mesh: {e}") from e
         self.mesh = mesh
         self._bvh = bvh
         self._part = fcl.CollisionObject(bvh, fcl.Transform())
-        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-        self.center: np.ndarray = (lo + hi) / 2.0
-        self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
         self._objects: dict[tuple[str, float, float], Any] = {}
         self._request = fcl.CollisionRequest()
 
@@ -186,7 +198,8 @@ class FingerChecker:
         key = (kind, radius, length)
         obj = self._objects.get(key)
         if obj is None:
-            geom = fcl.Sphere(radius) if kind == "sphere" else fcl.Capsule(radius, length)
+            r, h = radius / self._scale, length / self._scale
+            geom = fcl.Sphere(r) if kind == "sphere" else fcl.Capsule(r, h)
             obj = fcl.CollisionObject(geom, fcl.Transform())
             self._objects[key] = obj
         return obj
@@ -194,17 +207,17 @@ class FingerChecker:
     def _hits(self, obj: Any, rotation: np.ndarray | None, translation: np.ndarray) -> bool:
         if rotation is not None:
             obj.setQuatRotation(rotation)
-        obj.setTranslation(translation)
+        obj.setTranslation((translation - self.center) / self._scale)
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
 
     def _penetration(self, center: np.ndarray, radius: float) -> float:
         """Largest depth by which the ball (center, radius) sinks into the surface (FCL)."""
         obj = self._object("sphere", radius)
-        obj.setTranslation(center)
+        obj.setTranslation((center - self.center) / self._scale)
         req = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=True)
         res = fcl.CollisionResult()
         fcl.collide(self._part, obj, req, res)
-        return max((abs(c.penetration_depth) for c in res.contacts), default=0.0)
+        return self._scale * max((abs(c.penetration_depth) for c in res.contacts), default=0.0)
 
     def sweep_length(self, fingers: Fingers) -> float:
         """Length of the approach sweep: from the tip centre to beyond the bounding sphere."""
@@ -219,8 +232,13 @@ class FingerChecker:
         normals: np.ndarray,
         fingers: Fingers,
         finger_ids: np.ndarray | None = None,
+        sink: np.ndarray | None = None,
     ) -> FingerCheck:
-        """Check B grasps; see :func:`check_fingers`."""
+        """Check B grasps; see :func:`check_fingers`.
+
+        ``sink`` (B, k) is an extra depth each contact's fingertip may sink into the part,
+        on top of ``penetration_tol`` (see :func:`facet_sink`); 0 by default.
+        """
         P, N, ids = _validate(points, normals, fingers, finger_ids)
         B, k, _ = P.shape
         r = float(fingers.tip_radius)
@@ -282,17 +300,22 @@ class FingerChecker:
                     what = "tip" if tip_below[b, j] else "approach"
                     fail(b, j, PLANE, f"finger {slot_name[b][j]} {what} crosses the support plane")
 
-        # 4-5. FCL: tip against part, then the approach sweep.
+        # 4-5. FCL: tip against part, then the approach sweep; a finger's extra sink (the
+        # largest of its contacts', rounded down to steps so few FCL objects are built)
+        extra = np.zeros((B, k)) if sink is None else np.floor(
+            np.einsum("bfj,bj->bfj", onehot, np.asarray(sink, float)).max(axis=2)
+            / (SINK_STEP * r)) * (SINK_STEP * r)
         approach = np.full((B, k, 3), np.nan)
-        sweep = self._object("capsule", r - tol, D)
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
         mid = centers[:, :, None, :] + 0.5 * D * dirs  # (B, k, m, 3)
-        tip = self._object("sphere", r - tol)
         present_l, usable_l = present.tolist(), usable.tolist()
         for b in np.flatnonzero(alive).tolist():
             for j in range(k):
                 if not present_l[b][j]:
                     continue
+                give = tol + float(extra[b, j])
+                sweep = self._object("capsule", r - give, D)
+                tip = self._object("sphere", r - give)
                 options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
                 for d in options:
@@ -302,7 +325,7 @@ class FingerChecker:
                     if not tip_checked:
                         tip_checked = True
                         if self._hits(tip, None, centers[b, j]):
-                            depth = self._penetration(centers[b, j], r - tol) + tol
+                            depth = self._penetration(centers[b, j], r - give) + give
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
                                  f"penetrates the part by {depth:.3g}")
                             break
@@ -487,7 +510,45 @@ def check_fingers(
     >>> check_fingers(box, pts, nrm, Fingers(tip_radius=0.1)).reasons[0]
     'fingers 0 and 1 overlap (tips 0.1 apart, less than 2 r = 0.2)'
     """
-    return checker_for(part).check(points, normals, fingers, finger_ids)
+    sink = facet_sink(part, points, normals, fingers.tip_radius) if hasattr(
+        part, "resolve") else None
+    return checker_for(part).check(points, normals, fingers, finger_ids, sink)
+
+
+def facet_sink(part: Any, points: np.ndarray, normals: np.ndarray, tip_radius: float
+               ) -> np.ndarray | None:
+    """How deep each fingertip may sink into the facet under its contact (B, k).
+
+    On a curved patch a contact's normal is interpolated across the facets of the mesh, so
+    a fingertip touching the contact along that normal overlaps the flat facet it lies on by
+    ``r (1 - cos a)``, ``a`` the angle between the two normals: the tessellation's own error,
+    not a collision (the curved surface the facets approximate is not entered). That depth is
+    allowed where ``a`` is at most ``MAX_SINK_ANGLE``; elsewhere (sharp edges, corners, planar
+    faces) none.
+
+    Parameters
+    ----------
+    part : synth.Part
+    points, normals : (B, k, 3) or (k, 3) float
+    tip_radius : float
+
+    Returns
+    -------
+    (B, k) float, or None when ``points`` cannot be read (the check reports that)
+    """
+    from synth.part.resolve import closest_points
+
+    try:
+        P = np.asarray(points, float)
+        N = np.asarray(normals, float)
+        P, N = (P[None], N[None]) if P.ndim == 2 else (P, N)
+        _, faces, _ = closest_points(part, P.reshape(-1, 3))
+    except (TypeError, ValueError, IndexError):
+        return None
+    inward = -np.asarray(part.mesh.face_normals, float)[faces].reshape(P.shape)
+    N = N / np.maximum(np.linalg.norm(N, axis=-1, keepdims=True), 1e-300)
+    cos = np.clip(np.einsum("bkx,bkx->bk", N, inward), -1.0, 1.0)
+    return np.where(cos >= np.cos(MAX_SINK_ANGLE), tip_radius * (1.0 - cos), 0.0)
 
 
 def finger_placement(

@@ -1,5 +1,13 @@
 """Candidate grasps: contact sets read from files or built by the planner."""
 
-from synth.grasps.candidates import Candidate, min_contacts, read_candidates
+from synth.grasps.candidates import (
+    Candidate,
+    CandidateGroup,
+    CandidateTable,
+    min_contacts,
+    read_candidate_table,
+    read_candidates,
+)
 
-__all__ = ["Candidate", "min_contacts", "read_candidates"]
+__all__ = ["Candidate", "CandidateGroup", "CandidateTable", "min_contacts",
+           "read_candidate_table", "read_candidates"]

@@ -10,6 +10,10 @@ JSON
 NPZ
     Arrays ``points`` and ``normals`` of shape (B, k, 3) (or (B, k, 2)), optionally ``names``
     (B,) and ``mu`` (scalar or (B,)).
+
+:func:`read_candidate_table` keeps going past malformed candidates (each is reported by
+position, name and field) and checks the others in vectorised batches;
+:func:`read_candidates` stops at the first malformed one.
 """
 
 from __future__ import annotations
@@ -24,8 +28,10 @@ from numpy.typing import NDArray
 
 from synth.errors import CandidateError, InputError
 from synth.scores.wrench import check_contacts
+from synth.tolerances import NORMAL_NORM_TOL
 
-__all__ = ["Candidate", "read_candidates", "min_contacts", "parse_candidate"]
+__all__ = ["Candidate", "CandidateGroup", "CandidateTable", "read_candidates",
+           "read_candidate_table", "min_contacts"]
 
 
 @dataclass(frozen=True)
@@ -61,44 +67,227 @@ def min_contacts(dim: int, mu: float) -> int:
     return 7 if dim == 3 else 4
 
 
-def parse_candidate(
-    obj: object, index: int, *, where: str, require_normals: bool = True
-) -> Candidate:
-    """Validate one candidate object read from JSON.
+@dataclass(frozen=True)
+class CandidateGroup:
+    """Valid candidates of one shape, as arrays.
 
-    With ``require_normals=False`` a missing ``normals`` field is allowed (the normals are then
-    resolved from a mesh, as ``synth rank`` does) and set to NaN.
+    Attributes
+    ----------
+    index : (b,) int
+        Positions of the candidates in the file.
+    points, normals : (b, k, d) float
+        Contacts and unit inward normals (NaN normals where the file gave none and none
+        were required).
     """
-    label = f"{where}: candidate {index}"
-    if not isinstance(obj, dict):
-        raise CandidateError(f"{label}: expected an object with 'points' and 'normals'")
-    name = str(obj.get("name", f"#{index}"))
-    label = f"{where}: candidate {index}" + (f" ({name})" if "name" in obj else "")
-    if not require_normals and "normals" not in obj and "points" in obj:
-        obj = dict(obj, normals=np.ones(np.shape(obj["points"])))
-        placeholder = True
-    else:
-        placeholder = False
-    for key in ("points", "normals"):
-        if key not in obj:
-            raise CandidateError(f"{label}: missing field '{key}'")
+
+    index: NDArray[np.int64] = field(repr=False)
+    points: NDArray[np.float64] = field(repr=False)
+    normals: NDArray[np.float64] = field(repr=False)
+
+
+@dataclass(frozen=True)
+class CandidateTable:
+    """Every candidate of a file: the valid ones as arrays grouped by shape, the malformed ones
+    as messages (a bad candidate does not stop the others).
+
+    Attributes
+    ----------
+    source : str
+        The file.
+    names : tuple of str
+        Name of every candidate, in file order (``"#i"`` when not given).
+    mu : (B,) float
+        Friction coefficient given with each candidate, NaN where none was.
+    groups : tuple of CandidateGroup
+    errors : tuple of (int, str)
+        Position and message of every malformed candidate, in file order.
+    """
+
+    source: str
+    names: tuple[str, ...]
+    mu: NDArray[np.float64] = field(repr=False)
+    groups: tuple[CandidateGroup, ...]
+    errors: tuple[tuple[int, str], ...]
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def candidates(self) -> list[Candidate]:
+        """The valid candidates, in file order."""
+        out: dict[int, Candidate] = {}
+        for g in self.groups:
+            for j, i in enumerate(g.index.tolist()):
+                mu = None if np.isnan(self.mu[i]) else float(self.mu[i])
+                out[i] = Candidate(self.names[i], g.points[j], g.normals[j], mu)
+        return [out[i] for i in sorted(out)]
+
+
+def _label(where: str, index: int, name: str | None) -> str:
+    return f"{where}: candidate {index}" + (f" ({name})" if name is not None else "")
+
+
+def _check_one(points: object, normals: object, label: str) -> tuple[np.ndarray, np.ndarray]:
+    """The per-candidate checks, raising CandidateError with the candidate's label."""
     try:
-        P = np.asarray(obj["points"], dtype=np.float64)
-        N = np.asarray(obj["normals"], dtype=np.float64)
-    except (TypeError, ValueError) as e:
+        P = np.asarray(points, dtype=np.float64)
+        N = np.asarray(normals, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as e:
         raise CandidateError(f"{label}: 'points' and 'normals' must be numeric k x 3 lists") from e
-    P, N = check_contacts(P, N, name=label)
-    if placeholder:
-        N = np.full_like(P, np.nan)
-    mu = obj.get("mu")
-    if mu is not None:
+    return check_contacts(P, N, name=label)
+
+
+def _mu_value(value: object, label: str) -> float:
+    try:
+        mu = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError) as e:
+        raise CandidateError(f"{label}: field 'mu' must be a number, got {value!r}") from e
+    if not np.isfinite(mu) or mu < 0:
+        raise CandidateError(f"{label}: field 'mu' must be finite and >= 0, got {mu}")
+    return mu
+
+
+def _uniform(points: object, normals: object) -> tuple[np.ndarray, np.ndarray] | None:
+    """Points and normals as (B, k, d) arrays when every candidate has one shape, else None."""
+    try:
+        P = np.asarray(points, dtype=np.float64)
+        N = np.asarray(normals, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    if P.ndim != 3 or P.shape != N.shape or P.shape[2] not in (2, 3) or P.shape[1] == 0:
+        return None
+    return P, N
+
+
+def _table(where: str, names: list[str], named: list[bool], points: object, normals: object,
+           mu: list[object], errors: dict[int, str]) -> CandidateTable:
+    """Validate candidates given as lists or (B, k, d) arrays (None marks an item already in
+    ``errors``).
+
+    Candidates of one shape are checked together as arrays; only those that fail are checked
+    one by one, for their message.
+    """
+    B = len(names)
+    mu_a = np.full(B, np.nan)
+    for i, m in enumerate(mu):
+        if m is not None and i not in errors:
+            try:
+                mu_a[i] = _mu_value(m, _label(where, i, names[i] if named[i] else None))
+            except CandidateError as e:
+                errors[i] = str(e)
+    shapes: dict[tuple[int, ...], list[int]] = {}
+    arrays: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    uniform = _uniform(points, normals) if not errors else None
+    if uniform is not None:  # every candidate of one shape: no per-candidate work
+        Pu, Nu = uniform
+        shapes[Pu.shape[1:]] = list(range(B))
+    for i in range(B) if uniform is None else ():
+        if i in errors:
+            continue
         try:
-            mu = float(mu)
-        except (TypeError, ValueError) as e:
-            raise CandidateError(f"{label}: field 'mu' must be a number, got {mu!r}") from e
-        if not np.isfinite(mu) or mu < 0:
-            raise CandidateError(f"{label}: field 'mu' must be finite and >= 0, got {mu}")
-    return Candidate(name, P, N, mu)
+            P = np.asarray(points[i], dtype=np.float64)
+            N = np.asarray(normals[i], dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            P = N = None  # type: ignore[assignment]
+        if P is None or N is None or P.shape != N.shape or P.ndim != 2 or P.shape[1] not in \
+                (2, 3) or P.shape[0] == 0:
+            try:
+                _check_one(points[i], normals[i], _label(where, i, names[i] if named[i] else None))
+            except CandidateError as e:
+                errors[i] = str(e)
+                continue
+        arrays[i] = (P, N)
+        shapes.setdefault(P.shape, []).append(i)
+    groups = []
+    for idx in shapes.values():
+        if uniform is not None:
+            P, N = uniform
+        else:
+            P = np.stack([arrays[i][0] for i in idx])
+            N = np.stack([arrays[i][1] for i in idx])
+        placeholder = np.isnan(N).all(axis=(1, 2))
+        length = np.linalg.norm(N, axis=2)
+        bad = ~(np.isfinite(P).all(axis=(1, 2)) & ((np.isfinite(N).all(axis=(1, 2)) &
+                                                    (length > NORMAL_NORM_TOL).all(axis=1))
+                                                   | placeholder))
+        for j in np.flatnonzero(bad):
+            i = idx[j]
+            try:
+                _check_one(P[j], N[j], _label(where, i, names[i] if named[i] else None))
+            except CandidateError as e:
+                errors[i] = str(e)
+        keep = ~bad
+        N = np.where(placeholder[:, None, None], N, N / np.where(length > 0, length, 1.0)[..., None])
+        groups.append(CandidateGroup(np.asarray(idx, np.int64)[keep], P[keep], N[keep]))
+    return CandidateTable(where, tuple(names), mu_a, tuple(g for g in groups if len(g.index)),
+                          tuple(sorted(errors.items())))
+
+
+def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> CandidateTable:
+    """Read every candidate of a JSON or NPZ file, keeping the malformed ones as messages.
+
+    Parameters
+    ----------
+    path : str or Path
+    require_normals : bool
+        When False, candidates may omit ``normals`` (JSON only); they come back as NaN.
+
+    Returns
+    -------
+    CandidateTable
+
+    Raises
+    ------
+    InputError
+        The file is missing or unreadable, or is not JSON / NPZ of the documented layout
+        (no candidate can be read at all).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such file")
+    where = str(p)
+    if p.suffix.lower() == ".npz":
+        return _read_npz(p)
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as e:
+        raise InputError(f"{p}: not a readable JSON file ({type(e).__name__}: "
+                         f"{str(e)[:200]})") from e
+    if isinstance(data, dict):
+        for key in ("candidates", "grasps"):
+            if key in data:
+                data = data[key]
+                break
+        else:
+            raise InputError(f"{p}: expected a list of candidates or a 'candidates' list")
+    if not isinstance(data, list):
+        raise InputError(f"{p}: expected a list of candidates")
+    if not data:
+        raise InputError(f"{p}: holds no candidates")
+    errors: dict[int, str] = {}
+    names, named, pts, nrm, mus = [], [], [], [], []
+    for i, obj in enumerate(data):
+        ok = isinstance(obj, dict)
+        has_name = ok and "name" in obj
+        # a synth plan file's grasps are known by their 1-based rank
+        names.append(str(obj["name"]) if has_name else
+                     f"#{obj['rank']}" if ok and isinstance(obj.get("rank"), int) else f"#{i}")
+        named.append(has_name)
+        label = _label(where, i, names[i] if has_name else None)
+        if not ok:
+            errors[i] = f"{label}: expected an object with 'points' and 'normals'"
+        elif "points" not in obj:
+            errors[i] = f"{label}: missing field 'points'"
+        elif "normals" not in obj and require_normals:
+            errors[i] = f"{label}: missing field 'normals'"
+        pts.append(obj.get("points") if ok else None)
+        nrm.append(obj.get("normals", None) if ok else None)
+        if ok and "normals" not in obj and "points" in obj and not require_normals:
+            try:
+                nrm[-1] = np.full(np.shape(obj["points"]), np.nan)
+            except (TypeError, ValueError):
+                nrm[-1] = None
+        mus.append(obj.get("mu") if ok else None)
+    return _table(where, names, named, pts, nrm, mus, errors)
 
 
 def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[Candidate]:
@@ -119,58 +308,45 @@ def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[C
     InputError
         The file is missing or unreadable, or is not JSON / NPZ of the documented layout.
     CandidateError
-        A candidate is malformed (its index, name and field are named).
+        A candidate is malformed (its index, name and field are named; the first one).
     """
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{p}: no such file")
-    if p.suffix.lower() == ".npz":
-        return _read_npz(p)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(f"{p}: not a readable JSON file ({e})") from e
-    if isinstance(data, dict):
-        for key in ("candidates", "grasps"):
-            if key in data:
-                data = data[key]
-                break
-        else:
-            raise InputError(f"{p}: expected a list of candidates or a 'candidates' list")
-    if not isinstance(data, list):
-        raise InputError(f"{p}: expected a list of candidates")
-    if not data:
-        raise InputError(f"{p}: holds no candidates")
-    return [
-        parse_candidate(obj, i, where=str(p), require_normals=require_normals)
-        for i, obj in enumerate(data)
-    ]
+    table = read_candidate_table(path, require_normals=require_normals)
+    if table.errors:
+        raise CandidateError(table.errors[0][1])
+    return table.candidates()
 
 
-def _read_npz(p: Path) -> list[Candidate]:
+def _read_npz(p: Path) -> CandidateTable:
     try:
         with np.load(p, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as e:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
         raise InputError(f"{p}: not a readable NPZ file ({e})") from e
     for key in ("points", "normals"):
         if key not in arrays:
             raise CandidateError(f"{p}: missing array '{key}'")
     P, N = arrays["points"], arrays["normals"]
-    if P.ndim != 3:
-        raise CandidateError(f"{p}: array 'points' must have shape (B, k, 3), got {P.shape}")
-    if N.shape != P.shape:
+    if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] == 0 or P.dtype.kind not in "iuf":
+        raise CandidateError(f"{p}: array 'points' must be numbers of shape (B, k, 3), got "
+                             f"{P.shape} {P.dtype}")
+    if N.shape != P.shape or N.dtype.kind not in "iuf":
         raise CandidateError(
             f"{p}: array 'normals' has shape {N.shape} but 'points' has {P.shape}"
         )
+    B = P.shape[0]
+    if B == 0:
+        raise InputError(f"{p}: holds no candidates")
     names = arrays.get("names")
     mu = arrays.get("mu")
-    out = []
-    for i in range(P.shape[0]):
-        obj: dict[str, object] = {"points": P[i], "normals": N[i]}
-        if names is not None:
-            obj["name"] = str(names[i])
-        if mu is not None:
-            obj["mu"] = float(mu if np.ndim(mu) == 0 else mu[i])
-        out.append(parse_candidate(obj, i, where=str(p)))
-    return out
+    if names is not None and names.shape != (B,):
+        raise CandidateError(f"{p}: array 'names' must have shape ({B},) like the candidates, "
+                             f"got {names.shape}")
+    if mu is not None and mu.shape not in ((), (B,)):
+        raise CandidateError(f"{p}: array 'mu' must be one number or shape ({B},), got "
+                             f"{mu.shape}")
+    named = names is not None
+    name_list = [str(x) for x in names] if named else [f"#{i}" for i in range(B)]
+    mu_list: list[object] = [None] * B if mu is None else (
+        [mu.item()] * B if mu.ndim == 0 else mu.tolist())
+    return _table(str(p), name_list, [named] * B, P.astype(np.float64), N.astype(np.float64),
+                  mu_list, {})

@@ -1,11 +1,14 @@
 """Exact closest points on a triangle mesh, vectorised (used by ``Part.resolve``).
 
-The point-triangle kernel is the one of ``trimesh.triangles.closest_point`` ("Real Time
-Collision Detection", ClosestPtPointTriangle), with the same arithmetic and branch order, so
-it returns the same points; it avoids trimesh's per-call overhead (Python ``any`` over the
-masks). The search certifies its answer with the bound ``dist(p, f) >= |p - c_f| - r``
-where ``c_f`` is the centroid of face ``f`` and ``r`` the largest centroid-to-corner distance
-of the mesh.
+The point-triangle kernel follows Ericson's ClosestPtPointTriangle ("Real-Time Collision
+Detection", 5.1.5) in the branch order of ``trimesh.triangles.closest_point``, vectorised,
+with one difference that matters on real meshes: trimesh compares the region tests against an
+absolute zero (1e-13, in squared length units), which on a part measured in metres, or on a
+thin triangle, sends points that lie inside the triangle to a vertex or an edge. Here every
+comparison is relative to the triangle's own size (``_ZERO_RTOL`` of its squared edge
+lengths), so the answer does not depend on the unit or on where the part sits. The search certifies its answer with the bound ``dist(p, f) >= |p - c| - r`` where ``c`` is a
+proxy point of face ``f`` (the centroid of a piece of it) and ``r`` the largest
+proxy-to-corner distance of the pieces.
 """
 
 from __future__ import annotations
@@ -16,11 +19,21 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshIndex", "closest_on_mesh", "closest_on_triangles", "plane_and_sides"]
+__all__ = ["MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
+           "closest_within", "plane_and_sides", "workers"]
 
-_ZERO = 1e-13  # trimesh.tol.zero
+#: Region tests of the kernel compare dot products (squared lengths) against this fraction of
+#: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
+_ZERO_RTOL = 1e-13
 _ONES = [1.0, 1.0, 1.0]
 _CHUNK = 1 << 15
+_THREADED = 20_000
+
+
+def workers(n: int) -> int:
+    """Threads for a tree query of ``n`` points: all cores for large queries, one for small
+    ones (starting threads costs more than a few thousand lookups)."""
+    return -1 if n >= _THREADED else 1
 
 
 def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -34,7 +47,7 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     Returns
     -------
     closest : (n, 3) float
-        Same values as ``trimesh.triangles.closest_point(triangles, points)``.
+        Exact up to round-off, at any scale and placement (see the module notes).
     """
     triangles = np.asarray(triangles, dtype=np.float64)
     points = np.asarray(points, dtype=np.float64)
@@ -44,9 +57,12 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     ab = b - a
     ac = c - a
     ap = points - a
+    # squared-length scale of each triangle: the region tests' zero is relative to it
+    z2 = _ZERO_RTOL * (np.dot(ab * ab, _ONES) + np.dot(ac * ac, _ONES))
+    z4 = z2 * (np.dot(ab * ab, _ONES) + np.dot(ac * ac, _ONES))
     d1 = np.dot(ab * ap, _ONES)
     d2 = np.dot(ac * ap, _ONES)
-    is_a = (d1 < _ZERO) & (d2 < _ZERO)
+    is_a = (d1 < z2) & (d2 < z2)
     if is_a.any():
         result[is_a] = a[is_a]
         remain[is_a] = False
@@ -62,12 +78,12 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     bp = points - b
     d3 = np.dot(ab * bp, _ONES)
     d4 = np.dot(ac * bp, _ONES)
-    is_b = (d3 > -_ZERO) & (d4 <= d3) & remain
+    is_b = (d3 > -z2) & (d4 <= d3) & remain
     if is_b.any():
         result[is_b] = b[is_b]
         remain[is_b] = False
     vc = (d1 * d4) - (d3 * d2)
-    is_ab = (vc < _ZERO) & (d1 > -_ZERO) & (d3 < _ZERO) & remain
+    is_ab = (vc < z4) & (d1 > -z2) & (d3 < z2) & remain
     if is_ab.any():
         v = (d1[is_ab] / (d1[is_ab] - d3[is_ab])).reshape((-1, 1))
         result[is_ab] = a[is_ab] + (v * ab[is_ab])
@@ -75,18 +91,18 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     cp = points - c
     d5 = np.dot(ab * cp, _ONES)
     d6 = np.dot(ac * cp, _ONES)
-    is_c = (d6 > -_ZERO) & (d5 <= d6) & remain
+    is_c = (d6 > -z2) & (d5 <= d6) & remain
     if is_c.any():
         result[is_c] = c[is_c]
         remain[is_c] = False
     vb = (d5 * d2) - (d1 * d6)
-    is_ac = (vb < _ZERO) & (d2 > -_ZERO) & (d6 < _ZERO) & remain
+    is_ac = (vb < z4) & (d2 > -z2) & (d6 < z2) & remain
     if is_ac.any():
         w = (d2[is_ac] / (d2[is_ac] - d6[is_ac])).reshape((-1, 1))
         result[is_ac] = a[is_ac] + w * ac[is_ac]
         remain[is_ac] = False
     va = (d3 * d6) - (d5 * d4)
-    is_bc = (va < _ZERO) & ((d4 - d3) > -_ZERO) & ((d5 - d6) > -_ZERO) & remain
+    is_bc = (va < z4) & ((d4 - d3) > -z2) & ((d5 - d6) > -z2) & remain
     if is_bc.any():
         d43 = d4[is_bc] - d3[is_bc]
         w = (d43 / (d43 + (d5[is_bc] - d6[is_bc]))).reshape((-1, 1))
@@ -107,9 +123,11 @@ class MeshIndex(NamedTuple):
     ----------
     triangles : (f, 3, 3) float
     tree : cKDTree
-        Tree of the triangle centroids.
+        Tree of the proxy points: the centroids of pieces of the faces, long faces cut by
+        repeated halving of their longest edge until each piece is about as small as a
+        typical face (a CAD sliver spanning the part is then found only near its pieces).
     radius : float
-        Upper bound of the distance from a centroid to its triangle's corners.
+        Upper bound of the distance from a proxy to the corners of its piece.
     plane_normals : (f, 3) float
         Unit face normals.
     plane_offsets : (f,) float
@@ -120,6 +138,13 @@ class MeshIndex(NamedTuple):
     unbounded : (f,) bool
         Faces whose normals do not match their winding (or are degenerate): no lower bound
         from planes and edges, always evaluated.
+    levels : tuple of (faces (m,) int, tree cKDTree, radius float)
+        The proxies grouped by size (radius within a factor 2 in each group): the face of
+        each, a tree of them and their largest radius.
+    proxy_face : (p,) int
+        Face of each proxy (the points of ``tree``).
+    centroids : (f, 3) float
+        Face centroids (ties between faces at one distance go to the nearer centroid).
     """
 
     triangles: np.ndarray
@@ -130,6 +155,72 @@ class MeshIndex(NamedTuple):
     edge_normals: np.ndarray
     edge_offsets: np.ndarray
     unbounded: np.ndarray
+    levels: tuple[tuple[np.ndarray, cKDTree, float], ...]
+    proxy_face: np.ndarray
+    centroids: np.ndarray
+
+
+def _pieces(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cut the faces into pieces no larger than about twice the median face: halve the
+    longest edge of every piece whose radius is above that, until none is (at most 24
+    rounds). Returns the pieces (p, 3, 3) and the face of each (p,)."""
+    def size(t: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(t - t.mean(axis=1, keepdims=True), axis=2).max(axis=1)
+
+    target = 2.0 * float(np.median(size(tri))) if len(tri) else 0.0
+    pieces, owner = tri, np.arange(len(tri))
+    for _ in range(24):
+        big = size(pieces) > target
+        if not big.any() or target <= 0:
+            break
+        t = pieces[big]
+        j = np.argmax(np.linalg.norm(t - np.roll(t, -1, axis=1), axis=2), axis=1)
+        rows = np.arange(len(t))
+        a, b, c = t[rows, j], t[rows, (j + 1) % 3], t[rows, (j + 2) % 3]
+        mid = (a + b) / 2
+        halves = np.concatenate([np.stack([a, mid, c], 1), np.stack([mid, b, c], 1)])
+        pieces = np.concatenate([pieces[~big], halves])
+        owner = np.concatenate([owner[~big], np.tile(owner[big], 2)])
+    return pieces, owner
+
+
+def build_index(triangles: np.ndarray, normals: np.ndarray) -> MeshIndex:
+    """The search structures of a triangle set.
+
+    Parameters
+    ----------
+    triangles : (f, 3, 3) float
+    normals : (f, 3) float
+        Unit face normals (any consistent sense). Faces whose normal disagrees with their
+        winding, or is degenerate, are marked ``unbounded``: always evaluated exactly.
+
+    Returns
+    -------
+    MeshIndex
+    """
+    tri = np.asarray(triangles, dtype=np.float64)
+    fn = np.asarray(normals, dtype=np.float64)
+    centroids = tri.mean(axis=1)
+    pieces, owner = _pieces(tri)
+    proxies = pieces.mean(axis=1)
+    piece_r = np.linalg.norm(pieces - proxies[:, None, :], axis=2).max(axis=1) * (1 + 1e-9)
+    radius = float(piece_r.max())
+    level = np.floor(np.log2(np.maximum(piece_r, radius * 2.0**-40) / radius)).astype(np.int64)
+    levels = []
+    for lv in np.unique(level):
+        ps = np.flatnonzero(level == lv)
+        levels.append((owner[ps], cKDTree(proxies[ps]), float(piece_r[ps].max())))
+    edge = np.roll(tri, -1, axis=1) - tri  # edges (0,1), (1,2), (2,0)
+    en = np.cross(fn[:, None, :], edge)  # in-plane, pointing into the triangle
+    en /= np.maximum(np.linalg.norm(en, axis=2, keepdims=True), 1e-300)
+    wind = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), fn)
+    index = MeshIndex(tri, cKDTree(proxies), radius, fn, np.einsum("ij,ij->i", fn, tri[:, 0]),
+                      en, np.einsum("ijk,ijk->ij", en, tri), ~(wind > 0), tuple(levels), owner,
+                      centroids)
+    for a in (tri, fn, index.plane_offsets, en, index.edge_offsets, index.unbounded, owner,
+              centroids):
+        a.flags.writeable = False
+    return index
 
 
 def plane_and_sides(index: MeshIndex, cand: np.ndarray, points: np.ndarray
@@ -232,12 +323,12 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact closest point of the mesh to each point.
 
-    The faces with the ``k`` nearest centroids are tried first; faces whose lower bound
-    (plane distance and in-plane distance past an edge) exceeds the exact distance of the
-    most promising one are skipped. When the best is farther than ``|p - c_k| - radius``
-    (``c_k``: the k-th nearest centroid), every face whose centroid lies within
-    ``best + radius`` is tried the same way, which includes every face at distance
-    ``<= best``.
+    The faces of the ``k`` nearest proxies are tried first; faces whose lower bound (plane
+    distance and in-plane distance past an edge) exceeds the exact distance of the most
+    promising one are skipped. When the best is farther than ``|p - c_k| - radius``
+    (``c_k``: the k-th nearest proxy), every face with a proxy of some size group within
+    ``best`` plus the group's largest radius is tried the same way, which includes every
+    face at distance ``<= best``.
 
     Parameters
     ----------
@@ -245,7 +336,8 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
     points : (n, 3) float
     k : int
     cand, dist_c : (n, k) int, (n, k) float, optional
-        The ``k`` nearest centroids' faces and distances, if already queried.
+        The faces of the ``k`` nearest proxies and the proxies' distances, if already
+        queried.
     h, side : (n, k) and (n, k, 3) float, optional
         :func:`plane_and_sides` of ``cand``, if already computed.
 
@@ -260,16 +352,17 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
     tri, tree, radius = index.triangles, index.tree, index.radius
     n = len(points)
     closest, face, dist = np.zeros((n, 3)), np.zeros(n, np.int64), np.zeros(n)
+    n_proxy = len(index.proxy_face)
     if cand is None or dist_c is None:
-        k = min(k, len(tri))
+        k = min(k, n_proxy)
     else:
         k = cand.shape[1]
     for s in range(0, n, _CHUNK):
         p = points[s:s + _CHUNK]
         m = len(p)
         if cand is None or dist_c is None:
-            dc, cd = tree.query(p, k=k, workers=-1)
-            dc, cd = dc.reshape(m, k), cd.reshape(m, k).astype(np.int64)
+            dc, cd = tree.query(p, k=k, workers=workers(len(p)))
+            dc, cd = dc.reshape(m, k), index.proxy_face[cd.reshape(m, k)]
             hh, ins = plane_and_sides(index, cd, p)
         else:
             dc, cd = dist_c[s:s + m], cand[s:s + m]
@@ -279,25 +372,82 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
                 hh, ins = h[s:s + m], side[s:s + m]
         c, f, d = _prune(index, p, np.repeat(np.arange(m), k), cd.ravel(), np.arange(m) * k,
                          _lower_bound(index, cd, hh, ins).ravel(), dc.ravel())
-        if k < len(tri):
+        if k < n_proxy:  # else every face was a candidate
             unsure = np.flatnonzero(d > dc[:, -1] - radius)
             if len(unsure):
-                pu = p[unsure]
-                balls = tree.query_ball_point(pu, d[unsure] + radius, workers=-1)
-                counts = np.fromiter(map(len, balls), np.int64, len(balls))
-                cand2 = np.fromiter(itertools.chain.from_iterable(balls), np.int64,
-                                    int(counts.sum()))
-                full = np.flatnonzero(counts > 0)  # (an empty ball: rounding; keep pass 1)
-                unsure, pu, counts = unsure[full], pu[full], counts[full]
-            if len(unsure):
-                owner = np.repeat(np.arange(len(full)), counts)
-                starts = np.r_[0, np.cumsum(counts)[:-1]]
+                rows, owner, cand2, starts = _near_faces(index, p[unsure], d[unsure])
+                unsure, pu = unsure[rows], p[unsure][rows]
+            if len(unsure):  # (no face within reach: rounding; keep pass 1)
                 h2, in2 = plane_and_sides(index, cand2[:, None], pu[owner])
                 lb2 = _lower_bound(index, cand2[:, None], h2, in2)[:, 0]
-                rank2 = np.linalg.norm(tree.data[cand2] - pu[owner], axis=1)
+                rank2 = np.linalg.norm(index.centroids[cand2] - pu[owner], axis=1)
                 c2, f2, d2 = _prune(index, pu, owner, cand2, starts, lb2, rank2)
                 better = d2 <= d[unsure]
                 unsure, c2, f2, d2 = unsure[better], c2[better], f2[better], d2[better]
                 c[unsure], f[unsure], d[unsure] = c2, f2, d2
         closest[s:s + m], face[s:s + m], dist[s:s + m] = c, f, d
     return closest, face, dist
+
+
+def closest_within(index: MeshIndex, points: np.ndarray, radius: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Exact closest point of the mesh for the points that have one within ``radius``.
+
+    Only faces with a proxy within ``radius`` plus the largest radius of its size group are
+    examined (they include every face that comes within ``radius``), so the cost does not
+    grow with the distance of far points nor with long slivers.
+
+    Parameters
+    ----------
+    index : MeshIndex
+    points : (n, 3) float
+    radius : float
+
+    Returns
+    -------
+    closest : (n, 3) float
+    faces : (n,) int
+    distance : (n,) float
+        Meaningful where ``found``.
+    found : (n,) bool
+        The mesh comes within ``radius`` of the point.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    n = len(points)
+    closest, face, dist = np.zeros((n, 3)), np.full(n, -1, np.int64), np.full(n, np.inf)
+    found = np.zeros(n, bool)
+    for s in range(0, n, _CHUNK):
+        p = points[s:s + _CHUNK]
+        rows, owner, cand, starts = _near_faces(index, p, np.full(len(p), radius))
+        if not len(rows):
+            continue
+        pr = p[rows]
+        h, side = plane_and_sides(index, cand[:, None], pr[owner])
+        lb = _lower_bound(index, cand[:, None], h, side)[:, 0]
+        rank = np.linalg.norm(index.centroids[cand] - pr[owner], axis=1)
+        c, f, d = _prune(index, pr, owner, cand, starts, lb, rank)
+        closest[s + rows], face[s + rows], dist[s + rows] = c, f, d
+        found[s + rows] = d <= radius
+    return closest, face, dist, found
+
+
+def _near_faces(index: MeshIndex, points: np.ndarray, reach: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every face that may come within ``reach`` (m,) of each point (m, 3).
+
+    Faces with a proxy of some size group within ``reach`` plus the group's largest radius
+    (a face may come more than once). Returns the points that have any (``rows``), and for them the candidates
+    ``cand`` (c,) grouped by point (``owner`` (c,) into ``rows``, ``starts`` of each group).
+    """
+    owners, cands = [], []
+    for faces, tree, r_level in index.levels:
+        balls = tree.query_ball_point(points, reach + r_level, workers=workers(len(points)))
+        counts = np.fromiter(map(len, balls), np.int64, len(balls))
+        owners.append(np.repeat(np.arange(len(points)), counts))
+        cands.append(faces[np.fromiter(itertools.chain.from_iterable(balls), np.int64,
+                                       int(counts.sum()))])
+    owner = np.concatenate(owners)
+    order = np.argsort(owner, kind="stable")
+    owner, cand = owner[order], np.concatenate(cands)[order]
+    rows, starts, counts = np.unique(owner, return_index=True, return_counts=True)
+    return rows, np.repeat(np.arange(len(rows)), counts), cand, starts

@@ -89,7 +89,9 @@ class Features:
         return np.flatnonzero((self.edge_kind == 1) | (self.edge_kind == 2))
 
 
-def compute_features(mesh: trimesh.Trimesh, sharp_angle: float) -> Features:
+def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
+                     face_source: np.ndarray | None = None, seam_angle: float = 0.0
+                     ) -> Features:
     """Classify the edges and vertices of ``mesh``.
 
     Parameters
@@ -98,6 +100,12 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float) -> Features:
         Welded, consistently wound mesh with outward normals.
     sharp_angle : float
         Dihedral threshold in radians.
+    face_source : (f,) int, optional
+        Which input body each face came from (bodies united on loading). An edge between
+        faces of two sources is a seam, a crease of the union, not a tessellated curve: it is
+        sharp whenever its faces differ by more than ``seam_angle``.
+    seam_angle : float
+        Radians; below it a seam is flat.
 
     Returns
     -------
@@ -132,6 +140,8 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float) -> Features:
     proj = np.einsum("ij,ij->i", normals[fa], verts[far] - verts[e2[:, 0]])
     kind = np.full(n_e, 3, np.int8)
     sharp = angle[two] > sharp_angle
+    if face_source is not None:
+        sharp |= (face_source[fa] != face_source[fb]) & (angle[two] > seam_angle)
     kind[two] = np.where(sharp, np.where(proj < 0, 1, 2), 0)
 
     length = np.linalg.norm(verts[edges[:, 1]] - verts[edges[:, 0]], axis=1)

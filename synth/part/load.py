@@ -2,14 +2,21 @@
 
 Repairs, each recorded in ``Part.repairs``: weld duplicated vertices (texture and normal
 seams included), drop degenerate and duplicate faces and unused vertices, make the winding
-consistent and the normals point outward, fill small holes, and if the mesh is still open
-try manifold3d's merge of nearly coincident open edges. A mesh that stays open is accepted
-with a warning in ``Part.warnings``. Files without a usable surface raise
-:class:`~synth.errors.MeshError` naming the file and the reason.
+consistent and the normals point outward, fill small holes, and if a body is still open try
+manifold3d's merge of nearly coincident open edges. A body that stays open (a single-sided
+surface, a scan with holes) is kept as a surface, with a warning in ``Part.warnings``. Files
+without a usable surface raise :class:`~synth.errors.MeshError` naming the file and the
+reason.
 
-Bodies: a file (or scene) with several bodies keeps the one with the largest volume (area
-for open bodies) by default; pass ``body=`` an index (in the order reported in the repair
-note), a geometry name, or ``"all"`` to merge them.
+Bodies: every connected piece of every mesh in the file is a body. Bodies that touch, nearly
+touch, overlap or nest form one rigid part (a convex decomposition is one part, not its
+largest piece); closed bodies that overlap are united (:mod:`synth.part.compound`). Objects
+far apart (a file holding several parts) are planned one at a time: ``body=`` chooses one by
+index or by the name of one of its bodies (default: the largest), or ``"all"`` keeps them
+together; each dropped object is listed in ``Part.dropped``.
+
+Tolerances follow the data: the length of the whole file and the precision of its
+coordinates (:func:`synth.part.tolerances.coordinate_precision`).
 """
 
 from __future__ import annotations
@@ -23,7 +30,10 @@ import trimesh
 
 from synth.errors import MeshError
 from synth.part import tolerances as tol
+from synth.part.bodies import body_labels
+from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
+from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_edges, orient, weld
 
 __all__ = ["SUPPORTED_FORMATS", "load_part"]
 
@@ -69,18 +79,28 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         except UnicodeDecodeError as e:
             raise _fail(name, f"not a text {ext.upper()} file (bytes are not UTF-8)") from e
     try:
-        loaded = trimesh.load(str(path), file_type=ext, process=False, force=None)
+        # OBJ: one body per object ("o"), never welded to another (collision meshes store
+        # their convex pieces as objects that share corner positions)
+        extra = {"split_objects": True, "group_material": False} if ext == "obj" else {}
+        loaded = trimesh.load(str(path), file_type=ext, process=False, force=None, **extra)
     except Exception as e:  # trimesh raises many kinds
         raise _fail(name, f"cannot be read as {ext.upper()} ({type(e).__name__}: {e})") from e
-    return _bodies(loaded, name), digest, getattr(loaded, "units", None)
+    # bodies in the order the file lists them (trimesh's OBJ reader reverses its objects)
+    listed = [line[2:].strip() for line in data.decode("utf-8", "replace").splitlines()
+              if line.startswith("o ")] if ext == "obj" else []
+    return _bodies(loaded, name, listed), digest, getattr(loaded, "units", None)
 
 
-def _bodies(loaded: object, name: str) -> list[tuple[str, trimesh.Trimesh]]:
+def _bodies(loaded: object, name: str, listed: list[str] | None = None
+            ) -> list[tuple[str, trimesh.Trimesh]]:
     if isinstance(loaded, trimesh.Trimesh):
         return [("mesh", loaded)]
     if isinstance(loaded, trimesh.Scene):
         out = []
-        for node in loaded.graph.nodes_geometry:
+        order = {g: i for i, g in enumerate(listed or loaded.geometry)}
+        nodes = sorted(loaded.graph.nodes_geometry,
+                       key=lambda n: (order.get(loaded.graph[n][1], len(order)), str(n)))
+        for node in nodes:
             transform, geom_name = loaded.graph[node]
             geom = loaded.geometry[geom_name]
             if isinstance(geom, trimesh.Trimesh) and len(geom.faces):
@@ -92,116 +112,156 @@ def _bodies(loaded: object, name: str) -> list[tuple[str, trimesh.Trimesh]]:
     raise _fail(name, f"holds no triangle mesh (found {type(loaded).__name__})")
 
 
-def _choose(bodies: list[tuple[str, trimesh.Trimesh]], body: int | str, name: str,
-            repairs: list[str]) -> trimesh.Trimesh:
-    if len(bodies) == 1 and body in ("largest", 0, "all", bodies[0][0]):
-        return bodies[0][1]
-    names = [b[0] for b in bodies]
-    if body == "all":
-        repairs.append(f"merged {len(bodies)} bodies {names} into one part")
-        return trimesh.util.concatenate([b[1] for b in bodies])
-    if body == "largest":
-        size = [abs(m.volume) if m.is_watertight else m.area for _, m in bodies]
-        k = int(np.argmax(size))
-        repairs.append(f"{len(bodies)} bodies {names}; kept body {k} {names[k]!r} "
-                       "(largest); pass body= an index, a name or 'all' to choose")
-        return bodies[k][1]
-    if isinstance(body, (int, np.integer)) and not isinstance(body, bool):
-        if not 0 <= body < len(bodies):
-            raise _fail(name, f"body={body} out of range: {len(bodies)} bodies {names}")
-        return bodies[int(body)][1]
-    if body in names:
-        return bodies[names.index(body)][1]
-    raise _fail(name, f"body={body!r} not found; bodies are {names}, or 'largest', 'all'")
+def _split(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
+    """Connected pieces: faces joined by shared edges, as ``Part`` counts its bodies."""
+    labels = body_labels(mesh)
+    if labels.max() == 0:
+        return [mesh]
+    return [mesh.submesh([np.flatnonzero(labels == i)], append=True, repair=False)
+            for i in range(int(labels.max()) + 1)]
 
 
-def _split_components(mesh: trimesh.Trimesh) -> list[tuple[str, trimesh.Trimesh]]:
-    parts = mesh.split(only_watertight=False)
-    if len(parts) <= 1:
-        return [("mesh", mesh)]
-    return [(f"component{i}", p) for i, p in enumerate(parts)]
+def _size(mesh: trimesh.Trimesh) -> float:
+    return abs(float(mesh.volume)) if mesh.is_watertight else float(mesh.area)
 
 
-def _clean(mesh: trimesh.Trimesh, name: str, repairs: list[str], warnings: list[str]
-           ) -> trimesh.Trimesh:
-    v = np.asarray(mesh.vertices, float)
-    f = np.asarray(mesh.faces, np.int64)
-    if len(f) == 0 or len(v) == 0:
+def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str], soup: bool
+            ) -> tuple[list[tuple[str, trimesh.Trimesh]], float, float]:
+    """Welded connected pieces of every raw mesh, the coordinates' precision and length.
+
+    ``soup``: the format stores every triangle's corners apart (STL), so welding them is not
+    a repair worth reporting.
+    """
+    verts = [np.asarray(m.vertices, float) for _, m in raw]
+    allv = np.concatenate(verts) if verts else np.zeros((0, 3))
+    if sum(len(m.faces) for _, m in raw) == 0 or len(allv) == 0:
         raise _fail(name, "no triangles")
-    if not np.isfinite(v).all():
-        bad = int((~np.isfinite(v).all(axis=1)).sum())
+    if not np.isfinite(allv).all():
+        bad = int((~np.isfinite(allv).all(axis=1)).sum())
         raise _fail(name, f"{bad} vertices have NaN or infinite coordinates")
-    mesh = trimesh.Trimesh(v, f, process=False, validate=False)
-    length = float(np.linalg.norm(np.ptp(v, axis=0)))
+    length = float(np.linalg.norm(np.ptp(allv, axis=0)))
     if length <= 0:
         raise _fail(name, "all vertices coincide")
-    n_v = len(mesh.vertices)
-    digits = max(0, int(np.ceil(-np.log10(tol.WELD_RTOL * length))))
-    mesh.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=digits)
-    if len(mesh.vertices) < n_v:
-        repairs.append(f"welded {n_v - len(mesh.vertices)} duplicated vertices")
-    n_f = len(mesh.faces)
-    keep = mesh.nondegenerate_faces(height=tol.DEGENERATE_RTOL * length)
-    if not keep.all():
-        mesh.update_faces(keep)
-        repairs.append(f"dropped {int((~keep).sum())} degenerate faces")
-    uniq = mesh.unique_faces()
-    if not uniq.all():
-        mesh.update_faces(uniq)
-        repairs.append(f"dropped {int((~uniq).sum())} duplicate faces")
-    mesh.remove_unreferenced_vertices()
-    if len(mesh.faces) < 4:
-        raise _fail(name, f"only {len(mesh.faces)} usable triangle(s) of {n_f}; "
-                    "a solid needs at least 4")
-    centred = mesh.vertices - mesh.vertices.mean(axis=0)
+    precision = tol.coordinate_precision(allv)
+    weld_tol = max(tol.WELD_RTOL * length, 2.0 * precision)
+    sliver = max(tol.DEGENERATE_RTOL * length, precision)
+    counts = {"welded": 0, "repaired": 0, "degenerate": 0, "duplicate": 0}
+    pieces: list[tuple[str, trimesh.Trimesh]] = []
+    n_f = 0
+    for gname, m in raw:
+        n_f += len(m.faces)
+        if len(m.faces) == 0:
+            continue
+        m, k = weld(m, weld_tol)
+        counts["welded"] += k
+        m, k, j, _ = fix_degenerate(m, sliver)
+        counts["repaired"] += k
+        counts["degenerate"] += j
+        m, k = drop_duplicate_faces(m)
+        counts["duplicate"] += k
+        if len(m.faces) == 0:
+            continue
+        comps = _split(m)
+        pieces.extend((gname if len(comps) == 1 else f"{gname}#{i}", c)
+                      for i, c in enumerate(comps))
+    if soup:
+        counts["welded"] = 0  # STL stores every corner of every triangle: welding is reading
+    for key, text in (("welded", "welded {} duplicated vertices"),
+                      ("repaired", "repaired {} sliver faces (edge flips, merged corners)"),
+                      ("degenerate", "dropped {} degenerate faces"),
+                      ("duplicate", "dropped {} duplicate faces")):
+        if counts[key]:
+            repairs.append(text.format(counts[key]))
+    kept = sum(len(c.faces) for _, c in pieces)
+    if kept < 4:
+        raise _fail(name, f"only {kept} usable triangle(s) of {n_f}; a solid needs at least 4")
+    v = np.concatenate([c.vertices for _, c in pieces])
+    centred = v - v.mean(axis=0)
     thickness = np.linalg.svd(centred, compute_uv=False)[-1] / np.sqrt(len(centred))
     if thickness < tol.FLAT_RTOL * length:
         raise _fail(name, "all vertices lie in one plane (a flat sheet, no volume)")
-    mesh = _orient(mesh, repairs)
-    if not mesh.is_watertight:
-        mesh = _close(mesh, name, repairs, warnings)
-    return mesh
+    return pieces, precision, length
 
 
-def _orient(mesh: trimesh.Trimesh, repairs: list[str]) -> trimesh.Trimesh:
-    before = np.sort(mesh.faces, axis=1), mesh.faces.copy()
-    trimesh.repair.fix_winding(mesh)
-    trimesh.repair.fix_inversion(mesh, multibody=True)
-    flipped = int((~(mesh.faces == before[1]).all(axis=1)).sum())
+def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str],
+                   warnings: list[str]) -> list[tuple[str, trimesh.Trimesh, bool]]:
+    """Orient every piece and close the open ones where possible."""
+    out = []
+    flipped = 0
+    closes: list[str] = []
+    still_open: list[tuple[str, int]] = []
+    for pname, m in pieces:
+        m, k = orient(m)
+        flipped += k
+        if not m.is_watertight and len(m.faces) >= 4:
+            m, what = close(m)
+            if what:
+                closes.append(what if len(pieces) == 1 else f"{what} ({pname})")
+        closed = bool(m.is_watertight and m.is_winding_consistent and m.volume > 0)
+        if not closed:
+            still_open.append((pname, open_edges(m)))
+        out.append((pname, m, closed))
     if flipped:
         repairs.append(f"re-oriented {flipped} faces (consistent winding, outward normals)")
-    return mesh
+    repairs.extend(closes)
+    if len(pieces) == 1 and still_open:
+        warnings.append(
+            f"{name}: mesh is not watertight ({still_open[0][1]} open edges); volume, centre of "
+            "mass and inside tests are unreliable, normals at the open boundary are guesses, "
+            "and closure scores assume a solid that is not there")
+    elif still_open:
+        shown = ", ".join(f"{p} ({e} open edges)" for p, e in still_open[:5])
+        more = f" and {len(still_open) - 5} more" if len(still_open) > 5 else ""
+        warnings.append(
+            f"{name}: {len(still_open)} of {len(pieces)} bodies are open surfaces, kept as "
+            f"surfaces that fingers touch and collide with but without an inside: {shown}{more}")
+    return out
 
 
-def _close(mesh: trimesh.Trimesh, name: str, repairs: list[str], warnings: list[str]
-           ) -> trimesh.Trimesh:
-    n_f = len(mesh.faces)
-    trimesh.repair.fill_holes(mesh)
-    if mesh.is_watertight:
-        repairs.append(f"filled holes with {len(mesh.faces) - n_f} faces")
-        return _orient(mesh, repairs)
-    try:
-        import manifold3d as mf
+def _choose(groups: list[list[int]], bodies: list[tuple[str, trimesh.Trimesh, bool]],
+            body: int | str, name: str) -> tuple[list[int], list[str], str | None]:
+    """The bodies of the object ``body`` names; lines for the dropped objects; a note."""
+    def label(g: list[int]) -> str:
+        names = [bodies[i][0] for i in g]
+        return names[0] if len(names) == 1 else f"{names[0]} and {len(names) - 1} more bodies"
 
-        m = mf.Mesh(vert_properties=np.asarray(mesh.vertices, np.float32),
-                    tri_verts=np.asarray(mesh.faces, np.uint32))
-        m.merge()
-        solid = mf.Manifold(m)
-        if solid.status() == mf.Error.NoError and not solid.is_empty():
-            out = solid.to_mesh()
-            closed = trimesh.Trimesh(np.asarray(out.vert_properties, float)[:, :3],
-                                     np.asarray(out.tri_verts, np.int64), process=True)
-            if closed.is_watertight and closed.volume > 0:
-                repairs.append("closed the mesh with manifold3d (merged open edges)")
-                return closed
-    except Exception:  # manifold3d refuses non-manifold input; fall through to warning
-        pass
-    warnings.append(
-        f"{name}: mesh is not watertight ({len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))} open edges); "
-        "volume, centre of mass and inside tests are unreliable, normals at the open "
-        "boundary are guesses, and closure scores assume a solid that is not there"
-    )
-    return mesh
+    def describe(k: int) -> str:
+        g = groups[k]
+        faces = sum(len(bodies[i][1].faces) for i in g)
+        return f"object {k} '{label(g)}' ({len(g)} bodies, {faces} faces)" if len(g) > 1 \
+            else f"object {k} '{label(g)}' ({faces} faces)"
+
+    n = len(groups)
+    if body == "all" or (n == 1 and body in ("largest", 0)):
+        return [i for g in groups for i in g], [], (
+            f"kept all {n} objects of the file as one part" if n > 1 else None)
+    if n == 1:
+        names = [bodies[i][0] for i in groups[0]]
+        if body in names or body == "object0":
+            return groups[0], [], None
+        raise _fail(name, f"body={body!r} not found: the file holds one object (bodies "
+                    f"{names[:8]}); use 'largest', 0 or 'all'")
+    if body == "largest":
+        closed_vol = [sum(_size(bodies[i][1]) for i in g if bodies[i][2]) for g in groups]
+        area = [sum(float(bodies[i][1].area) for i in g) for g in groups]
+        k = int(np.argmax(closed_vol)) if max(closed_vol) > 0 else int(np.argmax(area))
+        how = "largest"
+    elif isinstance(body, (int, np.integer)) and not isinstance(body, bool):
+        if not 0 <= int(body) < n:
+            raise _fail(name, f"body={body} out of range: the file holds {n} objects far "
+                        f"apart: {[describe(k) for k in range(n)]}")
+        k, how = int(body), "chosen"
+    else:
+        hits = [k for k, g in enumerate(groups)
+                if body == f"object{k}" or any(bodies[i][0] == body for i in g)]
+        if not hits:
+            raise _fail(name, f"body={body!r} not found; the file holds {n} objects far apart: "
+                        f"{[describe(k) for k in range(n)]}, or use 'largest' or 'all'")
+        k, how = hits[0], "chosen"
+    dropped = [f"dropped {describe(j)}: the file holds {n} objects far apart and synth plans "
+               f"one, {describe(k)} ({how}); choose another with --body (body=) an index, "
+               "a name or 'all'" for j in range(n) if j != k]
+    return groups[k], dropped, None
 
 
 def _valid_unit(unit: object) -> str | None:
@@ -228,11 +288,13 @@ def load_part(
     source : path or trimesh.Trimesh
         STL (ASCII or binary), OBJ, PLY, OFF, GLB/GLTF or 3MF file, or a mesh.
     units : str, optional
-        Length unit (trimesh unit name, e.g. ``"millimeters"``); default: the unit the
-        file declares, else unknown (recorded in ``Part.warnings``).
+        Length unit (trimesh unit name, e.g. ``"millimeters"``, or an abbreviation such as
+        ``"mm"``); default: the unit the file declares, else unknown (recorded in
+        ``Part.warnings``).
     body : int, str
-        Which body of a multi-body file: ``"largest"`` (default), ``"all"``, an index
-        or a name.
+        Which object of a file holding several objects far apart: ``"largest"`` (default),
+        ``"all"``, an index, or the name of one of its bodies. Bodies that touch, nearly
+        touch or overlap are always one object (one rigid part).
     sharp_angle : float
         Dihedral threshold in radians for sharp edges.
 
@@ -244,7 +306,7 @@ def load_part(
     ------
     MeshError
         Missing or unreadable file, no usable surface (empty, fewer than 4 triangles,
-        flat, NaN or infinite coordinates).
+        flat, NaN or infinite coordinates), an unknown unit or body.
 
     Examples
     --------
@@ -254,35 +316,41 @@ def load_part(
     warnings: list[str] = []
     if isinstance(source, trimesh.Trimesh):
         name, digest, path = "<trimesh.Trimesh>", None, None
-        bodies = [("mesh", source.copy())]
+        raw = [("mesh", source.copy())]
         declared = source.units
     elif isinstance(source, (str, os.PathLike)):
         p = Path(source)
         name, path = str(p), str(p)
-        bodies, digest, declared = _read(p)
+        raw, digest, declared = _read(p)
     else:
         raise MeshError(f"source: expected a path or trimesh.Trimesh, got {type(source).__name__}")
-    if len(bodies) == 1:
-        mesh = _clean(bodies[0][1], name, repairs, warnings)
-        components = _split_components(mesh)
-        if len(components) > 1:
-            mesh = _choose(components, body, name, repairs)
-            mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-            mesh.remove_unreferenced_vertices()
-        elif body not in ("largest", "all", 0, "mesh"):
-            raise _fail(name, f"body={body!r} not found: the file holds one body")
-    else:
-        mesh = _clean(_choose(bodies, body, name, repairs), name, repairs, warnings)
     unit = units if units is not None else _valid_unit(declared)
     if unit is not None:
         unit = UNIT_ALIASES.get(str(unit).strip().lower(), unit)
         try:
             trimesh.units.to_inch(unit)
         except Exception as e:
-            raise MeshError(f"{name}: unknown length unit {unit!r} "
-                            "(use a trimesh unit name such as 'millimeters')") from e
+            raise MeshError(f"{name}: unknown length unit {unit!r}; use mm, cm, dm, m, um, in, "
+                            "ft or a trimesh unit name such as 'millimeters'") from e
     else:
-        warnings.append("length unit unknown (pass units=...)")
+        warnings.append("length unit unknown: the file does not say it; give it with --units "
+                        "(Python: units=), e.g. mm, cm, m or in")
+    soup = path is not None and Path(path).suffix.lower() == ".stl"
+    pieces, precision, length = _pieces(raw, name, repairs, soup)
+    bodies = _repair_bodies(pieces, name, repairs, warnings)
+    groups = group_bodies([b[1] for b in bodies], [b[2] for b in bodies], tol.GROUP_GAP_RTOL)
+    chosen, dropped, note = _choose(groups, bodies, body, name)
+    if note:
+        repairs.append(note)
+    meshes, names, sources, notes = unite_overlapping([bodies[i][1] for i in chosen],
+                                             [bodies[i][0] for i in chosen],
+                                             [bodies[i][2] for i in chosen],
+                                             max(tol.DEGENERATE_RTOL * length, precision))
+    repairs.extend(notes)
+    mesh = meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    mesh = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
+                           process=False)
     mesh.units = unit
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,
-                warnings=warnings, source=path, sha256=digest)
+                warnings=warnings, source=path, sha256=digest, body_names=names,
+                dropped=dropped, precision=precision, face_source=np.concatenate(sources))

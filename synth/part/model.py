@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -11,6 +12,8 @@ from scipy.spatial import cKDTree
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
 from synth.part import tolerances as tol
+from synth.part.bodies import Body, Solids, body_labels, compute_bodies, face_sample_weights
+from synth.part.closest import build_index
 from synth.part.features import EDGE_KINDS, VERTEX_KINDS, Features, compute_features
 from synth.part.regions import Region, RegionSet, compute_regions
 
@@ -23,22 +26,49 @@ class Part:
     Build one with :func:`synth.load_part`; everything is computed in the constructor and
     the object is read-only afterwards (do not modify ``part.mesh`` in place).
 
+    A part may hold several bodies (the connected components of its mesh): the convex pieces
+    of a collision mesh, or closed bodies beside open pieces. They move as one rigid part:
+    the centre of mass is that of the closed bodies together, the characteristic length that
+    of the whole, fingers are checked against every body, and contacts lie only on the
+    *exposed* surface (:meth:`exposed`, :mod:`synth.part.bodies`).
+
     Attributes
     ----------
     mesh : trimesh.Trimesh
-        Welded, consistently wound mesh with outward face normals.
+        Welded, consistently wound mesh with outward face normals (all bodies).
     units : str or None
         Length unit (a trimesh unit name such as ``"millimeters"``), None if unknown.
     length : float
         Characteristic length: the diagonal of the axis-aligned bounding box, in ``units``.
         Used only to make tolerances and moment arms scale-free.
+    precision : float
+        Rounding error of the stored coordinates (:func:`~synth.part.tolerances.coordinate_precision`),
+        in ``units``; every length tolerance is at least a few times this.
     center_mass : (3,) float
+        Of the closed bodies together (uniform density); the area centroid when no body is
+        closed.
     volume : float
-        Meaningful only for a watertight mesh (see ``warnings``).
+        Sum of the closed bodies' volumes.
+    bodies : tuple of Body
+        The connected pieces, in the order of their first face.
+    face_body : (f,) int
+        Body of each face.
+    face_exposure : (f,) int8
+        2 where the whole face is exposed, 1 where only part of it is, 0 where none of it is
+        (sampled at 10 points per face; on a part of one body every face is 2).
     repairs : tuple of str
-        What the loader changed.
+        What the loader changed, including bodies united into one.
     warnings : tuple of str
         What the loader could not fix and what it means for the results.
+    dropped : tuple of str
+        Bodies of the file that are not part of this part (a file holding several objects
+        far apart), one line each.
+
+    Parameters
+    ----------
+    face_source : (f,) int, optional
+        For bodies united on loading, which input body each face came from: the seams
+        between them are creases (sharp edges), never smoothed over.
     source : str or None
         File the part came from.
     sha256 : str or None
@@ -63,6 +93,10 @@ class Part:
         warnings: tuple[str, ...] | list[str] = (),
         source: str | None = None,
         sha256: str | None = None,
+        body_names: tuple[str, ...] | list[str] | None = None,
+        dropped: tuple[str, ...] | list[str] = (),
+        precision: float | None = None,
+        face_source: np.ndarray | None = None,
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
@@ -73,38 +107,60 @@ class Part:
         self.units = units
         self.repairs = tuple(repairs)
         self.warnings = tuple(warnings)
+        self.dropped = tuple(dropped)
         self.source = source
         self.sha256 = sha256
         self.length = float(np.linalg.norm(mesh.extents))
-        self.volume = float(mesh.volume)
-        self.center_mass = np.asarray(
-            mesh.center_mass if mesh.is_watertight else mesh.centroid, float
-        )
+        self.precision = float(tol.coordinate_precision(mesh.vertices) if precision is None
+                               else precision)
+        labels = body_labels(mesh)
+        labels.flags.writeable = False
+        self.face_body: np.ndarray = labels
+        bodies = compute_bodies(mesh, labels, body_names)
+        closed = [b for b in bodies if b.closed]
+        self.volume = float(sum(b.volume for b in closed))
+        if closed:
+            weights = np.array([b.volume for b in closed])
+            self.center_mass = weights @ np.array([b.center for b in closed]) / weights.sum()
+        else:
+            self.center_mass = np.asarray(mesh.centroid, float)
         self.center_mass.flags.writeable = False
-        self.features: Features = compute_features(mesh, sharp_angle)
+        src = None if face_source is None else np.asarray(face_source, np.int64)
+        if src is not None and src.shape != (len(mesh.faces),):
+            raise InputError(f"face_source: expected shape ({len(mesh.faces)},), got {src.shape}")
+        self.features: Features = compute_features(mesh, sharp_angle, src, tol.COPLANAR_ANGLE)
         self._regions: RegionSet = compute_regions(
-            mesh, self.features, tol.COPLANAR_ANGLE, tol.PATCH_HALF_ANGLE
+            mesh, self.features, tol.COPLANAR_ANGLE, tol.PATCH_HALF_ANGLE, self.precision
         )
         self.regions: tuple[Region, ...] = self._regions.regions
         self.face_region: np.ndarray = self._regions.face_region
         tri = np.asarray(mesh.triangles, float)
         tri.flags.writeable = False
         self._triangles = tri
-        centroids = tri.mean(axis=1)
-        self._centroid_tree = cKDTree(centroids)
-        self._face_radius_max = float(
-            np.linalg.norm(tri - centroids[:, None, :], axis=2).max() * (1 + 1e-9)
-        )
-        fn = np.asarray(mesh.face_normals, float)
-        self._plane_normals = fn
-        self._plane_offsets = np.einsum("ij,ij->i", fn, tri[:, 0])
-        edge = np.roll(tri, -1, axis=1) - tri  # edges (0,1), (1,2), (2,0)
-        en = np.cross(fn[:, None, :], edge)  # in-plane, pointing into the triangle
-        en /= np.maximum(np.linalg.norm(en, axis=2, keepdims=True), 1e-300)
-        self._edge_normals = en
-        self._edge_offsets = np.einsum("ijk,ijk->ij", en, tri)
+        self._index = build_index(tri, np.asarray(mesh.face_normals, float))
         self._vertex_cone = self._build_vertex_cone()
+        needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
+        self._solids = Solids(mesh, bodies) if needs else None
+        self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
+
+    def _exposure(self, bodies: list[Body]) -> tuple[np.ndarray, tuple[Body, ...]]:
+        """Face exposure codes (f,) and the bodies with their exposed areas."""
+        n_f = len(self.mesh.faces)
+        exposure = np.full(n_f, 2, np.int8)
+        frac = np.ones(n_f)
+        if len(bodies) > 1 and self._solids is not None and self._solids.bodies:
+            w = face_sample_weights()
+            pts = np.einsum("sk,fkx->fsx", w, self._triangles).reshape(-1, 3)
+            faces = np.repeat(np.arange(n_f), len(w))
+            inward = -np.asarray(self.mesh.face_normals, float)[faces]
+            ok = self._exposed(pts, inward).reshape(n_f, len(w))
+            frac = ok.mean(axis=1)
+            exposure = np.where(ok.all(axis=1), 2, np.where(ok.any(axis=1), 1, 0)).astype(np.int8)
+        exposure.flags.writeable = False
+        area = np.asarray(self.mesh.area_faces, float) * frac
+        return exposure, tuple(replace(b, exposed_area=float(area[b.faces].sum()))
+                               for b in bodies)
 
     def __setattr__(self, name: str, value: Any) -> None:
         if self._frozen:
@@ -122,17 +178,48 @@ class Part:
     @property
     def feature_tolerance(self) -> float:
         """Distance within which a point is on an edge or vertex, in ``units``."""
-        return tol.FEATURE_RTOL * self.length
+        return max(tol.FEATURE_RTOL * self.length, tol.PRECISION_FACTOR * self.precision)
 
     @property
     def surface_tolerance(self) -> float:
         """Distance within which ``resolve`` accepts a point as on the surface."""
-        return tol.ON_SURFACE_RTOL * self.length
+        return max(tol.ON_SURFACE_RTOL * self.length, tol.PRECISION_FACTOR * self.precision)
 
     @property
     def watertight(self) -> bool:
-        """True when the mesh is a closed manifold (volume and inside tests are valid)."""
-        return bool(self.mesh.is_watertight)
+        """True when every body is closed (volume and inside tests are valid)."""
+        return all(b.closed for b in self.bodies)
+
+    # exposure -------------------------------------------------------------------------
+    def exposed(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Which surface points a fingertip can touch (see :mod:`synth.part.bodies`).
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Points on the surface.
+        normals : (n, 3) float
+            Inward normals (normalised here); for contacts that share a fingertip (a groove,
+            an inside corner), the sum of their normals, so the step goes towards the
+            fingertip.
+
+        Returns
+        -------
+        exposed : (n,) bool
+            All True on a part of one convex body.
+        """
+        pts = np.asarray(points, float).reshape(-1, 3)
+        nrm = np.asarray(normals, float).reshape(-1, 3)
+        nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        return self._exposed(pts, nrm)
+
+    def _exposed(self, pts: np.ndarray, inward: np.ndarray) -> np.ndarray:
+        if self._solids is None:
+            return np.ones(len(pts), bool)
+        step = tol.EXPOSURE_STEP_RTOL * self.length
+        margin = max(tol.EXPOSURE_MARGIN_RTOL * self.length,
+                     tol.PRECISION_FACTOR * self.precision)
+        return ~self._solids.hidden(pts - step * inward, margin, 2.0 * step + margin)
 
     # features -------------------------------------------------------------------------
     def _build_vertex_cone(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -104,6 +104,7 @@ def compute_regions(
     features: Features,
     coplanar_angle: float,
     patch_half_angle: float,
+    precision: float = 0.0,
 ) -> RegionSet:
     """Split the faces of ``mesh`` into planar facets and smooth patches.
 
@@ -114,6 +115,11 @@ def compute_regions(
         Edge classification of ``mesh``.
     coplanar_angle, patch_half_angle : float
         Radians; see :mod:`synth.part.tolerances`.
+    precision : float
+        Rounding error of the vertex coordinates (length). Two faces count as coplanar when
+        their normals differ by less than ``coplanar_angle`` plus the normal error that this
+        rounding causes on the smaller of them (``2 precision / smallest height``), at most
+        a quarter of the sharp-edge angle.
 
     Returns
     -------
@@ -128,7 +134,13 @@ def compute_regions(
     ang_in, kind_in = angle[inner], kind[inner]
 
     # 1. coplanar components and which of them are planar facets
-    cop = ang_in < coplanar_angle
+    tol = np.full(len(fa), coplanar_angle)
+    if precision > 0:
+        edge_len = np.asarray(mesh.edges_unique_length, float)[np.asarray(mesh.faces_unique_edges)]
+        height = 2.0 * areas / np.maximum(edge_len.max(axis=1), 1e-300)
+        tol += 2.0 * precision / np.maximum(np.minimum(height[fa], height[fb]), 1e-300)
+        tol = np.minimum(tol, max(coplanar_angle, 0.25 * features.sharp_angle))  # slivers
+    cop = ang_in < tol
     lab_cp = _components(n_f, fa[cop], fb[cop])
     n_cp = lab_cp.max() + 1
     length = features.edge_length

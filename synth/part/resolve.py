@@ -28,7 +28,13 @@ import trimesh
 
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
-from synth.part.closest import MeshIndex, closest_on_mesh, closest_on_triangles, plane_and_sides
+from synth.part.closest import (
+    MeshIndex,
+    closest_on_mesh,
+    closest_on_triangles,
+    plane_and_sides,
+    workers,
+)
 
 if TYPE_CHECKING:
     from synth.part.model import Part
@@ -39,24 +45,16 @@ _K_FAST = 8
 
 
 def mesh_index(part: Part) -> MeshIndex:
-    """The part's closest-point search structures (see :class:`MeshIndex`).
-
-    Faces whose stored normal disagrees with their winding (or is degenerate) are marked
-    ``unbounded``: the search always evaluates them exactly.
-    """
-    tri = part._triangles
-    pn = part._plane_normals
-    wind = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), pn)
-    return MeshIndex(tri, part._centroid_tree, part._face_radius_max, pn, part._plane_offsets,
-                     part._edge_normals, part._edge_offsets, ~(wind > 0))
+    """The part's closest-point search structures (see :class:`MeshIndex`)."""
+    return part._index
 
 
 def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest surface point, its face and distance for each query point (exact).
 
-    A point within ``surface_tolerance`` of one of the faces with the 8 nearest centroids
-    (inside it by ``feature_tolerance``; the first such face in centroid order) is taken as
-    on that face. Otherwise the exact search :func:`synth.part.closest.closest_on_mesh` runs
+    A point within ``surface_tolerance`` of the plane of one of the faces with the 8 nearest
+    centroids, whose projection lies inside that face (the first such face in centroid
+    order), is taken as on that face: the projection, on the face. Otherwise the exact search :func:`synth.part.closest.closest_on_mesh` runs
     on those 8 faces, widened to every face that could be closer when the bound
     ``|p - c_f| - r`` cannot certify the answer.
 
@@ -76,14 +74,14 @@ def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     closest = np.array(points, dtype=float)
     face = np.full(n, -1, np.int64)
     dist = np.zeros(n)
-    k1 = min(_K_FAST, len(part._triangles))
-    dist_c, cand = part._centroid_tree.query(points, k=k1, workers=-1)
-    dist_c, cand = dist_c.reshape(n, k1), cand.reshape(n, k1).astype(np.int64)
-    ftol, stol = part.feature_tolerance, part.surface_tolerance
+    k1 = min(_K_FAST, len(index.proxy_face))
+    dist_c, cand = index.tree.query(points, k=k1, workers=workers(n))
+    dist_c, cand = dist_c.reshape(n, k1), index.proxy_face[cand.reshape(n, k1)]
+    stol = part.surface_tolerance
 
     def on_face(rows: np.ndarray, cols: slice) -> tuple[np.ndarray, ...]:
         h, side = plane_and_sides(index, cand[rows, cols], points[rows])
-        ok = (side >= -ftol).all(axis=2) & (np.abs(h) <= stol)
+        ok = (side >= 0).all(axis=2) & (np.abs(h) <= stol)
         return h, side, ok
 
     # fast pass: points already on the surface (within surface_tolerance) of a nearby

@@ -25,10 +25,32 @@ ON_SURFACE_RTOL
 WELD_RTOL
     Vertices closer than about ``WELD_RTOL * length`` are welded (rounding to decimals).
 DEGENERATE_RTOL
-    Faces whose smallest height is below ``DEGENERATE_RTOL * length`` are dropped.
+    Faces whose smallest height is below ``DEGENERATE_RTOL * length``, or below the
+    coordinates' precision (their normal is then noise), are slivers: repaired by an edge
+    flip or a merge of two corners (:mod:`synth.part.repair`), dropped only where that fails.
 FLAT_RTOL
     A mesh whose vertex cloud has a third principal extent below ``FLAT_RTOL * length``
-    is a flat sheet and is refused.
+    is a flat sheet and is refused (as a piece of a part with several bodies it is kept as an
+    open surface).
+EXPOSURE_STEP_RTOL
+    A surface point is exposed when a step of ``EXPOSURE_STEP_RTOL * length`` outward along
+    its normal lands outside every other closed body (see :mod:`synth.part.bodies`). 2e-3
+    covers the gaps between the pieces of convex decompositions (1e-5 to 1e-3 of the size):
+    a face across such a gap from another piece is hidden.
+EXPOSURE_MARGIN_RTOL
+    ... by at least ``EXPOSURE_MARGIN_RTOL * length``, so that a check of its own agrees.
+GROUP_GAP_RTOL
+    Two bodies of a file belong to one part when the gap between them is at most this
+    fraction of the file's bounding-box diagonal; bodies farther apart are separate objects
+    (a file holding several parts), of which one is planned. Convex decompositions leave gaps
+    of 1e-5 to 1e-3 of the size, and up to 2% where the decomposition drops a thin neck
+    (measured on pybullet's random objects); 5% keeps those whole.
+PRECISION_FACTOR
+    Coordinates carry a rounding error of their own (``coordinate_precision``): float32
+    files (every binary STL) hold about 7 significant digits of the coordinate, so a part far
+    from its origin is known far less precisely than its size suggests. Every length
+    tolerance is at least ``PRECISION_FACTOR`` times that error, and the coplanarity test
+    widens by the normal error it causes on small faces.
 """
 
 from __future__ import annotations
@@ -44,6 +66,11 @@ __all__ = [
     "WELD_RTOL",
     "DEGENERATE_RTOL",
     "FLAT_RTOL",
+    "EXPOSURE_STEP_RTOL",
+    "EXPOSURE_MARGIN_RTOL",
+    "GROUP_GAP_RTOL",
+    "PRECISION_FACTOR",
+    "coordinate_precision",
 ]
 
 SHARP_ANGLE: float = float(np.radians(30.0))
@@ -54,3 +81,48 @@ ON_SURFACE_RTOL: float = 1e-6
 WELD_RTOL: float = 1e-9
 DEGENERATE_RTOL: float = 1e-9
 FLAT_RTOL: float = 1e-6
+EXPOSURE_STEP_RTOL: float = 2e-3
+EXPOSURE_MARGIN_RTOL: float = 1e-5
+GROUP_GAP_RTOL: float = 5e-2
+PRECISION_FACTOR: float = 4.0
+
+_F32_RELATIVE = 2.0**-24  # half a float32 ulp, relative
+_F64_RELATIVE = 2.0**-53
+
+
+def coordinate_precision(vertices: np.ndarray) -> float:
+    """Rounding error of a mesh's stored coordinates, in its units.
+
+    Half an ulp of the largest coordinate in the precision the file stored: float32 when
+    every value is exactly a float32 (binary STL, float32 PLY), else float64; or, for text
+    files written with a fixed number of decimals (4 to 8), half the last decimal when that
+    is larger.
+
+    Parameters
+    ----------
+    vertices : (v, 3) float
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> coordinate_precision(np.array([[1000.0, 0.0, 0.0]], np.float32).astype(float))
+    5.9604644775390625e-05
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.size == 0:
+        return 0.0
+    top = float(np.abs(v).max())
+    f32 = bool(np.all(v.astype(np.float32).astype(np.float64) == v))
+    err = top * (_F32_RELATIVE if f32 else _F64_RELATIVE)
+    sample = v.ravel()[:: max(1, v.size // 4096)]
+    frac = sample[sample != np.round(sample)]
+    # text written with a fixed number of decimals (4 to 8): half the last decimal
+    for digits in range(4, 9) if len(frac) else ():
+        scaled = frac * 10.0**digits
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-3):
+            err = max(err, 0.5 * 10.0**-digits)
+            break
+    return err

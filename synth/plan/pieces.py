@@ -62,11 +62,13 @@ def convex_piece(part, face: int, margin: float) -> PlanarPiece | None:
     """Grow a convex piece of ``face``'s planar region around it; None if nothing is left.
 
     Neighbouring faces of the same region are added while the union stays convex (its convex
-    hull has the union's area); the polygon is then shrunk by ``margin``.
+    hull has the union's area); the polygon is then shrunk by ``margin``. Only faces sampled
+    as wholly exposed (``part.face_exposure == 2``) are used; positions found on a piece are
+    still checked point by point.
     """
     region = int(part.face_region[face])
     reg = part.regions[region]
-    if not reg.planar:
+    if not reg.planar or part.face_exposure[face] != 2:
         return None
     mesh = part.mesh
     n_in = np.asarray(reg.normal, dtype=np.float64)
@@ -81,7 +83,7 @@ def convex_piece(part, face: int, margin: float) -> PlanarPiece | None:
         d = pts - origin
         return np.stack([d @ u, d @ v], axis=-1)
 
-    in_region = part.face_region == region
+    in_region = (part.face_region == region) & (part.face_exposure == 2)
     neighbours = _face_neighbours(part)
     chosen = [face]
     area = float(mesh.area_faces[face])
@@ -175,7 +177,9 @@ def best_positions(
         cost, A_ub=np.array(rows_ub), b_ub=np.array(b_ub), A_eq=A_eq, b_eq=np.zeros(6),
         bounds=[(0, 1)] * k + [(None, None)] * (2 * k) + [(0, 1)], method="highs",
     )
-    if res.status != 0 or res.x[-1] <= 1e-9:
+    # c_i >= d; below 1e-6 the positions q_i / c_i are round-off (HiGHS's feasibility
+    # tolerance is 1e-7)
+    if res.status != 0 or res.x[-1] <= 1e-6 or res.x[:k].min() <= 1e-7:
         return None
     c = res.x[:k]
     xy = np.stack([res.x[k : 2 * k] / c, res.x[2 * k : 3 * k] / c], axis=1)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from synth.files import atomic_path, write_atomic
 from synth.plan.result import Plan
 
 __all__ = ["render_png", "export_glb"]
@@ -87,8 +88,11 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
     fig.suptitle(f"synth: {name}", fontsize=11)
     fig.tight_layout()
     out = Path(path)
-    fig.savefig(out)
-    plt.close(fig)
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp)
+    finally:
+        plt.close(fig)
     return out
 
 
@@ -140,6 +144,5 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
                                               segment=[p, p + 0.1 * part.length * n])
             arrow.visual.face_colors = [20, 20, 20, 255]
             scene.add_geometry(arrow, geom_name=f"normal_{i}")
-    out = Path(path)
-    out.write_bytes(scene.export(file_type="glb"))
+    out = write_atomic(path, scene.export(file_type="glb"))
     return out

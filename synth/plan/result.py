@@ -5,11 +5,15 @@ File format
 A JSON object::
 
     {"format": "synth.grasps", "version": 1, "synth_version": "0.1.0",
-     "mesh": {"path", "sha256", "units", "length"},
+     "mesh": {"path", "sha256", "units", "length", "precision", "center_mass", "volume",
+              "bodies": [{"name", "faces", "closed", "convex", "volume", "area",
+                          "exposed_area"}], "repairs": [str], "warnings": [str],
+              "dropped": [str]},
      "params": {...every PlanParams field...},
      "fingers": {tip_radius, body_length, body_radius, approach_cone, ...},
      "grasps": [  # best first
-        {"points": k x 3, "normals": k x 3 (unit, into the part), "features": [str] * k,
+        {"rank": 1-based, "points": k x 3, "normals": k x 3 (unit, into the part),
+         "features": [str] * k,
          "regions": [int] * k, "d_star": float, "closure": str, "conditioning": float,
          "epsilon": float,
          "fingers": {"tip_centers": f x 3, "tip_radius", "approach": f x 3 (unit, away from
@@ -27,10 +31,33 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part"]
 
 FORMAT = "synth.grasps"
 FORMAT_VERSION = 1
+
+
+def describe_part(part: Any) -> dict[str, Any]:
+    """The ``mesh`` object of a grasp file: where the part came from and what was done to it.
+
+    Keys: ``path``, ``sha256``, ``units``, ``length`` (bounding-box diagonal), ``precision``
+    (rounding error of the coordinates), ``center_mass``, ``volume``, ``bodies`` (one
+    summary per body: name, faces, closed, convex, volume, area, exposed_area), ``repairs``,
+    ``warnings`` and ``dropped`` (bodies of the file left out, one line each).
+    """
+    return {
+        "path": part.source,
+        "sha256": part.sha256,
+        "units": part.units,
+        "length": float(part.length),
+        "precision": float(part.precision),
+        "center_mass": np.asarray(part.center_mass, float).tolist(),
+        "volume": float(part.volume),
+        "bodies": [b.to_dict() for b in part.bodies],
+        "repairs": list(part.repairs),
+        "warnings": list(part.warnings),
+        "dropped": list(part.dropped),
+    }
 
 
 @dataclass(frozen=True)
@@ -129,7 +156,7 @@ class Plan:
             "mesh": self.mesh,
             "params": self.params,
             "fingers": self.fingers,
-            "grasps": [g.to_dict() for g in self.grasps],
+            "grasps": [{"rank": i, **g.to_dict()} for i, g in enumerate(self.grasps, 1)],
             "message": self.message,
             "escape": self.escape,
             "timing": {

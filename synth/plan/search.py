@@ -1,148 +1,78 @@
-"""The grasp search: seeds, the planar-piece LP, local refinement, selection.
+"""The grasp search: a pool, seeds, the planar-piece LP, two climbs, selection.
 
-Stages, all reproducible from the seed (the evaluation budget fixes how much each does):
+Stages, all reproducible from the seed (the evaluation budget ``PlanParams.evals`` fixes how
+much each does; every candidate scored is one evaluation):
 
-1. **Seeds.** An even spread of face contacts (farthest-point sampling) forms a pool; random
-   k-subsets of it are scored in batches (:func:`synth.form_closure_batch`).
-2. **Region LP** (planar parts). For the best seeds, each contact's face grows into a convex
-   piece of its planar region and one LP finds the positions on those pieces with the
-   highest d* (:mod:`synth.plan.pieces`).
-3. **Refinement.** A population of the best distinct grasps hill-climbs: each round proposes
-   moves of single contacts in their tangent plane, snaps them back to the surface with the
-   part model and keeps the best move per grasp; the step halves when nothing improves. This
-   also repairs the LP's degenerate optima (rank W < 6) and works on curved patches.
-4. **Selection.** Candidates in order of d* pass the finger checks (FCL) and a diversity
-   filter; the conditioning and the Ferrari-Canny epsilon are computed for the chosen ones.
+1. **Pool.** Contacts sampled uniformly on the exposed surface, kept when they are single face
+   contacts a finger can make on its own (exposed, tip fits, approach clear).
+2. **Seeds** (``SEED_SHARE`` of the budget). Random k-subsets of the pool, scored in batches
+   (:func:`synth.form_closure_batch`).
+3. **Region LP** (planar parts). For the best seeds on planar facets, each contact's face grows
+   into a convex piece and one LP finds the positions on those pieces with the highest d*
+   (:mod:`synth.plan.pieces`); its optimum can lose rank, which the surface climb repairs.
+4. **Pool climb** (``POOL_SHARE``). The best distinct seeds climb over the pool: a move swaps
+   one contact for a nearby pool contact, one score each (:func:`synth.plan.climb.pool_climb`).
+5. **Surface climb** (the rest). The best distinct grasps climb on the surface itself, along
+   the ascent direction of d* and by single-contact moves that may cross edges onto
+   neighbouring faces (:func:`synth.plan.climb.surface_climb`).
+6. **Selection.** Candidates in order of d* pass the finger checks (FCL), ``min_d_star`` and a
+   diversity filter; conditioning and the Ferrari-Canny epsilon are computed for the chosen
+   ones, and the grasps are ranked by ``rank_by``.
 
-A grasp's fitness is its d* when it is (frictional) form closure, well conditioned
-(``min_conditioning``) and its fingertips do not overlap; other grasps rank below every valid
-one (d* - 1 if only rank or conditioning fails, -2 if the tips overlap).
+Fitness (which grasps the search prefers) is described in :mod:`synth.plan.batch`.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from synth.contacts import sample_contacts
+from synth.errors import InputError, InternalError
 from synth.fingers import Fingers, check_fingers, default_fingers
-from synth.plan.params import PlanParams
+from synth.part import Part
+from synth.plan.batch import GraspBatch, Scorer, distinct_top
+from synth.plan.climb import pool_climb, reachable, surface_climb, swap_climb
+from synth.plan.params import AUTO_MAX_FINGERS, PlanParams
 from synth.plan.pieces import best_positions, convex_piece
-from synth.plan.result import Plan, PlannedGrasp
-from synth.scores import (
-    describe_twist,
-    form_closure,
-    form_closure_batch,
-    frictional_form_closure,
-)
-from synth.scores.quality import (
-    conditioning,
-    epsilon_quality,
-    grasp_wrenches,
-    scaled_wrenches,
-)
-from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.plan.placements import (Placements, finger_climb, placement_grasps, placement_pool,
+                                   placement_seeds)
+from synth.plan.result import Plan, PlannedGrasp, describe_part
+from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
+from synth.scores.quality import conditioning, epsilon_quality
 
-__all__ = ["plan_part", "Progress"]
+__all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
+           "SWAP_COST", "D_STAR_TIE"]
 
 Progress = Callable[[float, str], None]
 
-_POOL = 600
-_CHUNK = 4096
+#: Contacts sampled for the pool (those a finger cannot make are then dropped).
+_POOL = 3000
+#: Shares of the evaluation budget for the seeds, the pool climb and the surface climb. The
+#: swap climb (7 contacts without friction) takes the pool climb's place and climbs one seed per
+#: ``SWAP_COST`` evaluations of that share.
+SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.3, 0.5, 0.15
+SWAP_COST = 250
+#: Best seeds on planar facets given to the region LP.
+_LP_SEEDS = 40
+#: Least work of each stage, whatever the budget: seeds scored, seeds climbing in the swap
+#: climb, surface-climb evaluations.
+_MIN_SEEDS, _MIN_SWAPS, _MIN_SURFACE = 1000, 8, 1000
+#: Most tries of every contact of a seed in the swap climb.
+_SWEEPS = 6
+#: Distinct grasps kept from the seeds for the climbs.
+_KEEP = 400
+#: Ranking by conditioning or epsilon chooses among this many times ``top`` of the best grasps.
+_CHOICE = 4
+#: d* values closer than this are equal for ranking (the LPs' accuracy is 1e-7).
+D_STAR_TIE = 1e-6
 
 
-@dataclass
-class _Batch:
-    """Grasps under evaluation: (B, k) contact data and their scores."""
-
-    points: NDArray[np.float64]
-    normals: NDArray[np.float64]
-    faces: NDArray[np.int64]
-    regions: NDArray[np.int64]
-    d: NDArray[np.float64]
-    fit: NDArray[np.float64]
-
-    def take(self, idx: NDArray[np.int64]) -> "_Batch":
-        return _Batch(self.points[idx], self.normals[idx], self.faces[idx], self.regions[idx],
-                      self.d[idx], self.fit[idx])
-
-    @staticmethod
-    def concat(parts: list["_Batch"]) -> "_Batch":
-        return _Batch(*[np.concatenate([getattr(p, f) for p in parts]) for f in
-                        ("points", "normals", "faces", "regions", "d", "fit")])
-
-
-class _Scorer:
-    """Fitness of batches of grasps for one part and parameter set."""
-
-    def __init__(self, part, params: PlanParams, fingers: Fingers) -> None:
-        self.center = np.asarray(part.center_mass, dtype=np.float64)
-        self.length = float(part.length)
-        self.params = params
-        self.r = float(fingers.tip_radius)
-        self.evaluations = 0
-
-    def matrix(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The scaled wrench matrix (or matrices) whose conditioning is reported."""
-        prm = self.params
-        return grasp_wrenches(P, N, self.center, self.length, prm.mu, prm.edges)
-
-    def __call__(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> tuple[
-        NDArray[np.float64], NDArray[np.float64]
-    ]:
-        B = P.shape[0]
-        self.evaluations += B
-        prm = self.params
-        if prm.mu == 0:
-            W = scaled_wrenches(P, N, self.center, self.length)
-            d = np.empty(B)
-            ok = np.empty(B, dtype=bool)
-            for s in range(0, B, _CHUNK):
-                res = form_closure_batch(W[s : s + _CHUNK])
-                d[s : s + _CHUNK], ok[s : s + _CHUNK] = res.d_star, res.closure
-        else:
-            res = frictional_form_closure_batch(P, N, prm.mu, center=self.center,
-                                                edges=prm.edges)
-            d, ok = res.d_star, res.closure
-        cond = np.zeros(B)
-        if ok.any():  # conditioning matters only for closure grasps
-            cond[ok] = np.asarray(conditioning(self.matrix(P[ok], N[ok]))).reshape(-1)
-        tips = P - self.r * N
-        k = P.shape[1]
-        iu = np.triu_indices(k, 1)
-        gap = np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2).min(axis=1)
-        tips_ok = gap >= 2 * self.r * (1 - 1e-9)
-        valid = ok & (cond >= prm.min_conditioning) & (d >= prm.min_d_star)
-        fit = np.where(tips_ok, np.where(valid, d, d - 1.0), -2.0)
-        return d, fit
-
-
-def _grasp_key(b: _Batch, i: int, scale: float) -> tuple:
-    """A rounded, order-free signature to drop duplicate grasps."""
-    q = np.round(b.points[i] / scale).astype(np.int64)
-    return tuple(sorted(map(tuple, q)))
-
-
-def _distinct_top(b: _Batch, n: int, scale: float) -> NDArray[np.int64]:
-    order = np.argsort(-b.fit, kind="stable")
-    seen: set[tuple] = set()
-    out = []
-    for i in order:
-        key = _grasp_key(b, int(i), scale)
-        if key in seen:
-            continue
-        seen.add(key)
-        out.append(int(i))
-        if len(out) == n:
-            break
-    return np.array(out, dtype=np.int64)
-
-
-def plan_part(part, params: PlanParams | None = None, progress: Progress | None = None) -> Plan:
+def plan_part(part: Part, params: PlanParams | None = None,
+              progress: Progress | None = None) -> Plan:
     """Search a part for the best collision-free grasps ranked by d*.
 
     Parameters
@@ -155,11 +85,20 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
     Returns
     -------
     Plan
+
+    Examples
+    --------
+    >>> plan = plan_part(load_part("meshes/cube.stl"), PlanParams(top=3))  # doctest: +SKIP
+    >>> plan.grasps[0].d_star  # doctest: +SKIP
+    0.5
     """
     prm = params or PlanParams()
+    if not isinstance(part, Part):
+        raise InputError(f"part: expected a synth.Part (see synth.load_part), got "
+                         f"{type(part).__name__}")
+    if not isinstance(prm, PlanParams):
+        raise InputError(f"params: expected a synth.PlanParams, got {type(prm).__name__}")
     t0 = time.perf_counter()
-    deadline = t0 + prm.time
-    rng = np.random.default_rng(prm.seed)
     overrides = {k: v for k, v in (("tip_radius", prm.finger_radius),
                                    ("body_length", prm.body_length),
                                    ("body_radius", prm.body_radius)) if v is not None}
@@ -168,142 +107,63 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
     if prm.support_z is not None:
         overrides["support_plane"] = ((0.0, 0.0, prm.support_z), (0.0, 0.0, 1.0))
     fingers = default_fingers(part, **overrides)
-    score = _Scorer(part, prm, fingers)
+    try:
+        return _search(part, prm, fingers, progress or (lambda f, m: None), t0)
+    except InputError as e:  # everything the user gave was accepted above
+        raise InternalError(f"the planner failed on {part.source or 'a part'} it accepted: "
+                            f"{e}") from e
+
+
+def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: float) -> Plan:
+    """The stages of the search (see the module notes)."""
+    deadline = t0 + prm.time
+    rng = np.random.default_rng(prm.seed)
+    score = Scorer(part, prm, fingers)
     k = prm.contacts
     L = float(part.length)
-    say = progress or (lambda f, m: None)
     budget = prm.evals if prm.mu == 0 else max(100, prm.evals // 5)
+    if prm.fingers is not None:
+        return _search_fingers(part, prm, fingers, score, rng, budget, say, t0)
 
-    # 1. seeds --------------------------------------------------------------------------
     say(0.0, "sampling contacts")
-    pool = sample_contacts(part, _POOL, seed=rng, method="even")
-    single = np.bincount(pool.finger)[pool.finger] == 1
-    keep = (pool.features == "face") & single
-    if keep.sum() < k:
-        keep = single
-    keep[keep] &= _reachable(part, pool.points[keep], pool.normals[keep], fingers)
-    pp, pn = pool.points[keep], pool.normals[keep]
-    pf, pr = pool.faces[keep], pool.region[keep]
-    n_seed = budget // 3
-    idx = np.argsort(rng.random((n_seed, len(pp))), axis=1)[:, :k] if len(pp) <= 64 else (
-        _distinct_rows(rng, n_seed, len(pp), k))
-    seeds = _Batch(pp[idx], pn[idx], pf[idx], pr[idx], np.zeros(n_seed), np.zeros(n_seed))
-    seeds.d, seeds.fit = score(seeds.points, seeds.normals)
-    archive = seeds.take(_distinct_top(seeds, 400, 1e-6 * L))
-    say(0.3, f"{score.evaluations} seeds scored, best d* {max(0.0, archive.fit.max()):.4f}")
+    pool = _pool(part, k, rng, fingers)
+    say(0.1, f"{len(pool)} reachable contacts in the pool")
+    seeds, seed_idx = _seeds(pool, k, rng, score, max(_MIN_SEEDS, int(SEED_SHARE * budget)))
+    top = distinct_top(seeds, _KEEP, 1e-6 * L)
+    archive, seed_idx = seeds.take(top), seed_idx[top]
+    say(0.25, f"{score.evaluations} seeds scored, best d* {max(0.0, archive.fit.max()):.4f}")
+    lp = _region_lp(part, archive, fingers, score, deadline)
+    say(0.3, f"region LPs solved: {len(lp)}")
+    if len(pool) > 4 * k:
+        if k == 7 and prm.mu == 0:
+            n_swap = max(_MIN_SWAPS, int(POOL_SHARE * budget / SWAP_COST))
+            climbed, screened = swap_climb(pool, seed_idx[:n_swap], score, rng, _SWEEPS)
+        else:
+            climbed = pool_climb(pool, seed_idx, score, rng, int(POOL_SHARE * budget), L)
+        archive = GraspBatch.concat([archive, climbed])
+        say(0.5, f"pool climb: best d* {max(0.0, archive.fit.max()):.4f}")
+    archive = GraspBatch.concat([archive, lp])
+    starts = archive.take(distinct_top(archive, _KEEP, 1e-6 * L))
+    climbed, stopped_by_time = surface_climb(
+        part, starts, score, fingers, rng, max(_MIN_SURFACE, int(SURFACE_SHARE * budget)),
+        lambda: time.perf_counter() > deadline,
+        lambda best: say(0.5 + 0.4 * min(1.0, score.evaluations / budget),
+                         f"climbing: best d* {max(0.0, best):.4f}"))
+    archive = GraspBatch.concat([archive, climbed])
 
-    # 2. planar-piece LP ----------------------------------------------------------------
-    margin = fingers.tip_radius
-    pieces: dict[int, object] = {}
-    lp_found = []
-    tuples_seen: set[tuple] = set()
-    for i in _distinct_top(archive, 40, 1e-6 * L):
-        if time.perf_counter() > deadline:
-            break
-        faces = archive.faces[i]
-        if not all(part.regions[int(part.face_region[f])].planar for f in faces):
-            continue
-        pcs = []
-        for f in faces:
-            if int(f) not in pieces:
-                pieces[int(f)] = convex_piece(part, int(f), margin)
-            pcs.append(pieces[int(f)])
-        if any(p is None for p in pcs):
-            continue
-        key = tuple(sorted(id(p) for p in pcs))
-        if key in tuples_seen:
-            continue
-        tuples_seen.add(key)
-        if not _spans_forces(np.array([p.normal for p in pcs])):
-            continue  # no positions on these pieces can balance every force
-        sol = best_positions(pcs, score.center, L)
-        if sol is None:
-            continue
-        pts, _ = sol
-        c = part.resolve(pts, snap=True)
-        if len(c) != k:
-            continue
-        lp_found.append(_Batch(c.points[None], c.normals[None], c.faces[None], c.region[None],
-                               np.zeros(1), np.zeros(1)))
-    if lp_found:
-        lpb = _Batch.concat(lp_found)
-        lpb.d, lpb.fit = score(lpb.points, lpb.normals)
-        archive = _Batch.concat([archive, lpb])
-    say(0.45, f"region LPs solved: {len(lp_found)}")
-
-    # 3. refinement ---------------------------------------------------------------------
-    pop_size = 16
-    moves = 24
-    pop = archive.take(_distinct_top(archive, pop_size, 1e-6 * L))
-    sigma = np.full(len(pop.d), 0.05 * L)
-    stopped_by_time = False
-    while score.evaluations < budget and (sigma > 1e-4 * L).any():
-        if time.perf_counter() > deadline:
-            stopped_by_time = True
-            break
-        M = len(pop.d)
-        who = np.repeat(np.arange(M), moves)
-        which = rng.integers(0, k, M * moves)
-        P = pop.points[who].copy()
-        N0 = pop.normals[who, which]
-        step = rng.normal(size=(M * moves, 3))
-        step -= (step * N0).sum(1, keepdims=True) * N0
-        step *= (sigma[who] * rng.random(M * moves))[:, None] / np.maximum(
-            np.linalg.norm(step, axis=1, keepdims=True), 1e-300)
-        moved = P[np.arange(M * moves), which] + step
-        c = part.resolve(moved, snap=True)
-        one = np.bincount(c.finger, minlength=M * moves) == 1
-        first = np.full(M * moves, -1)
-        first[c.finger[::-1]] = np.arange(len(c))[::-1]
-        okm = one & (first >= 0)
-        okm[okm] &= c.features[first[okm]] == "face"
-        okm[okm] &= _reachable(part, c.points[first[okm]], c.normals[first[okm]], fingers)
-        if not okm.any():
-            sigma *= 0.5
-            continue
-        sel = np.nonzero(okm)[0]
-        cand = pop.take(who[sel])
-        rows = np.arange(len(sel))
-        cand.points = cand.points.copy()
-        cand.normals = cand.normals.copy()
-        cand.faces = cand.faces.copy()
-        cand.regions = cand.regions.copy()
-        j = first[sel]
-        cand.points[rows, which[sel]] = c.points[j]
-        cand.normals[rows, which[sel]] = c.normals[j]
-        cand.faces[rows, which[sel]] = c.faces[j]
-        cand.regions[rows, which[sel]] = c.region[j]
-        cand.d, cand.fit = score(cand.points, cand.normals)
-        archive = _Batch.concat([archive, cand.take(np.nonzero(cand.fit > 0)[0])])
-        # best move of each member (first one among equals), without a Python loop
-        member = who[sel]
-        order = np.lexsort((np.arange(member.size), -cand.fit, member))
-        head = order[np.r_[True, member[order][1:] != member[order][:-1]]]
-        best = np.full(M, -np.inf)
-        arg = np.full(M, -1)
-        best[member[head]], arg[member[head]] = cand.fit[head], head
-        improve = best > pop.fit + 1e-12
-        m_i = np.nonzero(improve)[0]
-        r_i = arg[m_i]
-        for f in ("points", "normals", "faces", "regions", "d", "fit"):
-            getattr(pop, f)[m_i] = getattr(cand, f)[r_i]
-        sigma = np.where(improve, sigma * 1.2, sigma * 0.5)
-        say(0.45 + 0.45 * min(1.0, score.evaluations / budget),
-            f"refining: best d* {max(0.0, pop.fit.max()):.4f}")
-    archive = _Batch.concat([archive, pop])
-
-    # 4. selection ----------------------------------------------------------------------
     say(0.9, "checking fingers")
     grasps, rejected = _select(part, archive, prm, fingers, score)
     total = time.perf_counter() - t0
-    mesh_info = {"path": part.source, "sha256": part.sha256, "units": part.units, "length": L}
     escape = None
     if grasps:
         kind = "frictional form" if prm.mu > 0 else "form"
         message = (f"{len(grasps)} {kind}-closure grasps, best d* {grasps[0].d_star:.4f} "
                    f"({score.evaluations} grasps evaluated in {total:.1f} s)")
+    elif prm.min_d_star > 0 and (archive.fit > 0).any():
+        message = (f"no grasp reached --min-d-star {prm.min_d_star:g}: the best closure grasp "
+                   f"found has d* {archive.fit.max():.4f}")
     elif rejected:
-        reason, count = max(rejected.items(), key=lambda kv: kv[1])
+        reason, _ = max(rejected.items(), key=lambda kv: kv[1])
         message = (f"{sum(rejected.values())} closure grasps were found but the fingers could "
                    f"make none of them (most often: {reason}); try a smaller --finger-radius "
                    f"or a wider --approach-cone")
@@ -313,11 +173,172 @@ def plan_part(part, params: PlanParams | None = None, progress: Progress | None 
         message = f"no {k}-contact closure grasp {kind} was found" + (
             f"; the best candidate is {escape}" if escape else "")
         if prm.mu == 0 and escape and "rotate about" in escape:
-            message += (". Without friction no number of contacts stops a turn about an axis "
-                        "of symmetry (sphere, cylinder, torus): try mu > 0 with 3 or 4 contacts")
+            message += (". If the part is a surface of revolution (sphere, cylinder, torus), no "
+                        "number of frictionless contacts stops that turn: try mu > 0 with 3 or "
+                        "4 contacts")
+        if prm.evals < PlanParams().evals:
+            message += f"; a budget above --evals {prm.evals} may find one"
     say(1.0, "done")
-    return Plan(tuple(grasps), message, mesh_info, prm.to_dict(), fingers.to_dict(),
+    return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, escape)
+
+
+def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer,
+                    rng: np.random.Generator, budget: int, say: Progress, t0: float) -> Plan:
+    """Grasps of ``prm.fingers`` fingertips (or the fewest that hold, for ``"auto"``), the
+    contacts following from where they land (:mod:`synth.plan.placements`). ``"auto"`` tries
+    2, 3, ... fingers, each with the whole search effort, and stops at the first count that
+    gives a grasp; counts whose tips cannot make enough contacts are skipped."""
+    L = float(part.length)
+    deadline = t0 + prm.time
+    out_of_time = lambda: time.perf_counter() > deadline  # noqa: E731
+    say(0.0, "sampling finger placements")
+    pool = placement_pool(part, fingers, rng, _POOL, _POOL // 3, _POOL // 10)
+    need = 7 if prm.mu == 0 else 3
+    most = int(pool.count.max()) if len(pool) else 1
+    counts = list(range(2, AUTO_MAX_FINGERS + 1)) if prm.fingers == "auto" else [
+        int(prm.fingers)]  # type: ignore[arg-type]
+    counts = [F for F in counts if F <= len(pool) and F * most >= need]
+    grasps: list[PlannedGrasp] = []
+    rejected: dict[str, int] = {}
+    tried: list[int] = []
+    stopped_by_time = False
+    for n, F in enumerate(counts):
+        if out_of_time():
+            stopped_by_time = True
+            break
+        tried.append(F)
+        n_seed = max(_MIN_SEEDS, int(SEED_SHARE * budget))
+        chosen = placement_seeds(pool, n_seed, F, rng)
+        fit = np.full(n_seed, -np.inf)
+        archives: dict[int, list[GraspBatch]] = {}
+        for kk, (g, rows) in placement_grasps(pool, chosen, score).items():
+            fit[rows] = g.fit
+            archives.setdefault(kk, []).append(g.take(distinct_top(g, _KEEP, 1e-6 * L)))
+        order = np.argsort(-fit, kind="stable")[:_KEEP]
+        climbed, stopped_by_time = finger_climb(
+            pool, chosen[order], fit[order], score, rng,
+            int((POOL_SHARE + SURFACE_SHARE) * budget), L, out_of_time)
+        for kk, g in climbed.items():
+            archives.setdefault(kk, []).append(g)
+        say((n + 1) / (len(counts) + 1), f"{F} fingers searched")
+        found: list[PlannedGrasp] = []
+        for kk, parts in archives.items():
+            if kk < need:
+                continue
+            g, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score)
+            found.extend(g)
+            for key, v in rej.items():
+                rejected[key] = rejected.get(key, 0) + v
+        if found:
+            grasps = rank_grasps(found, prm.rank_by)[: prm.top]
+            break
+        if stopped_by_time:
+            break
+    total = time.perf_counter() - t0
+    kind = "frictional form" if prm.mu > 0 else "form"
+    if grasps:
+        message = (f"{len(grasps)} {kind}-closure grasp{'s' * (len(grasps) > 1)} with "
+                   f"{tried[-1]} fingers, best d* "
+                   f"{grasps[0].d_star:.4f} with {len(grasps[0].points)} contacts "
+                   f"({score.evaluations} grasps evaluated in {total:.1f} s)")
+    elif not len(pool):
+        message = (f"no {kind}-closure grasp: a fingertip of radius {fingers.tip_radius:.4g} fits "
+                   f"nowhere on the exposed surface; try a smaller --finger-radius")
+    elif not tried:
+        message = (f"no {kind}-closure grasp: {prm.fingers} fingers cannot make the {need} "
+                   f"contacts {kind} closure needs (on this part a fingertip makes at most "
+                   f"{most}: {_placement_counts(pool)})")
+    else:
+        message = (f"no {kind}-closure grasp with {', '.join(map(str, tried))} fingers was "
+                   f"found ({_placement_counts(pool)})")
+        if prm.evals < PlanParams().evals:
+            message += f"; a budget above --evals {prm.evals} may find one"
+        if stopped_by_time:
+            message += f"; stopped at the time limit ({prm.time:g} s)"
+        if rejected:
+            reason, _ = max(rejected.items(), key=lambda kv: kv[1])
+            message += f"; grasps the fingers could not make were dropped (most often: {reason})"
+    say(1.0, "done")
+    return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
+                score.evaluations, total, stopped_by_time, None)
+
+
+def _placement_counts(pool: Placements) -> str:
+    """Finger placements of the pool by kind, in words."""
+    n = np.bincount(pool.count, minlength=4)
+    return (f"{len(pool)} finger placements: {n[1]} on faces, edges or vertices, {n[2]} in "
+            f"grooves, {n[3]} in inside corners")
+
+
+def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> GraspBatch:
+    """Single face contacts of the exposed surface a finger can make, as one-contact grasps."""
+    c = sample_contacts(part, _POOL, seed=rng, method="uniform")
+    single = np.bincount(c.finger)[c.finger] == 1
+    keep = (c.features == "face") & single
+    if keep.sum() < k:
+        keep = single
+    keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
+    n = int(keep.sum())
+    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None], c.faces[keep][:, None],
+                      c.region[keep][:, None], np.zeros(n), np.zeros(n))
+
+
+def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int
+           ) -> tuple[GraspBatch, NDArray[np.int64]]:
+    """``n`` random k-subsets of the pool, scored; and their pool indices (n, k)."""
+    size = len(pool)
+    if size < k:
+        return GraspBatch(np.zeros((0, k, 3)), np.zeros((0, k, 3)), np.zeros((0, k), np.int64),
+                          np.zeros((0, k), np.int64), np.zeros(0), np.zeros(0)), \
+            np.zeros((0, k), np.int64)
+    idx = np.argsort(rng.random((n, size)), axis=1)[:, :k] if size <= 64 else (
+        _distinct_rows(rng, n, size, k))
+    b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.faces[idx, 0],
+                   pool.regions[idx, 0], np.zeros(n), np.zeros(n))
+    score.score(b)
+    return b, idx
+
+
+def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer,
+               deadline: float) -> GraspBatch:
+    """Grasps from the planar-piece LP on the faces of the best seeds on planar facets."""
+    k = archive.points.shape[1]
+    pieces: dict[int, object] = {}
+    found = []
+    tuples_seen: set[tuple[int, ...]] = set()
+    for i in range(min(_LP_SEEDS, len(archive))):
+        if time.perf_counter() > deadline:
+            break
+        faces = archive.faces[i]
+        if not all(part.regions[int(part.face_region[f])].planar for f in faces):
+            continue
+        pcs = []
+        for f in faces.tolist():
+            if f not in pieces:
+                pieces[f] = convex_piece(part, f, fingers.tip_radius)
+            pcs.append(pieces[f])
+        if any(p is None for p in pcs):
+            continue
+        key = tuple(sorted(id(p) for p in pcs))
+        if key in tuples_seen:
+            continue
+        tuples_seen.add(key)
+        if not _spans_forces(np.array([p.normal for p in pcs])):  # type: ignore[attr-defined]
+            continue  # no positions on these pieces can balance every force
+        sol = best_positions(pcs, score.center, score.length)  # type: ignore[arg-type]
+        if sol is None:
+            continue
+        c = part.resolve(sol[0], snap=True)
+        if len(c) != k or not part.exposed(c.points, c.normals).all():
+            continue
+        found.append(GraspBatch(c.points[None], c.normals[None], c.faces[None], c.region[None],
+                                np.zeros(1), np.zeros(1)))
+    if not found:
+        return archive.take(np.zeros(0, np.int64))
+    lp = GraspBatch.concat(found)
+    score.score(lp)
+    return lp
 
 
 def _spans_forces(normals: NDArray[np.float64]) -> bool:
@@ -325,14 +346,6 @@ def _spans_forces(normals: NDArray[np.float64]) -> bool:
     i.e. the origin is strictly inside their convex hull (Trinkle's test on the 3 x k force
     rows alone)."""
     return bool(form_closure_batch(normals.T[None]).closure[0])
-
-
-def _reachable(part, points: NDArray[np.float64], normals: NDArray[np.float64],
-               fingers: Fingers) -> NDArray[np.bool_]:
-    """Which single contacts a finger can make alone (tip fits, approach is clear)."""
-    if len(points) == 0:
-        return np.zeros(0, dtype=bool)
-    return check_fingers(part, points[:, None, :], normals[:, None, :], fingers).mask
 
 
 def _distinct_rows(rng: np.random.Generator, n: int, size: int, k: int) -> NDArray[np.int64]:
@@ -352,24 +365,29 @@ def _hausdorff(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
     return float(max(D.min(axis=1).max(), D.min(axis=0).max()))
 
 
-def _select(part, archive: _Batch, prm: PlanParams, fingers: Fingers, score: _Scorer
+def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer
             ) -> tuple[list[PlannedGrasp], dict[str, int]]:
-    """Best valid grasps that pass the finger checks and the diversity filter, and a count of
-    the finger-check failures by kind."""
-    valid = np.nonzero(archive.fit > 0)[0]
+    """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
+    ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
+
+    Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
+    that ranking by conditioning or epsilon chooses among the best grasps, not among all."""
+    valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
     chosen: list[PlannedGrasp] = []
     picked: list[NDArray[np.float64]] = []
     rejected: dict[str, int] = {}
     min_gap = prm.diversity * part.length
+    want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
     for s in range(0, len(order), 64):
         block = order[s : s + 64]
         block = np.array([i for i in block if all(
             _hausdorff(archive.points[i], q) >= min_gap for q in picked)], dtype=np.int64)
         if block.size == 0:
             continue
-        chk = check_fingers(part, archive.points[block], archive.normals[block], fingers)
-        for j, i in enumerate(block):
+        chk = check_fingers(part, archive.points[block], archive.normals[block], fingers,
+                            archive.finger[block])
+        for j, i in enumerate(block.tolist()):
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(
                     ch.isdigit() for ch in w)).split("(")[0].strip()
@@ -379,27 +397,57 @@ def _select(part, archive: _Batch, prm: PlanParams, fingers: Fingers, score: _Sc
             if any(_hausdorff(P, q) < min_gap for q in picked):
                 continue
             N = archive.normals[i]
-            placement = chk.placement(j).to_dict()
-            placement["contact_finger"] = list(range(len(P)))
+            where = chk.placement(j)
+            placement = where.to_dict()
+            placement["contact_finger"] = where.contact_finger.tolist()
             cond = float(conditioning(score.matrix(P, N)))
             closure = "form" if prm.mu == 0 else "frictional form"
             eps = epsilon_quality(P, N, score.center, score.length, prm.mu, prm.edges)
-            c = part.resolve(P, faces=archive.faces[i])
-            chosen.append(PlannedGrasp(P.copy(), N.copy(), tuple(c.features[: len(P)]),
+            chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,
                                        cond, eps, placement))
             picked.append(P)
-            if len(chosen) == prm.top:
-                return _sorted(chosen), rejected
-    return _sorted(chosen), rejected
+            if len(chosen) == want:
+                return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
+    return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
 
 
-def _sorted(grasps: list[PlannedGrasp]) -> list[PlannedGrasp]:
-    """Rank by d*; d* equal to 1e-6 (LP noise) are ordered by conditioning."""
-    return sorted(grasps, key=lambda g: (-round(g.d_star, 6), -g.conditioning))
+def _features(part: Part, P: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[str, ...]:
+    """Feature (face, edge or vertex) of each contact (a point in a groove resolves to a
+    contact on each face; the one on the contact's own face is its)."""
+    c = part.resolve(P, faces=faces)
+    out = []
+    for j in range(len(P)):
+        rows = np.flatnonzero(c.finger == j)
+        own = rows[c.faces[rows] == faces[j]]
+        out.append(str(c.features[own[0] if len(own) else rows[0]]))
+    return tuple(out)
 
 
-def _why_none(archive: _Batch, prm: PlanParams, score: _Scorer) -> str | None:
+def rank_grasps(grasps: list[PlannedGrasp], rank_by: str = "d_star") -> list[PlannedGrasp]:
+    """Order grasps (anything with ``d_star``, ``conditioning`` and ``epsilon``) best first.
+
+    ``"d_star"``: by d*, where d* values within ``D_STAR_TIE`` of each other (the LPs'
+    accuracy) count as equal and the better-conditioned grasp comes first; ``"conditioning"``
+    or ``"epsilon"``: by that measure, then by d*.
+    """
+    if rank_by == "conditioning":
+        return sorted(grasps, key=lambda g: (-g.conditioning, -g.d_star))
+    if rank_by == "epsilon":
+        return sorted(grasps, key=lambda g: (-g.epsilon, -g.d_star))
+    out = sorted(grasps, key=lambda g: -g.d_star)
+    # ties: a run of d* within D_STAR_TIE of the run's best is ordered by conditioning
+    i = 0
+    while i < len(out):
+        j = i + 1
+        while j < len(out) and out[i].d_star - out[j].d_star <= D_STAR_TIE:
+            j += 1
+        out[i:j] = sorted(out[i:j], key=lambda g: -g.conditioning)
+        i = j
+    return out
+
+
+def _why_none(archive: GraspBatch, prm: PlanParams, score: Scorer) -> str | None:
     """The motion the most promising candidate leaves free (or nearly free), in words.
 
     Candidates with a positive d* but no (well-conditioned) closure fail because W is rank

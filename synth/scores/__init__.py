@@ -5,8 +5,10 @@ from synth.scores.escape import describe_twist, escape_twist
 from synth.scores.form import FormClosure, form_closure
 from synth.scores.friction import (
     FrictionalFormClosure,
+    FrictionalSqueeze,
     friction_cone_wrenches,
     frictional_form_closure,
+    frictional_squeezable,
 )
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.strong import StrongForceClosure, squeezable_contacts, strong_force_closure
@@ -16,6 +18,7 @@ __all__ = [
     "BatchScores",
     "FormClosure",
     "FrictionalFormClosure",
+    "FrictionalSqueeze",
     "StrongForceClosure",
     "describe_twist",
     "escape_twist",
@@ -24,6 +27,7 @@ __all__ = [
     "friction_cone_wrenches",
     "frictional_form_closure",
     "frictional_form_closure_batch",
+    "frictional_squeezable",
     "numerical_rank",
     "squeezable_contacts",
     "strong_force_closure",

@@ -1,20 +1,31 @@
-"""Frictional form closure with linearised Coulomb cones (Trinkle 1992, Section II.B).
+"""Frictional form closure (Trinkle 1992, Section II.B) with linearised Coulomb cones.
 
-Each contact's friction cone ``|f_t| <= mu f_n`` is replaced by the inscribed pyramid spanned by
-``edges`` unit-normal-component forces ``e_ij = n_i + mu_i (cos a_j u_i + sin a_j v_i)``,
-``a_j = 2 pi j / edges`` (a conservative approximation: every pyramid force lies in the true
-cone). In the plane the cone has exactly two edges ``n_i +- mu_i t_i`` and ``edges`` is ignored.
+The paper's test, from its equilibrium (1)-(3) and LP (12)-(14), (18), (19): each contact
+pushes with a normal intensity ``c_in`` and tangential intensities ``c_it, c_io`` of either
+sign; the measure is
 
-A contact force is ``sum_j lam_ij e_ij`` with ``lam >= 0``; its normal intensity is
-``c_i = sum_j lam_ij``. The measure keeps Trinkle's LP and box over normal intensities:
+    maximise d  s.t.  W_n c_n + W_t c_t + W_o c_o = 0,   c_n >= d,   -1 <= c_n <= 1,
+                      every contact force inside its friction cone.
 
-    maximise d  s.t.  G lam = 0,  lam_ij >= d / edges,  sum_j lam_ij <= 1,
+``d`` bounds the normal intensities only (inequality (13) is left as it is, the paper says), and
+the box of Example 1 applies to them. The cone ``|(c_it, c_io)| <= mu_i c_in`` is replaced by
+the inscribed pyramid spanned by ``edges`` forces ``e_ij = n_i + mu_i (cos a_j u_i + sin a_j
+v_i)``, ``a_j = 2 pi j / edges``, so every force the test uses lies in the true cone and a
+"yes" is never optimistic. With ``lam_ij >= 0`` along the edges the force of contact ``i`` is
+``sum_j lam_ij e_ij`` and its normal intensity ``c_in = sum_j lam_ij``:
 
-where ``G`` holds the edge wrenches. A positive optimum means an internal force strictly inside
-every (linearised) cone, so the grasp can be squeezed as hard as one likes; with full row rank
-of ``G`` this is frictional form closure (what Murray, Li and Sastry call force closure).
-With ``mu = 0`` all edges coincide, the optimum spreads ``c_i`` evenly over them and the LP
-is exactly :func:`synth.form_closure`'s, so both give the same d*.
+    maximise d  s.t.  G lam = 0,   sum_j lam_ij >= d,   sum_j lam_ij <= 1,   lam >= 0.
+
+In the plane a cone has exactly its two edges ``n_i +- mu_i t_i`` and ``edges`` is ignored; on
+the paper's Example 2 (contact 3 with mu = 0.3 > tan 15 deg) this reproduces Table 2 exactly.
+With every mu = 0 the edges coincide with the normals and d* is :func:`synth.form_closure`'s.
+
+The paper first finds which normal intensities can grow without bound once friction counts
+(its footnote 2) and adds only those contacts' friction columns. When d* > 0 every contact is
+such a contact, so d* needs no separate step; :func:`frictional_squeezable` finds that set with
+one LP (the cone of internal forces is closed under addition, so one internal force makes every
+squeezable contact push) and with it the frictional closure class: frictional form, strong
+force or force.
 """
 
 from __future__ import annotations
@@ -28,12 +39,14 @@ from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
 from synth.scores.escape import describe_twist, escape_twist
-from synth.scores.wrench import check_contacts, numerical_rank
+from synth.scores.wrench import balance_rows, check_contacts, numerical_rank, wrench_matrix
 from synth.tolerances import D_STAR_TOL
 
 __all__ = [
     "FrictionalFormClosure",
+    "FrictionalSqueeze",
     "frictional_form_closure",
+    "frictional_squeezable",
     "friction_cone_wrenches",
     "tangent_basis",
 ]
@@ -46,15 +59,19 @@ class FrictionalFormClosure:
     Attributes
     ----------
     d_star : float
-        The frictional measure (equal to the frictionless d* when every mu is 0).
+        Trinkle's frictional measure: the largest ``min_i c_in`` over internal forces in the
+        (linearised) cones with normal intensities in ``[0, 1]``; equal to the frictionless d*
+        when every mu is 0.
     closure : str
-        ``"frictional form"`` (some mu > 0), ``"form"`` (all mu = 0) or ``"force"``.
+        ``"frictional form"`` (some mu > 0), ``"form"`` (all mu = 0) or ``"force"``; see
+        :func:`frictional_squeezable` for the strong-force class.
     c_normal : (n,) float
         Normal intensities of the optimal internal force.
     lam : (n, edges) float
-        Intensities along the cone edges.
+        Its intensities along the cone edges.
     rank : int
-        Numerical rank of the edge wrench matrix ``G``.
+        Numerical rank of the edge wrench matrix ``G`` (that of ``[W_n W_t W_o]`` restricted
+        to the contacts with friction, for mu > 0).
     m : int
         6 in space, 3 in the plane.
     mu : (n,) float
@@ -83,6 +100,36 @@ class FrictionalFormClosure:
     def is_closure(self) -> bool:
         """True for (frictional) form closure."""
         return self.closure != "force"
+
+
+@dataclass(frozen=True)
+class FrictionalSqueeze:
+    """Result of :func:`frictional_squeezable`.
+
+    Attributes
+    ----------
+    squeezable : (n,) bool
+        Contacts whose normal intensity can grow without bound with friction (an internal
+        force in the linearised cones pushes on them).
+    friction_columns : (n,) bool
+        Contacts whose tangential columns the paper's test includes: squeezable, with mu > 0.
+    c_normal : (n,) float
+        Normal intensities of an internal force pushing on every squeezable contact (scaled
+        so that the smallest positive one is 1).
+    rank : int
+        Rank of the wrench matrix of the test: every normal column, and the edge columns of
+        the contacts in ``friction_columns``.
+    closure : str
+        ``"frictional form"`` (every contact squeezable, full rank; ``"form"`` when no mu is
+        positive), ``"strong force"`` (some but not all squeezable, or full squeezing without
+        full rank) or ``"force"`` (none).
+    """
+
+    squeezable: NDArray[np.bool_]
+    friction_columns: NDArray[np.bool_]
+    c_normal: NDArray[np.float64] = field(repr=False)
+    rank: int
+    closure: str
 
 
 def tangent_basis(normals: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -162,6 +209,14 @@ def friction_cone_wrenches(
     return G.reshape(6, n, E)
 
 
+def _edge_matrix(points: ArrayLike, normals: ArrayLike, mu: ArrayLike, center: ArrayLike | None,
+                 edges: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Edge wrenches (m, n * E) and the mu array (n,)."""
+    G3 = friction_cone_wrenches(points, normals, mu, center=center, edges=edges)
+    m, n, E = G3.shape
+    return G3.reshape(m, n * E), _check_mu(mu, n)
+
+
 def frictional_form_closure(
     points: ArrayLike,
     normals: ArrayLike,
@@ -169,7 +224,7 @@ def frictional_form_closure(
     center: ArrayLike | None = None,
     edges: int = 8,
 ) -> FrictionalFormClosure:
-    """Frictional form-closure measure of point contacts with Coulomb friction.
+    """Trinkle's frictional form-closure measure of point contacts with Coulomb friction.
 
     Parameters
     ----------
@@ -181,7 +236,7 @@ def frictional_form_closure(
     center : (3,) or (2,) float, optional
         Moment reference; d* does not depend on it.
     edges : int
-        Edges of each linearised cone in space (default 8, at least 3).
+        Edges of each linearised (inscribed) cone in space (default 8, at least 3).
 
     Returns
     -------
@@ -194,28 +249,21 @@ def frictional_form_closure(
     >>> frictional_form_closure(pts, nrm, mu=0.5).closure
     'force'
     """
-    G3 = friction_cone_wrenches(points, normals, mu, center=center, edges=edges)
-    m, n, E = G3.shape
-    mu_a = _check_mu(mu, n)
-    G = G3.reshape(m, n * E)
+    G, mu_a = _edge_matrix(points, normals, mu, center, edges)
+    m = G.shape[0]
+    n = len(mu_a)
+    E = G.shape[1] // n
+    Gb, _ = balance_rows(G)  # same null space, rows of one size
     t0 = time.perf_counter()
     # x = [lam (n*E), d]; minimise -d
+    sums = np.kron(np.eye(n), np.ones((1, E)))  # c_in = sum_j lam_ij
     cost = np.zeros(n * E + 1)
     cost[-1] = -1.0
-    A_ub = np.zeros((n * E + n, n * E + 1))
-    A_ub[: n * E, : n * E] = -np.eye(n * E)  # d/E - lam <= 0
-    A_ub[: n * E, -1] = 1.0 / E
-    A_ub[n * E :, : n * E] = np.kron(np.eye(n), np.ones((1, E)))  # sum_j lam_ij <= 1
-    b_ub = np.concatenate([np.zeros(n * E), np.ones(n)])
-    res = linprog(
-        cost,
-        A_ub=A_ub,
-        b_ub=b_ub,
-        A_eq=np.hstack([G, np.zeros((m, 1))]),
-        b_eq=np.zeros(m),
-        bounds=[(0.0, None)] * (n * E + 1),
-        method="highs",
-    )
+    A_ub = np.block([[-sums, np.ones((n, 1))],  # d - c_in <= 0
+                     [sums, np.zeros((n, 1))]])  # c_in <= 1
+    b_ub = np.concatenate([np.zeros(n), np.ones(n)])
+    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=np.hstack([Gb, np.zeros((m, 1))]),
+                  b_eq=np.zeros(m), bounds=[(0.0, None)] * (n * E + 1), method="highs")
     solve_time = time.perf_counter() - t0
     if res.status != 0:
         raise SolverError(f"frictional form-closure LP failed: {res.message}")
@@ -246,3 +294,69 @@ def frictional_form_closure(
         escape_words=words,
         solve_time=solve_time,
     )
+
+
+def frictional_squeezable(
+    points: ArrayLike,
+    normals: ArrayLike,
+    mu: ArrayLike,
+    center: ArrayLike | None = None,
+    edges: int = 8,
+) -> FrictionalSqueeze:
+    """The contacts that can be squeezed without bound with friction, from one LP.
+
+    The first step of the paper's frictional procedure (Section II.B, footnote 2): the
+    internal forces with every contact force in its linearised cone form a convex cone, so
+    one LP finds the largest set of contacts such a force can push on,
+
+        maximise sum(s)  s.t.  G lam = 0,  s_i <= sum_j lam_ij,  0 <= s <= 1,  lam >= 0,
+
+    whose optimal ``s`` is the indicator of that set.
+
+    Parameters
+    ----------
+    points : (n, 3) or (n, 2) float
+    normals : (n, 3) or (n, 2) float
+        Inward normals.
+    mu : float or (n,) float
+    center : (3,) or (2,) float, optional
+    edges : int
+
+    Returns
+    -------
+    FrictionalSqueeze
+
+    Examples
+    --------
+    >>> pts = [[1, 0, 0], [-1, 0, 0], [0, 1, 0]]
+    >>> nrm = [[-1, 0, 0], [1, 0, 0], [0, -1, 0]]
+    >>> frictional_squeezable(pts, nrm, mu=0.5).squeezable.tolist()
+    [True, True, False]
+    """
+    G, mu_a = _edge_matrix(points, normals, mu, center, edges)
+    m = G.shape[0]
+    n = len(mu_a)
+    E = G.shape[1] // n
+    sums = np.kron(np.eye(n), np.ones((1, E)))
+    # x = [lam (n*E), s (n)]; minimise -sum(s)
+    cost = np.concatenate([np.zeros(n * E), -np.ones(n)])
+    res = linprog(cost, A_ub=np.hstack([-sums, np.eye(n)]), b_ub=np.zeros(n),
+                  A_eq=np.hstack([balance_rows(G)[0], np.zeros((m, n))]), b_eq=np.zeros(m),
+                  bounds=[(0.0, None)] * (n * E) + [(0.0, 1.0)] * n, method="highs")
+    if res.status != 0:
+        raise SolverError(f"frictional squeezable-contact LP failed: {res.message}")
+    squeeze = np.asarray(res.x[n * E :] > 0.5)
+    c_n = sums @ res.x[: n * E]
+    if squeeze.any():
+        c_n = c_n / c_n[squeeze].min()
+    cols = squeeze & (mu_a > 0)
+    # the test's matrix: every normal column, and the edges of the contacts with friction
+    # (which span their normal and tangential columns)
+    P, N = check_contacts(points, normals)
+    o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
+    rank = int(numerical_rank(np.hstack([wrench_matrix(P, N, o), G[:, np.repeat(cols, E)]])))
+    if squeeze.all() and rank == m:
+        closure = "frictional form" if cols.any() else "form"
+    else:
+        closure = "strong force" if squeeze.any() else "force"
+    return FrictionalSqueeze(squeeze, cols, c_n, rank, closure)

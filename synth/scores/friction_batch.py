@@ -1,12 +1,16 @@
-"""Frictional d* (see :mod:`synth.scores.friction`) for many grasps at once.
+"""Trinkle's frictional d* (see :mod:`synth.scores.friction`) for many grasps at once.
 
-With ``lam_ij = d / E + (1 - d) f_ij`` the frictional LP becomes
+Dividing the edge intensities by ``1 - d`` (``lam' = lam / (1 - d)``, ``s = d / (1 - d)``) turns
+the constraints ``d <= sum_j lam_ij <= 1`` into ``sum_j lam'_ij = s + g_i`` with
+``0 <= g_i <= 1``, and the frictional LP into
 
-    maximise s  s.t.  G f + s G 1 / E = 0,   sum_j f_ij <= 1 (each contact),   f >= 0,
+    maximise s  s.t.  G lam' = 0,   s + g_i - sum_j lam'_ij = 0 (each contact),
+                      lam' >= 0,   0 <= g <= 1,   s >= 0,
 
-with ``d* = s / (1 + s)``: 6 equality rows plus one row per contact, solved for the whole batch
-by the bounded simplex of :mod:`synth.scores.simplex`; optima not verified are re-solved with
-HiGHS through :func:`synth.frictional_form_closure`.
+with ``d* = s / (1 + s)``: 6 equality rows plus one row per contact and a zero right-hand
+side, so every basis is feasible at the origin and the bounded simplex of
+:mod:`synth.scores.simplex` starts from a crash basis for the whole batch at once; optima not
+verified are re-solved with HiGHS through :func:`synth.frictional_form_closure`.
 """
 
 from __future__ import annotations
@@ -67,11 +71,11 @@ def friction_edge_wrenches_batch(
 def frictional_form_closure_batch(
     points: ArrayLike,
     normals: ArrayLike,
-    mu: float,
+    mu: ArrayLike,
     center: ArrayLike | None = None,
     edges: int = 8,
 ) -> BatchScores:
-    """Frictional d*, closure flag and rank of many spatial grasps with one friction coefficient.
+    """Frictional d*, closure flag and rank of many spatial grasps.
 
     Same answers as :func:`synth.frictional_form_closure` (to 1e-7 on d*).
 
@@ -79,8 +83,9 @@ def frictional_form_closure_batch(
     ----------
     points, normals : (B, k, 3) float
         Contacts and inward normals.
-    mu : float
-        Coulomb coefficient (> 0; use :func:`synth.form_closure_batch` without friction).
+    mu : float or (k,) float
+        Coulomb coefficient, shared or one per contact position (>= 0, some > 0; use
+        :func:`synth.form_closure_batch` without friction).
     center : (3,) float, optional
         Moment reference (default: each grasp's centroid); d* does not depend on it.
     edges : int
@@ -99,41 +104,41 @@ def frictional_form_closure_batch(
                          f"and {N.shape}")
     if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
         raise InputError("points and normals must be finite")
-    if not (np.isfinite(mu) and mu > 0):
-        raise InputError(f"mu must be a finite number > 0, got {mu!r}")
+    B, k, _ = P.shape
+    mu_a = np.asarray(mu, dtype=np.float64)
+    if mu_a.shape not in ((), (k,)) or not np.all(np.isfinite(mu_a)) or np.any(mu_a < 0) or \
+            not np.any(mu_a > 0):
+        raise InputError(f"mu must be finite, >= 0 and somewhere > 0, one value or {k}, got "
+                         f"{mu!r}")
     if int(edges) != edges or edges < 3:
         raise InputError(f"edges must be an integer >= 3, got {edges!r}")
-    B, k, _ = P.shape
     E = int(edges)
     if B == 0:
         return BatchScores(np.zeros(0), np.zeros(0, bool), np.zeros(0, np.int64))
     o = P.mean(axis=1) if center is None else np.asarray(center, dtype=np.float64)
-    G = friction_edge_wrenches_batch(P, N, float(mu), o, E)
+    G = friction_edge_wrenches_batch(P, N, mu_a, o, E)
     Gb, _ = balance_rows(G)
     S = np.linalg.svd(Gb, compute_uv=False)
     rank = np.sum(S > RANK_RTOL * S[:, :1], axis=1).astype(np.int64)
     nE = k * E
-    # columns: f (nE) | s | slacks (k) | artificials (6); rows: 6 wrench rows | k contact rows
-    M = np.concatenate([Gb, Gb.sum(axis=2, keepdims=True) / E], axis=2)
-    rowmax = np.abs(M).max(axis=2, keepdims=True)
-    M /= np.where(rowmax > 0, rowmax, 1.0)
+    # columns: lam' (nE) | s | g (k) | artificials (6); rows: 6 wrench rows | k contact rows
+    rowmax = np.abs(Gb).max(axis=2, keepdims=True)
     A = np.zeros((B, 6 + k, nE + 1 + k + 6))
-    A[:, :6, : nE + 1] = M
+    A[:, :6, :nE] = Gb / np.where(rowmax > 0, rowmax, 1.0)
     A[:, :6, nE + 1 + k :] = np.eye(6)
-    A[:, 6:, :nE] = np.kron(np.eye(k), np.ones((1, E)))
+    A[:, 6:, :nE] = -np.kron(np.eye(k), np.ones((1, E)))
+    A[:, 6:, nE] = 1.0
     A[:, 6:, nE + 1 : nE + 1 + k] = np.eye(k)
-    b = np.zeros((B, 6 + k))
-    b[:, 6:] = 1.0
-    hi = np.concatenate([np.ones(nE), [np.inf], np.full(k, np.inf), np.zeros(6)])
+    hi = np.concatenate([np.full(nE + 1, np.inf), np.ones(k), np.zeros(6)])
     c = np.zeros(nE + 1 + k + 6)
     c[nE] = 1.0
     basis0 = np.concatenate([np.arange(nE + 1 + k, nE + 1 + k + 6), np.arange(nE + 1, nE + 1 + k)])
-    sol = solve_batch(A, b, c, hi, basis0)
+    sol = solve_batch(A, np.zeros((B, 6 + k)), c, hi, basis0, crash=True)
     s = sol.x[:, nE]
     d = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
     bad = np.nonzero(sol.status == UNVERIFIED)[0]
     for j in bad:
-        d[j] = frictional_form_closure(P[j], N[j], mu, center=None, edges=E).d_star
+        d[j] = frictional_form_closure(P[j], N[j], mu_a, center=None, edges=E).d_star
     d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)
     closure = (d > 0) & (rank == 6)
     return BatchScores(d, closure, rank, int(bad.size), time.perf_counter() - t0)

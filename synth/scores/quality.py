@@ -22,7 +22,8 @@ from scipy.spatial import ConvexHull, QhullError
 
 from synth.scores.friction import friction_cone_wrenches
 
-__all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "epsilon_quality"]
+__all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "conditioning_at_least",
+           "epsilon_quality"]
 
 
 def scaled_wrenches(
@@ -104,6 +105,39 @@ def conditioning(W: ArrayLike) -> NDArray[np.float64] | float:
     else:
         out = s[..., m - 1] / np.where(s[..., 0] > 0, s[..., 0], 1.0)
     return float(out) if np.ndim(out) == 0 else out
+
+
+def conditioning_at_least(W: ArrayLike, threshold: float) -> NDArray[np.bool_]:
+    """Which of a batch of matrices have ``sigma_min / sigma_max >= threshold``.
+
+    Cheap for the clear cases: ``(sigma_max / sigma_min)^2 <= trace(G) trace(G^-1)`` with
+    ``G = W W^T`` (:func:`synth.scores.gram.gram_inverse_factor`), so a small bound settles a
+    matrix without an SVD; only the others get :func:`conditioning`'s exact value.
+
+    Parameters
+    ----------
+    W : (B, m, k) float
+    threshold : float
+
+    Returns
+    -------
+    (B,) bool
+    """
+    from synth.scores.gram import gram_inverse_factor
+
+    A = np.asarray(W, dtype=np.float64)
+    out = np.zeros(A.shape[0], bool)
+    if A.shape[0] == 0 or A.shape[-1] < A.shape[-2]:
+        return out
+    X, _ = gram_inverse_factor(A)
+    with np.errstate(all="ignore"):
+        bound = np.einsum("bij,bij->b", A, A) * np.einsum("bij,bij->b", X, X)
+    sure = np.isfinite(bound) & (bound > 0) & (bound * threshold**2 <= 1.0 - 1e-9)
+    out[sure] = True
+    rest = np.flatnonzero(~sure)
+    if len(rest):
+        out[rest] = np.asarray(conditioning(A[rest])).reshape(-1) >= threshold
+    return out
 
 
 def epsilon_quality(

@@ -7,7 +7,7 @@ Solves, for each of ``B`` problems of the same shape,
 starting from a basis whose columns form the identity (slacks or artificials fixed at 0) and
 which is feasible with every other variable at 0 (optionally, when ``b = 0``, a crash basis of
 movable columns replaces the artificials first). All problems pivot in lock step, each pivot a
-batched eta-matrix product on (M + 1) x N' tableaux that carry the reduced costs as their last
+batched rank-one update of (M + 1) x N' tableaux that carry the reduced costs as their last
 row; finished ones are dropped from the working set in batches. Pricing is Dantzig's rule, switching to Bland's rule (which
 cannot cycle) for a problem after a run of degenerate pivots. Every answer is then verified from
 scratch: the final basis is refactorised, the basic values and the duals are recomputed and
@@ -92,8 +92,8 @@ def solve_batch(
 
     Notes
     -----
-    The tableau is updated as ``T <- E T`` with the eta matrix ``E`` of the pivot (one batched
-    matmul over the working set; problems that do not pivot use ``E = I``). Only the movable
+    Each pivot updates the tableaux by a batched rank-one correction over the working set
+    (problems that do not pivot get a zero correction). Only the movable
     columns (``hi > 0``) are kept in the working tableau ``T = B^-1 A[:, :, w]``
     of shape (K, M, Nw): a fixed column can never enter, and the verification refactorises from
     ``A``. The reduced costs of basic columns stay at round-off level (about 1e-17, far below
@@ -130,8 +130,6 @@ def solve_batch(
     n_it = np.zeros(Bn, dtype=np.int64)
     live = np.ones(Bn, dtype=bool)
     buf = np.empty_like(T)
-    eye_k = np.broadcast_to(np.eye(M + 1), (Bn, M + 1, M + 1)).copy()  # eta matrices
-    eye_m = np.eye(M + 1)
     stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
 
     def retire(mask: NDArray[np.bool_]) -> None:
@@ -144,21 +142,14 @@ def solve_batch(
         # (with b = 0 every basis is feasible at x = 0): each row still holding an artificial
         # takes its largest movable entry (Gauss-Jordan with row-wise complete pivoting)
         ar = np.arange(Bn)
-        rowscale = np.abs(A).max(axis=2)  # (B, M)
-        E = eye_k
         for i in range(M):
             if wpos[basis0[i]] >= 0:
                 continue
+            rowscale = np.abs(A[:, i, :]).max(axis=1)
             q = np.argmax(np.abs(T[:, i, :]), axis=1)
             colq = T[ar, :, q]
-            go = np.abs(colq[:, i]) > _CRASH_TOL * rowscale[:, i]
-            pv = np.where(go, colq[:, i], 1.0)
-            eta = colq * (np.where(go, -1.0, 0.0) / pv)[:, None]
-            eta[:, i] = 1.0 / pv
-            E[:, :, i] = eta
-            np.matmul(E, T, out=buf)
-            T, buf = buf, T
-            E[:, :, i] = eye_m[i]
+            go = np.abs(colq[:, i]) > _CRASH_TOL * rowscale
+            _pivot(T, buf, colq, np.full(Bn, i), go)
             basis[:, i] = np.where(go, wcols[q], basis[:, i])
     for _ in range(max_iter):
         K = idx.size
@@ -208,16 +199,10 @@ def solve_batch(
             sgn[ar[piv], q[piv]] = 1.0
             xB[ar, p] = np.where(piv, np.where(up_q, hi_w[q] - theta, theta), xB[ar, p])
             basis[ar, p] = np.where(piv, wcols[q], leave)
-            # tableau update T <- E T with the eta matrix E (identity but column p), on every
-            # problem of the working set: one batched matmul; problems not pivoting get E = I
-            pv = np.where(piv, colq[ar, p], 1.0)
-            eta = colq * (np.where(piv, -1.0, 0.0) / pv)[:, None]
-            eta[ar, p] = 1.0 / pv
-            E = eye_k[:K]
-            E[ar, :, p] = eta
-            np.matmul(E, T, out=buf[:K])
-            T, buf = buf[:K], T
-            E[ar, :, p] = eye_m[p]  # back to the identity
+            # tableau update as a rank-one correction on every problem of the working set:
+            # row p becomes row p / pivot, every other row r loses colq[r] times that row
+            # (problems not pivoting get a zero correction)
+            _pivot(T, buf[:K], colq, p, piv)
         degen += 1
         degen *= step & (theta <= 1e-12)
         n_it += step
@@ -243,6 +228,21 @@ def solve_batch(
             status[which[ok]] = OPTIMAL
     obj = np.where(status == UNBOUNDED, np.inf, x_out @ c)
     return BatchLP(x=x_out, objective=obj, status=status, iterations=iters)
+
+
+def _pivot(T: NDArray[np.float64], buf: NDArray[np.float64], colq: NDArray[np.float64],
+           p: NDArray[np.int64], piv: NDArray[np.bool_]) -> None:
+    """Pivot the tableaux ``T`` (K, M + 1, N) in place on row ``p`` (K,) of the entering
+    column ``colq`` (K, M + 1), where ``piv`` (K,) is set: row p becomes row p / pivot and
+    every other row r loses ``colq[r]`` times it (a rank-one correction; problems that do not
+    pivot get none)."""
+    ar = np.arange(len(p))
+    pv = np.where(piv, colq[ar, p], 1.0)
+    new_row = T[ar, p, :] / pv[:, None]
+    f = np.where(piv[:, None], colq, 0.0)
+    f[ar, p] = np.where(piv, colq[ar, p] - 1.0, 0.0)  # so that row p ends as new_row
+    np.einsum("km,kn->kmn", f, new_row, out=buf)
+    T -= buf
 
 
 def _solve_square(

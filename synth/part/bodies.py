@@ -1,0 +1,280 @@
+"""The bodies of a part, inside tests, and the exposed surface a fingertip can touch.
+
+A part may be made of several bodies: the convex pieces of a robot's or simulator's collision
+mesh (V-HACD, CoACD), or a closed body beside open pieces. Each body is one connected
+component of ``Part.mesh`` (faces joined through shared edges). A *closed* body is watertight
+and has an inside; an *open* piece (a single-sided surface, a scan with holes) is only a
+surface, with no inside.
+
+Exposure
+--------
+Where two bodies touch, overlap or nearly touch, part of each one's surface lies against or
+inside the other, and no finger can reach it. A surface point ``p`` with inward normal ``n``
+is *exposed* when the point ``p - step * n`` (a small step outward, ``step`` =
+``EXPOSURE_STEP_RTOL * length``) lies outside every closed body, its own included, by at
+least ``EXPOSURE_MARGIN_RTOL * length``. The margin makes the answer robust: an independent
+check with the same step finds the point outside too. Contacts that share a fingertip (the two
+of a groove, the three of an inside corner) step along the mean of their normals, towards the
+fingertip. Own-body tests matter in narrow slots and acute grooves, where a step off one wall
+enters the opposite one. On a part of one convex body every point is exposed.
+
+Inside tests
+------------
+Convex closed bodies are tested with their face planes: ``max_j (n_j . x - o_j)`` is a lower
+bound of the distance outside, so a value at least the margin proves the point is outside by
+the margin. Other closed bodies use the exact closest point (:mod:`synth.part.closest`) and
+the sign of ``x - q`` against the angle-weighted pseudo-normal at ``q`` (face, edge or vertex
+normal; Baerentzen and Aanaes, 2005), which is exact for a closed, consistently wound mesh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from synth.part.closest import MeshIndex, build_index, closest_within
+
+__all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights"]
+
+#: Barycentric weights of the points at which each face's exposure is sampled: the centroid,
+#: three points near the corners, three near the edge midpoints and three in between.
+_FACE_SAMPLES = np.array(
+    [[1 / 3, 1 / 3, 1 / 3]]
+    + [np.roll([0.9, 0.05, 0.05], k).tolist() for k in range(3)]
+    + [np.roll([0.475, 0.475, 0.05], k).tolist() for k in range(3)]
+    + [np.roll([2 / 3, 1 / 6, 1 / 6], k).tolist() for k in range(3)]
+)
+_BARY_TOL = 1e-9  # barycentric coordinates are scale free
+_CHUNK = 1 << 16
+
+
+def face_sample_weights() -> np.ndarray:
+    """Barycentric weights (10, 3) of the exposure samples of each face."""
+    return _FACE_SAMPLES.copy()
+
+
+@dataclass(frozen=True, eq=False)
+class Body:
+    """One connected piece of a part.
+
+    Attributes
+    ----------
+    index : int
+        Position in ``Part.bodies``.
+    name : str
+        Name from the file (node or geometry name, with ``#k`` for the k-th piece of one
+        mesh), or ``body{index}``.
+    faces : (m,) int
+        Faces of ``Part.mesh`` that belong to the body.
+    closed : bool
+        Watertight and consistently wound: it has an inside.
+    convex : bool
+        Closed and convex.
+    volume : float
+        Enclosed volume (0 for an open piece).
+    area : float
+    exposed_area : float
+        Estimate of the area a fingertip can touch (sampled, see the module notes).
+    center : (3,) float
+        Centre of mass (uniform density) of a closed body, area centroid of an open one.
+    bounds : (2, 3) float
+        Axis-aligned bounding box.
+    """
+
+    index: int
+    name: str
+    faces: np.ndarray
+    closed: bool
+    convex: bool
+    volume: float
+    area: float
+    exposed_area: float
+    center: np.ndarray
+    bounds: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no face list)."""
+        return {
+            "name": self.name,
+            "faces": int(len(self.faces)),
+            "closed": self.closed,
+            "convex": self.convex,
+            "volume": self.volume,
+            "area": self.area,
+            "exposed_area": self.exposed_area,
+        }
+
+
+def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Connected component of each face, numbered in order of first face.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+
+    Returns
+    -------
+    labels : (f,) int
+    """
+    n = len(mesh.faces)
+    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
+    graph = coo_matrix((np.ones(len(adj), np.int8), (adj[:, 0], adj[:, 1])), shape=(n, n))
+    lab = connected_components(graph, directed=False)[1]
+    _, first = np.unique(lab, return_index=True)
+    remap = np.empty(len(first), np.int64)
+    remap[np.argsort(first)] = np.arange(len(first))
+    return remap[lab]
+
+
+def compute_bodies(
+    mesh: trimesh.Trimesh, labels: np.ndarray, names: list[str] | tuple[str, ...] | None
+) -> list[Body]:
+    """The bodies of a mesh with component ``labels`` (exposed area set to the area).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Consistently wound, outward normals.
+    labels : (f,) int
+        From :func:`body_labels`.
+    names : sequence of str, optional
+        One per body.
+
+    Returns
+    -------
+    list of Body
+    """
+    n_b = int(labels.max()) + 1
+    out = []
+    order = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[order], np.arange(n_b + 1))
+    for b in range(n_b):
+        faces = order[bounds[b] : bounds[b + 1]].copy()
+        sub = mesh.submesh([faces], append=True, repair=False)
+        with np.errstate(invalid="ignore", divide="ignore"):  # open pieces have no volume
+            closed = bool(sub.is_watertight and sub.is_winding_consistent and sub.volume > 0)
+        convex = bool(closed and sub.is_convex)
+        faces.flags.writeable = False
+        box = np.asarray(sub.bounds, float)
+        center = np.asarray(sub.center_mass if closed else sub.centroid, float)
+        for a in (box, center):
+            a.flags.writeable = False
+        name = names[b] if names is not None and b < len(names) else f"body{b}"
+        out.append(Body(b, name, faces, closed, convex, float(sub.volume) if closed else 0.0,
+                        float(sub.area), float(sub.area), center, box))
+    return out
+
+
+class Solids:
+    """Inside tests against the closed bodies of a part (built by :class:`synth.part.Part`).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The part's mesh, outward normals.
+    bodies : sequence of Body
+    """
+
+    def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...]) -> None:
+        fn = np.asarray(mesh.face_normals, float)
+        tri = np.asarray(mesh.triangles, float)
+        faces = np.asarray(mesh.faces, np.int64)
+        self._tests: list[tuple[int, np.ndarray, Any]] = []
+        need_pseudo = any(b.closed and not b.convex for b in bodies)
+        if need_pseudo:
+            ang = np.asarray(mesh.face_angles, float)
+            vpn = np.zeros((len(mesh.vertices), 3))
+            np.add.at(vpn, faces.ravel(), (ang[..., None] * fn[:, None, :]).reshape(-1, 3))
+            fue = np.asarray(mesh.faces_unique_edges, np.int64)
+            epn = np.zeros((len(mesh.edges_unique), 3))
+            np.add.at(epn, fue.ravel(), np.repeat(fn, 3, axis=0))
+        for b in bodies:
+            if not b.closed:
+                continue
+            f = b.faces
+            if b.convex:
+                planes = np.hstack([fn[f], -np.einsum("ij,ij->i", fn[f], tri[f, 0])[:, None]])
+                self._tests.append((b.index, b.bounds, planes))
+            else:
+                index = build_index(tri[f], fn[f])
+                corner = vpn[faces[f]]  # (m, 3, 3): pseudo-normal at each corner
+                edge = epn[fue[f]]  # (m, 3, 3): at edges (0,1), (1,2), (2,0)
+                self._tests.append((b.index, b.bounds, (index, fn[f], corner, edge)))
+
+    @property
+    def bodies(self) -> list[int]:
+        """Indices of the closed bodies tested."""
+        return [t[0] for t in self._tests]
+
+    def hidden(self, points: np.ndarray, margin: float, reach: float) -> np.ndarray:
+        """Which points lie inside a closed body, or within ``margin`` of one.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+        margin : float
+            Distance, in the part's units.
+        reach : float
+            A point farther than this from a non-convex body's surface counts as outside it.
+            Exact for the points synth asks about (a small step off the surface) because
+            closed bodies of a part do not overlap (those that did were united on loading,
+            :mod:`synth.part.compound`).
+
+        Returns
+        -------
+        hidden : (n,) bool
+        """
+        pts = np.asarray(points, float)
+        out = np.zeros(len(pts), bool)
+        for _, box, test in self._tests:
+            near = ~out & np.all((pts >= box[0] - margin) & (pts <= box[1] + margin), axis=1)
+            rows = np.flatnonzero(near)
+            if not len(rows):
+                continue
+            if isinstance(test, np.ndarray):
+                out[rows] = _convex_hidden(test, pts[rows], margin)
+            else:
+                out[rows] = _mesh_hidden(*test, pts[rows], margin, reach)
+        return out
+
+
+def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.ndarray:
+    """Inside or within ``margin`` of the convex body ``planes`` (h, 4): ``n . x + c <= 0``."""
+    res = np.empty(len(pts), bool)
+    for s in range(0, len(pts), _CHUNK):
+        p = pts[s : s + _CHUNK]
+        lower = (p @ planes[:, :3].T + planes[:, 3]).max(axis=1)  # <= true distance outside
+        res[s : s + _CHUNK] = lower < margin
+    return res
+
+
+def _mesh_hidden(index: MeshIndex, normals: np.ndarray, corner: np.ndarray, edge: np.ndarray,
+                 pts: np.ndarray, margin: float, reach: float) -> np.ndarray:
+    """Inside or within ``margin`` of a closed mesh, by its closest point and pseudo-normal.
+
+    Only surface within ``reach`` of a point is searched: a point with none is outside.
+    """
+    q, f, d, found = closest_within(index, pts, reach)
+    hidden = np.zeros(len(pts), bool)
+    rows = np.flatnonzero(found)
+    if not len(rows):
+        return hidden
+    q, f, d, p = q[rows], f[rows], d[rows], pts[rows]
+    bary = trimesh.triangles.points_to_barycentric(index.triangles[f], q, method="cramer")
+    small = bary < _BARY_TOL
+    pn = normals[f].copy()
+    on_edge = small.sum(axis=1) == 1
+    at_vertex = small.sum(axis=1) >= 2
+    # the edge opposite corner k is edge slot (k + 1) % 3
+    k = np.argmax(small, axis=1)
+    pn[on_edge] = edge[f[on_edge], (k[on_edge] + 1) % 3]
+    v = np.argmax(bary, axis=1)
+    pn[at_vertex] = corner[f[at_vertex], v[at_vertex]]
+    outside = np.einsum("ij,ij->i", p - q, pn) > 0
+    hidden[rows] = (d < margin) | ~outside
+    return hidden

@@ -1,0 +1,227 @@
+"""Files with several bodies: which bodies form one part, and uniting those that overlap.
+
+Robot and simulator collision meshes are usually convex decompositions (V-HACD, CoACD): one
+object stored as 4 to 100 convex pieces that touch, overlap, or leave gaps of 1e-5 to 1e-3 of
+its size. Other files hold several objects side by side. So:
+
+* bodies whose surfaces come within ``GROUP_GAP_RTOL`` of the file's size of each other (or
+  one inside the other) are one *object*, a rigid part; objects farther apart are separate,
+  and the loader plans one of them (:func:`synth.load_part`, ``body=``);
+* closed bodies of one object that overlap (a common volume above ``OVERLAP_RTOL`` of the
+  smaller) are united with manifold3d, so the hidden surface inside the overlap disappears
+  and the seam becomes a real concave edge; bodies that only touch or nearly touch stay
+  separate, and the part model hides what lies against another body
+  (:mod:`synth.part.bodies`).
+
+Distances come from FCL (python-fcl) on each body's BVH; volumes of overlap from manifold3d in
+float64, around the object's own centre so that coordinates far from the origin lose nothing.
+"""
+
+from __future__ import annotations
+
+import fcl
+import numpy as np
+import trimesh
+
+from synth.part.repair import fix_degenerate
+
+__all__ = ["OVERLAP_RTOL", "group_bodies", "unite_overlapping"]
+
+#: Two closed bodies overlap when their common volume exceeds this fraction of the smaller.
+OVERLAP_RTOL: float = 1e-6
+
+
+def _bvh(mesh: trimesh.Trimesh) -> fcl.CollisionObject:
+    model = fcl.BVHModel()
+    model.beginModel(len(mesh.vertices), len(mesh.faces))
+    model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32))
+    model.endModel()
+    return fcl.CollisionObject(model, fcl.Transform())
+
+
+def _box_gap(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Distances (n, n) between axis-aligned boxes (0 where they overlap)."""
+    sep = np.maximum(lo[:, None, :] - hi[None, :, :], lo[None, :, :] - hi[:, None, :])
+    return np.linalg.norm(np.maximum(sep, 0.0), axis=2)
+
+
+def _manifold(mesh: trimesh.Trimesh, origin: np.ndarray):  # type: ignore[no-untyped-def]
+    import manifold3d as mf
+
+    m = mf.Manifold(mf.Mesh64(vert_properties=np.asarray(mesh.vertices, np.float64) - origin,
+                              tri_verts=np.asarray(mesh.faces, np.uint64)))
+    return m if m.status() == mf.Error.NoError and not m.is_empty() else None
+
+
+class _Sets:
+    """Union-find over n items."""
+
+    def __init__(self, n: int) -> None:
+        self.up = list(range(n))
+
+    def find(self, i: int) -> int:
+        while self.up[i] != i:
+            self.up[i] = self.up[self.up[i]]
+            i = self.up[i]
+        return i
+
+    def join(self, i: int, j: int) -> None:
+        self.up[self.find(i)] = self.find(j)
+
+    def groups(self) -> list[list[int]]:
+        out: dict[int, list[int]] = {}
+        for i in range(len(self.up)):
+            out.setdefault(self.find(i), []).append(i)
+        return sorted(out.values(), key=lambda g: g[0])
+
+
+def _overlap_volume(a: trimesh.Trimesh, b: trimesh.Trimesh, origin: np.ndarray) -> float:
+    ma, mb = _manifold(a, origin), _manifold(b, origin)
+    if ma is None or mb is None:
+        return 0.0
+    return float((ma ^ mb).volume())
+
+
+def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: float
+                 ) -> list[list[int]]:
+    """Split bodies into objects: groups of bodies that touch, nearly touch or nest.
+
+    Parameters
+    ----------
+    meshes : list of trimesh.Trimesh
+        The bodies, each one connected piece.
+    closed : list of bool
+        Which bodies are watertight (only those can contain another).
+    gap_rtol : float
+        Largest gap, as a fraction of the bounding-box diagonal of all the bodies.
+
+    Returns
+    -------
+    groups : list of list of int
+        Body indices of each object, in order of their first body.
+    """
+    n = len(meshes)
+    if n == 1:
+        return [[0]]
+    lo = np.array([m.bounds[0] for m in meshes], float)
+    hi = np.array([m.bounds[1] for m in meshes], float)
+    thr = gap_rtol * float(np.linalg.norm(hi.max(axis=0) - lo.min(axis=0)))
+    near = np.triu(_box_gap(lo, hi) <= thr, 1)
+    sets = _Sets(n)
+    objects: dict[int, fcl.CollisionObject] = {}
+
+    def obj(i: int) -> fcl.CollisionObject:
+        if i not in objects:
+            objects[i] = _bvh(meshes[i])
+        return objects[i]
+
+    centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
+    for i, j in zip(*np.nonzero(near)):
+        i, j = int(i), int(j)
+        if sets.find(i) == sets.find(j):
+            continue
+        gap = fcl.distance(obj(i), obj(j), fcl.DistanceRequest(), fcl.DistanceResult())
+        if gap <= thr:
+            sets.join(i, j)
+            continue
+        for outer, inner in ((i, j), (j, i)):  # one body nested inside the other
+            if closed[outer] and closed[inner] and np.all(lo[outer] <= lo[inner]) and \
+                    np.all(hi[inner] <= hi[outer]) and \
+                    _overlap_volume(meshes[outer], meshes[inner], centre) > 0:
+                sets.join(i, j)
+                break
+    return sets.groups()
+
+
+def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: list[bool],
+                      height: float
+                      ) -> tuple[list[trimesh.Trimesh], list[str], list[np.ndarray], list[str]]:
+    """Unite the closed bodies of one object that overlap (manifold3d, float64).
+
+    Parameters
+    ----------
+    meshes : list of trimesh.Trimesh
+    names : list of str
+    closed : list of bool
+    height : float
+        Slivers of the union thinner than this are repaired
+        (:func:`synth.part.repair.fix_degenerate`).
+
+    Returns
+    -------
+    meshes, names : lists
+        The bodies after uniting (a union that falls apart into pieces touching at an edge
+        or a point gives several bodies).
+    sources : list of (f_k,) int
+        For each face of each body, the input body it lies on.
+    notes : list of str
+        One line per union made.
+    """
+    n = len(meshes)
+    if n == 1:
+        return meshes, names, [np.zeros(len(meshes[0].faces), np.int64)], []
+    lo = np.array([m.bounds[0] for m in meshes], float)
+    hi = np.array([m.bounds[1] for m in meshes], float)
+    centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
+    boxes = np.triu(_box_gap(lo, hi) <= 0.0, 1)
+    sets = _Sets(n)
+    manifolds: dict[int, object] = {}
+
+    def man(i: int):  # type: ignore[no-untyped-def]
+        if i not in manifolds:
+            manifolds[i] = _manifold(meshes[i], centre)
+        return manifolds[i]
+
+    vol = [abs(float(m.volume)) if c else 0.0 for m, c in zip(meshes, closed)]
+    for i, j in zip(*np.nonzero(boxes)):
+        i, j = int(i), int(j)
+        if not (closed[i] and closed[j]):
+            continue
+        a, b = man(i), man(j)
+        if a is None or b is None:
+            continue
+        if (a ^ b).volume() > OVERLAP_RTOL * min(vol[i], vol[j]):  # type: ignore[attr-defined]
+            sets.join(i, j)
+    out_m: list[trimesh.Trimesh] = []
+    out_n: list[str] = []
+    out_s: list[np.ndarray] = []
+    notes: list[str] = []
+
+    def keep(i: int) -> None:
+        out_m.append(meshes[i])
+        out_n.append(names[i])
+        out_s.append(np.full(len(meshes[i].faces), i, np.int64))
+
+    for group in sets.groups():
+        if len(group) == 1:
+            keep(group[0])
+            continue
+        import manifold3d as mf
+
+        inputs = [man(i).as_original() for i in group]  # type: ignore[union-attr]
+        origin = {m.original_id(): i for m, i in zip(inputs, group)}
+        union = mf.Manifold.batch_boolean(inputs, mf.OpType.Add)
+        pieces = union.decompose() if union.status() == mf.Error.NoError else []
+        if not pieces:
+            for i in group:
+                keep(i)
+            notes.append(f"could not unite overlapping bodies {[names[i] for i in group]} "
+                         "(manifold3d failed); kept them separate")
+            continue
+        label = "+".join(names[i] for i in group)
+        for k, piece in enumerate(pieces):
+            mesh = piece.to_mesh64()
+            runs = np.asarray(mesh.run_index, np.int64) // 3
+            src = np.repeat([origin.get(int(r), group[0]) for r in mesh.run_original_id],
+                            np.diff(runs))
+            united = trimesh.Trimesh(np.asarray(mesh.vert_properties, float)[:, :3] + centre,
+                                     np.asarray(mesh.tri_verts, np.int64), process=False)
+            united, _, _, kept = fix_degenerate(united, height)
+            out_m.append(united)
+            out_s.append(src[kept])
+            out_n.append(label if len(pieces) == 1 else f"{label}#{k}")
+        shown = [names[i] for i in group]
+        shown = shown if len(shown) <= 6 else shown[:5] + [f"... {len(shown) - 5} more"]
+        notes.append(f"united {len(group)} overlapping bodies {shown} into "
+                     f"{len(pieces)} (manifold3d)")
+    return out_m, out_n, out_s, notes

@@ -1,0 +1,165 @@
+"""Mesh repairs the loader applies to each body: welding, degenerate and duplicate faces,
+orientation, closing holes.
+
+Degenerate faces (a smallest height below the tolerance) carry no normal. Dropping them, as
+most tools do, opens the mesh: a sliver from CAD or a boolean is usually a *cap* (a corner
+lying on the opposite edge) or a *needle* (two corners almost together) inside a closed
+surface. So a cap is removed by flipping its longest edge with the neighbouring face, and a
+needle by merging its two close corners; both keep a closed mesh closed. Only what cannot be
+repaired this way (a sliver on an open boundary) is dropped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+__all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges"]
+
+_PASSES = 8
+#: A degenerate face is a needle when its apex lies within this many tolerance heights of an
+#: end of its longest edge (flipping it would only make another sliver).
+_NEEDLE_FACTOR = 1e3
+
+
+def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
+    """Merge vertices closer than about ``tol`` (texture and normal seams included).
+
+    Returns the welded copy and the number of vertices removed.
+    """
+    out = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
+                          process=False, validate=False)
+    n_v = len(out.vertices)
+    out.merge_vertices(merge_tex=True, merge_norm=True,
+                       digits_vertex=max(0, int(np.ceil(-np.log10(tol)))))
+    return out, n_v - len(out.vertices)
+
+
+def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Smallest height of each face; 0 where trimesh could not give the face a normal."""
+    tri = v[f]
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    longest = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=2).max(axis=1)
+    h = np.where(longest > 0, area2 / np.where(longest > 0, longest, 1.0), 0.0)
+    return np.where(trimesh.triangles.normals(tri)[1], h, 0.0)
+
+
+def fix_degenerate(mesh: trimesh.Trimesh, height: float
+                   ) -> tuple[trimesh.Trimesh, int, int, np.ndarray]:
+    """Remove faces whose smallest height is below ``height`` (or that trimesh cannot give a
+    normal) without opening the mesh.
+
+    Returns the repaired mesh, the number of slivers repaired (edge flips and merges), the
+    number dropped (those on an open boundary or left after a few passes) and, for each face
+    of the result, the input face it came from.
+    """
+    v = np.asarray(mesh.vertices, float)
+    f = np.asarray(mesh.faces, np.int64).copy()
+    ids = np.arange(len(f))
+    fixed = 0
+    for _ in range(_PASSES):
+        proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
+        f, ids = f[proper], ids[proper]
+        bad = np.flatnonzero(_heights(v, f) < height)
+        if not len(bad):
+            break
+        nv = len(v)
+        directed = (f * nv + np.roll(f, -1, axis=1)).ravel()  # edge (j, j+1) of each face
+        order = np.argsort(directed, kind="stable")
+        keys = directed[order]
+        busy = np.zeros(len(f), bool)
+        remap = np.arange(nv)
+        actions = 0
+        for i in bad.tolist():
+            if busy[i]:
+                continue
+            a = f[i]
+            p = v[a]
+            lens = np.linalg.norm(p - np.roll(p, -1, axis=0), axis=1)
+            j = int(np.argmax(lens))  # longest edge a[j] -> a[j+1], apex a[j+2]
+            u, w, apex = a[j], a[(j + 1) % 3], a[(j + 2) % 3]
+            seg = v[w] - v[u]
+            t = float(np.dot(v[apex] - v[u], seg) / max(np.dot(seg, seg), 1e-300))
+            if min(t, 1.0 - t) * lens[j] <= _NEEDLE_FACTOR * height:  # needle: merge
+                end = u if t < 0.5 else w
+                if remap[apex] == apex and remap[end] == end:
+                    remap[apex] = end
+                    busy[i] = True
+                    actions += 1
+                continue
+            k = np.searchsorted(keys, w * nv + u)  # neighbour across (w -> u): a cap, flip
+            if k >= len(keys) or keys[k] != w * nv + u:
+                continue
+            g = int(order[k] // 3)
+            if busy[g]:
+                continue
+            b = f[g]
+            x = b[(int(order[k] % 3) + 2) % 3]
+            f[i] = (u, x, apex)
+            f[g] = (x, w, apex)
+            busy[i] = busy[g] = True
+            actions += 1
+        fixed += actions
+        if (remap != np.arange(nv)).any():
+            f = remap[f]
+        if not actions:
+            break
+    proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
+    f, ids = f[proper], ids[proper]
+    keep = _heights(v, f) >= height
+    out = trimesh.Trimesh(v, f[keep], process=False, validate=False)
+    out.remove_unreferenced_vertices()
+    return out, fixed, int((~keep).sum()), ids[keep]
+
+
+def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
+    """Drop repeated faces with the same orientation. Two coincident faces of opposite
+    orientation are the touching sides of two bodies and are kept."""
+    f = np.asarray(mesh.faces, np.int64)
+    first = np.argmin(f, axis=1)
+    rolled = np.stack([np.roll(row, -k) for row, k in zip(f, first)]) if len(f) else f
+    _, keep = np.unique(rolled, axis=0, return_index=True)
+    if len(keep) == len(f):
+        return mesh, 0
+    keep = np.sort(keep)
+    out = trimesh.Trimesh(np.asarray(mesh.vertices, float), f[keep], process=False,
+                          validate=False)
+    return out, len(f) - len(keep)
+
+
+def orient(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
+    """Consistent winding and outward normals; returns the mesh and the faces flipped."""
+    before = mesh.faces.copy()
+    trimesh.repair.fix_winding(mesh)
+    trimesh.repair.fix_inversion(mesh, multibody=True)
+    return mesh, int((~(mesh.faces == before).all(axis=1)).sum())
+
+
+def open_edges(mesh: trimesh.Trimesh) -> int:
+    """Number of edges with one face."""
+    return len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+
+
+def close(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str | None]:
+    """Try to close an open body; returns it and what was done (None: still open)."""
+    n_f = len(mesh.faces)
+    trimesh.repair.fill_holes(mesh)
+    if mesh.is_watertight:
+        mesh, _ = orient(mesh)
+        return mesh, f"filled holes with {len(mesh.faces) - n_f} faces"
+    try:
+        import manifold3d as mf
+
+        m = mf.Mesh64(vert_properties=np.asarray(mesh.vertices, np.float64),
+                      tri_verts=np.asarray(mesh.faces, np.uint64))
+        m.merge()
+        solid = mf.Manifold(m)
+        if solid.status() == mf.Error.NoError and not solid.is_empty():
+            out = solid.to_mesh64()
+            closed = trimesh.Trimesh(np.asarray(out.vert_properties, float)[:, :3],
+                                     np.asarray(out.tri_verts, np.int64), process=False)
+            if closed.is_watertight and closed.volume > 0:
+                return closed, "closed the mesh with manifold3d (merged open edges)"
+    except Exception:  # manifold3d refuses non-manifold input; the body stays open
+        pass
+    return mesh, None

@@ -1,0 +1,152 @@
+"""Grasps under evaluation and their fitness, shared by the stages of the search.
+
+A grasp's *fitness* orders the search: its d* when it is (frictional) form closure, well
+conditioned (``PlanParams.min_conditioning``) and its fingertips do not overlap; d* - 1 when
+only closure or conditioning fails (so better candidates still rank higher); -2 when two
+fingertips overlap. Every candidate scored counts as one evaluation of the budget.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from synth.fingers import Fingers, tip_centers
+from synth.plan.params import PlanParams
+from synth.scores import form_closure_batch
+from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
+
+__all__ = ["GraspBatch", "Scorer", "distinct_top"]
+
+_CHUNK = 4096
+_FIELDS = ("points", "normals", "faces", "regions", "d", "fit", "finger")
+
+
+@dataclass
+class GraspBatch:
+    """Grasps under evaluation: (B, k) contact data and their scores.
+
+    Attributes
+    ----------
+    points, normals : (B, k, 3) float
+    faces, regions : (B, k) int
+    d : (B,) float
+        d* (frictional d* with friction).
+    fit : (B,) float
+        Fitness (see the module notes).
+    finger : (B, k) int
+        Fingertip of each contact (contacts in a groove or an inside corner share one);
+        default one per contact.
+    """
+
+    points: NDArray[np.float64]
+    normals: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    regions: NDArray[np.int64]
+    d: NDArray[np.float64]
+    fit: NDArray[np.float64]
+    finger: NDArray[np.int64] = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        if self.finger is None:
+            B, k = self.faces.shape
+            self.finger = np.broadcast_to(np.arange(k), (B, k)).copy()
+
+    def __len__(self) -> int:
+        return int(self.d.shape[0])
+
+    def take(self, idx: NDArray[np.int64]) -> GraspBatch:
+        """The grasps ``idx`` (copies)."""
+        return GraspBatch(*[getattr(self, f)[idx] for f in _FIELDS])
+
+    def put(self, rows: NDArray[np.int64], other: GraspBatch, src: NDArray[np.int64]) -> None:
+        """Overwrite grasps ``rows`` with ``other``'s grasps ``src``."""
+        for f in _FIELDS:
+            getattr(self, f)[rows] = getattr(other, f)[src]
+
+    @staticmethod
+    def concat(parts: list[GraspBatch]) -> GraspBatch:
+        """One batch of all the grasps of ``parts``."""
+        return GraspBatch(*[np.concatenate([getattr(p, f) for p in parts]) for f in _FIELDS])
+
+
+class Scorer:
+    """Fitness of batches of grasps for one part and one parameter set.
+
+    Parameters
+    ----------
+    part : synth.Part
+    params : PlanParams
+    fingers : Fingers
+    """
+
+    def __init__(self, part: Any, params: PlanParams, fingers: Fingers) -> None:
+        self.center = np.asarray(part.center_mass, dtype=np.float64)
+        self.length = float(part.length)
+        self.params = params
+        self.r = float(fingers.tip_radius)
+        self.evaluations = 0
+
+    def matrix(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The scaled wrench matrix (or matrices) whose conditioning is reported."""
+        prm = self.params
+        return grasp_wrenches(P, N, self.center, self.length, prm.mu, prm.edges)
+
+    def __call__(self, P: NDArray[np.float64], N: NDArray[np.float64],
+                 finger: NDArray[np.int64] | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """d* and fitness (B,) of grasps ``P, N`` (B, k, 3) whose contacts belong to fingertips
+        ``finger`` (B, k) (default: one each)."""
+        B = P.shape[0]
+        self.evaluations += B
+        prm = self.params
+        d = np.empty(B)
+        ok = np.empty(B, dtype=bool)
+        for s in range(0, B, _CHUNK):
+            p, n = P[s : s + _CHUNK], N[s : s + _CHUNK]
+            if prm.mu == 0:
+                res = form_closure_batch(scaled_wrenches(p, n, self.center, self.length))
+            else:
+                res = frictional_form_closure_batch(p, n, prm.mu, center=self.center,
+                                                    edges=prm.edges)
+            d[s : s + _CHUNK], ok[s : s + _CHUNK] = res.d_star, res.closure
+        if ok.any():  # conditioning matters only for closure grasps
+            ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
+        if finger is None:
+            tips, present = P - self.r * N, np.ones(P.shape[:2], bool)
+        else:
+            tips, present, _, _ = tip_centers(P, N, self.r, finger)
+        iu = np.triu_indices(P.shape[1], 1)
+        gap = np.where(present[:, iu[0]] & present[:, iu[1]],
+                       np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
+        tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
+        fit = np.where(tips_ok, np.where(ok, d, d - 1.0), -2.0)
+        return d, fit
+
+    def score(self, b: GraspBatch) -> None:
+        """Fill in ``b.d`` and ``b.fit``."""
+        k = b.finger.shape[1]
+        own = bool((b.finger == np.arange(k)).all())  # one fingertip per contact
+        b.d, b.fit = self(b.points, b.normals, None if own else b.finger)
+
+
+def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:
+    """Indices of the ``n`` fittest grasps of ``b`` with distinct contact sets (contact points
+    rounded to ``scale``, order ignored), best first."""
+    order = np.argsort(-b.fit, kind="stable")
+    seen: set[tuple[tuple[int, ...], ...]] = set()
+    out = []
+    for i in order.tolist():
+        q = np.round(b.points[i] / scale).astype(np.int64)
+        key = tuple(sorted(map(tuple, q.tolist())))
+        if key in seen:
+            continue
+        seen.add(key)
+        out.append(i)
+        if len(out) == n:
+            break
+    return np.array(out, dtype=np.int64)

@@ -1,0 +1,431 @@
+"""Local search: a population of grasps climbing d*, first over a pool of contacts, then on
+the surface.
+
+Both climbs share one scheme (:class:`Population`): each round every member proposes moves,
+takes its best improving one and widens its step (x ``GROW``), or narrows it (x ``SHRINK``);
+a member whose step falls below a floor has converged, is set aside and restarts from the next
+unused seed. Restarts beat long climbs on parts with many local optima.
+
+* :func:`swap_climb` (7 contacts without friction) moves over a pool of contacts already
+  checked (exposed, reachable by a finger, single face contacts) by best responses: for one
+  contact at a time it scores *every* pool contact as its replacement and takes the best. The
+  null vector of a 6 x 7 wrench matrix is its generalised cross product, ``v_i = (-1)^i
+  det(W without column i)``; with column ``j`` replaced by ``x`` every ``v_i`` (i != j) is a
+  linear function ``c_i . x`` of ``x`` (its cofactors) and ``v_j`` does not change, so the d*
+  of all replacements costs one 6 x 6 by 6 x n product: exact, and a few microseconds for a
+  thousand candidates.
+* :func:`pool_climb` (any other case) moves over the same pool: a move swaps one contact for
+  the pool contact nearest a Gaussian step away from it, one score each.
+* :func:`surface_climb` moves on the surface itself: steps of all contacts along the ascent
+  direction of d* (:mod:`synth.plan.ascent`, 7 contacts without friction) at four step sizes,
+  and single-contact Gaussian moves in the tangent plane, snapped back onto the surface (so
+  they cross edges onto neighbouring faces). A member takes its best improving proposal whose
+  moved contacts are exposed and reachable (checked for the few best only: those checks cost
+  the most).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from synth.fingers import Fingers, check_fingers
+from synth.plan.ascent import ascent_directions
+from synth.plan.batch import GraspBatch, Scorer
+
+__all__ = ["GROW", "SHRINK", "FIRST_STEP", "Population", "pool_climb", "surface_climb",
+           "swap_climb", "reachable"]
+
+#: Step-size factors after a round with and without an improvement.
+GROW, SHRINK = 1.5, 0.7
+#: First (and largest) step, relative to the part's length.
+FIRST_STEP = 0.05
+#: Surface climb: converged below this step (relative to the part's length).
+_MIN_STEP = 1e-4
+#: Pool climb: members and single-contact moves each proposes per round.
+_POOL_MEMBERS, _POOL_MOVES = 16, 32
+#: Surface climb: members, single-contact moves per round, steps along the ascent direction
+#: (in units of the member's step) and improving proposals checked per member and round.
+_SURFACE_MEMBERS, _SURFACE_MOVES = 12, 24
+_GRADIENT_STEPS = (2.0, 1.0, 0.5, 0.25)
+_CHECKED = 3
+#: Swap climb: members climbing side by side.
+_SWAP_MEMBERS = 32
+
+
+def reachable(part: Any, points: NDArray[np.float64], normals: NDArray[np.float64],
+              fingers: Fingers) -> NDArray[np.bool_]:
+    """Which single contacts (n, 3) a finger can make on its own (tip fits, approach clear)."""
+    if len(points) == 0:
+        return np.zeros(0, dtype=bool)
+    return check_fingers(part, points[:, None, :], normals[:, None, :], fingers).mask
+
+
+class Population:
+    """Members climbing side by side, their steps, and restarts from a queue of seeds.
+
+    Parameters
+    ----------
+    seeds : GraspBatch
+        Starting grasps, best first; the first ``size`` climb, the rest wait.
+    size : int
+    first_step, min_step : float
+        Step size at a (re)start and the floor below which a member has converged.
+    tags : (n, k) int, optional
+        Extra per-seed state that moves with the members (the pool climb's pool indices).
+    """
+
+    def __init__(self, seeds: GraspBatch, size: int, first_step: float, min_step: float,
+                 tags: NDArray[np.int64] | None = None) -> None:
+        n = min(size, len(seeds))
+        self.seeds, self.seed_tags = seeds, tags
+        self.members = seeds.take(np.arange(n))
+        self.tags = None if tags is None else tags[:n].copy()
+        self.next = n
+        self.step = np.full(n, first_step)
+        self.first_step, self.min_step = first_step, min_step
+        self.done: list[GraspBatch] = []
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    def advance(self, winners: NDArray[np.int64], cand: GraspBatch, src: NDArray[np.int64],
+                cand_tags: NDArray[np.int64] | None = None) -> None:
+        """Members ``winners`` move to candidates ``src``; then update every step, set aside
+        the converged members and restart them from the waiting seeds."""
+        self.members.put(winners, cand, src)
+        if self.tags is not None and cand_tags is not None:
+            self.tags[winners] = cand_tags[src]
+        improve = np.zeros(len(self), bool)
+        improve[winners] = True
+        self.step = np.where(improve, np.minimum(self.step * GROW, self.first_step),
+                             self.step * SHRINK)
+        conv = np.flatnonzero(self.step < self.min_step)
+        if not len(conv):
+            return
+        self.done.append(self.members.take(conv))
+        fresh = min(len(conv), len(self.seeds) - self.next)
+        slots, src_i = conv[:fresh], np.arange(self.next, self.next + fresh)
+        self.members.put(slots, self.seeds, src_i)
+        if self.tags is not None and self.seed_tags is not None:
+            self.tags[slots] = self.seed_tags[src_i]
+        self.step[slots] = self.first_step
+        self.next += fresh
+        keep = np.setdiff1d(np.arange(len(self)), conv[fresh:])
+        self.members, self.step = self.members.take(keep), self.step[keep]
+        if self.tags is not None:
+            self.tags = self.tags[keep]
+
+    def result(self) -> GraspBatch:
+        """Every member, climbing or converged."""
+        return GraspBatch.concat([self.members, *self.done])
+
+
+def _best_per_member(who: NDArray[np.int64], fit: NDArray[np.float64], current: NDArray[np.float64]
+                     ) -> NDArray[np.int64]:
+    """Candidates that improve their member, best first within each member (grouped by
+    member), as indices into ``who``/``fit``."""
+    better = np.flatnonzero(fit > current[who] + 1e-12)
+    return better[np.lexsort((better, -fit[better], who[better]))]
+
+
+def _first_of_each(who: NDArray[np.int64], rows: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The first of ``rows`` (grouped by member ``who[rows]``) of each member."""
+    if not len(rows):
+        return rows
+    return rows[np.r_[True, who[rows][1:] != who[rows][:-1]]]
+
+
+def pool_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
+               rng: np.random.Generator, evals: int, length: float) -> GraspBatch:
+    """Climb seeds over a pool of contacts (see the module notes).
+
+    Parameters
+    ----------
+    pool : GraspBatch
+        The pool as a batch of one-contact "grasps" (B = pool size, k = 1).
+    seeds : (s, k) int
+        Pool indices of the seeds, best first.
+    score : Scorer
+    rng : numpy.random.Generator
+    evals : int
+        Evaluations to spend.
+    length : float
+        The part's length.
+
+    Returns
+    -------
+    GraspBatch
+        The members at the end, converged ones included.
+    """
+    pp = pool.points[:, 0]
+    tree = cKDTree(pp)
+    spacing = float(np.median(tree.query(pp[: min(len(pp), 500)], k=2)[0][:, 1]))
+
+    def batch(idx: NDArray[np.int64]) -> GraspBatch:
+        b = GraspBatch(pp[idx], pool.normals[idx, 0], pool.faces[idx, 0], pool.regions[idx, 0],
+                       np.zeros(len(idx)), np.zeros(len(idx)))
+        score.score(b)
+        return b
+
+    pop = Population(batch(seeds), _POOL_MEMBERS, FIRST_STEP * length, 0.5 * spacing, seeds)
+    used = 0
+    k = seeds.shape[1]
+    while used < evals and len(pop):
+        idx: NDArray[np.int64] = pop.tags  # type: ignore[assignment]  # set: seeds have tags
+        who = np.repeat(np.arange(len(pop)), _POOL_MOVES)
+        j = rng.integers(0, k, len(who))
+        target = pp[idx[who, j]] + rng.normal(size=(len(who), 3)) * pop.step[who, None]
+        cand_idx = idx[who].copy()
+        cand_idx[np.arange(len(who)), j] = tree.query(target)[1]
+        srt = np.sort(cand_idx, axis=1)
+        fresh = ~(np.diff(srt, axis=1) == 0).any(axis=1)  # no contact used twice
+        who, cand_idx = who[fresh], cand_idx[fresh]
+        cand = batch(cand_idx)
+        used += len(cand)
+        rows = _first_of_each(who, _best_per_member(who, cand.fit, pop.members.fit))
+        pop.advance(who[rows], cand, rows, cand_idx)
+    return pop.result()
+
+
+def _minor_index() -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """Gather indices of every 5 x 5 minor the cofactors need, for each replaced column j:
+    rows (6 r, 5) and columns (7 j, 6 i, 5), and the signs (7 j, 7 i, 6 r)."""
+    rows = np.array([[q for q in range(6) if q != r] for r in range(6)])
+    cols = np.zeros((7, 6, 5), np.int64)
+    sign = np.zeros((7, 7, 6))
+    for j in range(7):
+        for a, i in enumerate(q for q in range(7) if q != j):
+            cols[j, a] = [q for q in range(7) if q not in (i, j)]
+            p = j - (1 if i < j else 0)  # position of column j once column i is removed
+            sign[j, i] = ((-1.0) ** i) * ((-1.0) ** (np.arange(6) + p))
+    return rows, cols, sign
+
+
+_ROWS, _COLS, _SIGN = _minor_index()
+
+
+def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For 6 x 7 matrices W (B, 6, 7) and a column j: C (B, 7, 6) with the null-vector entries
+    of W with column j replaced by x equal to ``C @ x`` (row j zero), and that fixed entry
+    ``v_j`` (B,) (see the module notes)."""
+    minors = W[:, _ROWS[None, :, :, None], _COLS[j][:, None, None, :]]  # (B, 6 i, 6 r, 5, 5)
+    dets = np.linalg.det(minors)
+    C = np.zeros((W.shape[0], 7, 6))
+    others = np.array([q for q in range(7) if q != j])
+    C[:, others, :] = _SIGN[j, others][None] * dets
+    keep = [q for q in range(7) if q != j]
+    vj = ((-1.0) ** j) * np.linalg.det(W[:, :, keep])
+    return C, vj
+
+
+def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
+               rng: np.random.Generator, sweeps: int) -> tuple[GraspBatch, int]:
+    """Climb 7-contact seeds over the pool by exact best responses (see the module notes).
+
+    Each member takes one contact at a time, in a random order, and replaces it by the best
+    pool contact (exact d*, fingertips apart, a pool contact once only) when the full scorer
+    confirms the gain (rank, conditioning); a member that gains nothing over ``2 k`` tries in
+    a row has converged and the next seed takes its place. Each seed climbs at most
+    ``sweeps`` times k tries.
+
+    Parameters
+    ----------
+    pool : GraspBatch
+        The pool as one-contact "grasps" (B = pool size, k = 1).
+    seeds : (s, 7) int
+        Pool indices of the seeds, best first; every one of them climbs.
+    score : Scorer
+    rng : numpy.random.Generator
+    sweeps : int
+
+    Returns
+    -------
+    grasps : GraspBatch
+        Every seed after its climb.
+    screened : int
+        Replacements whose d* was computed.
+    """
+    pp, pn = pool.points[:, 0], pool.normals[:, 0]
+    n_pool, k = len(pp), seeds.shape[1]
+    X = np.concatenate([pn, np.cross((pp - score.center) / score.length, pn)], axis=1).T
+    tips = pp - score.r * pn
+    clash = np.zeros((n_pool, n_pool), bool)  # fingertips of the two contacts overlap
+    pairs = cKDTree(tips).query_pairs(2 * score.r * (1 - 1e-9), output_type="ndarray")
+    clash[pairs[:, 0], pairs[:, 1]] = clash[pairs[:, 1], pairs[:, 0]] = True
+    members = seeds[:_SWAP_MEMBERS].copy()
+    slot_of = np.arange(len(members))  # which seed each member is
+    out = seeds.copy()
+    next_seed = len(members)
+    stale = np.zeros(len(members), np.int64)  # tries without a gain in a row
+    tries = np.zeros(len(members), np.int64)
+    cur_fit = score(pp[members], pn[members])[1]
+    screened = 0
+    while len(members):
+        M = len(members)
+        j = int(rng.integers(0, k))
+        C, vj = _cofactors(X[:, members].transpose(1, 0, 2), j)
+        V = (C.reshape(M * 7, 6) @ X).reshape(M, 7, n_pool)  # null vectors of every replacement
+        V[:, j, :] = vj[:, None]
+        screened += M * n_pool
+        V *= np.where(V.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
+        vmin, vmax = V.min(axis=1), V.max(axis=1)
+        d = np.where(vmin > 0, vmin / np.where(vmax > 0, vmax, 1.0), 0.0)
+        others = np.delete(members, j, axis=1)
+        d[np.arange(M)[:, None], others] = 0.0  # a contact once only
+        d[clash[others].any(axis=1)] = 0.0  # fingertips apart
+        best = np.argpartition(-d, _CHECKED, axis=1)[:, :_CHECKED]
+        # only members whose screened best beats them go through the full scorer
+        hope = np.flatnonzero(d[np.arange(M)[:, None], best].max(axis=1) > cur_fit + 1e-12)
+        win = np.zeros(M, bool)
+        if len(hope):
+            cand = np.repeat(members[hope, None, :], _CHECKED, axis=1)
+            cand[:, :, j] = best[hope]
+            cfit = score(pp[cand.reshape(-1, k)], pn[cand.reshape(-1, k)])[1].reshape(
+                len(hope), _CHECKED)
+            gain = np.where(cfit > cur_fit[hope, None] + 1e-12, cfit, -np.inf)
+            pick = np.argmax(gain, axis=1)
+            ok = np.isfinite(gain[np.arange(len(hope)), pick])
+            h = hope[ok]
+            win[h] = True
+            members[h, j] = best[h, pick[ok]]
+            cur_fit[h] = cfit[ok, pick[ok]]
+        stale = np.where(win, 0, stale + 1)
+        tries += 1
+        conv = np.flatnonzero((stale >= 2 * k) | (tries >= sweeps * k))
+        if len(conv):
+            out[slot_of[conv]] = members[conv]
+            fresh = min(len(conv), len(seeds) - next_seed)
+            slots = conv[:fresh]
+            members[slots] = seeds[next_seed : next_seed + fresh]
+            slot_of[slots] = np.arange(next_seed, next_seed + fresh)
+            cur_fit[slots] = score(pp[members[slots]], pn[members[slots]])[1]
+            stale[slots], tries[slots] = 0, 0
+            next_seed += fresh
+            keep = np.setdiff1d(np.arange(M), conv[fresh:])
+            members, slot_of, stale, tries, cur_fit = (members[keep], slot_of[keep],
+                                                       stale[keep], tries[keep], cur_fit[keep])
+    b = GraspBatch(pp[out], pn[out], pool.faces[out, 0], pool.regions[out, 0],
+                   np.zeros(len(out)), np.zeros(len(out)))
+    score.score(b)
+    return b, screened
+
+
+def surface_climb(part: Any, seeds: GraspBatch, score: Scorer, fingers: Fingers,
+                  rng: np.random.Generator, evals: int, out_of_time: Callable[[], bool],
+                  say: Callable[[float], None]) -> tuple[GraspBatch, bool]:
+    """Climb seeds on the surface (see the module notes).
+
+    Parameters
+    ----------
+    part : synth.Part
+    seeds : GraspBatch
+        Starting grasps, best first.
+    score : Scorer
+    fingers : Fingers
+    rng : numpy.random.Generator
+    evals : int
+        Evaluations to spend.
+    out_of_time : callable() -> bool
+        True once the wall-clock cap has passed.
+    say : callable(float)
+        Told the best fitness after every round.
+
+    Returns
+    -------
+    grasps : GraspBatch
+        The members at the end, converged ones included.
+    stopped_by_time : bool
+    """
+    L = score.length
+    k = seeds.points.shape[1]
+    gradient = score.params.mu == 0 and k == 7
+    pop = Population(seeds, _SURFACE_MEMBERS, FIRST_STEP * L, _MIN_STEP * L)
+    used = 0
+    while used < evals and len(pop):
+        if out_of_time():
+            return pop.result(), True
+        who, P, moved = _proposals(pop, rng, gradient, score)
+        cand, ok = _settle(part, pop.members, who, P, moved)
+        sel = np.flatnonzero(ok)
+        cand, who, moved = cand.take(sel), who[sel], moved[sel]
+        score.score(cand)
+        used += len(cand)
+        better = _best_per_member(who, cand.fit, pop.members.fit)
+        rank = np.arange(len(better)) - np.searchsorted(who[better], who[better])
+        tried = better[rank < _CHECKED]
+        rows = _first_of_each(who, tried[_usable(part, cand, tried, moved, fingers)])
+        pop.advance(who[rows], cand, rows)
+        if len(pop):
+            say(float(pop.members.fit.max()))
+    return pop.result(), False
+
+
+def _proposals(pop: Population, rng: np.random.Generator, gradient: bool, score: Scorer
+               ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Moved contact sets: member (c,), points (c, k, 3) and which contacts moved (c, k)."""
+    mem, sigma = pop.members, pop.step
+    M, k, _ = mem.points.shape
+    whos, Ps, moveds = [], [], []
+    if gradient:
+        dirs, _ = ascent_directions(mem.points, mem.normals, score.center, score.length)
+        usable = np.flatnonzero(np.abs(dirs).sum(axis=(1, 2)) > 0)
+        for s in _GRADIENT_STEPS:
+            whos.append(usable)
+            Ps.append(mem.points[usable] + s * sigma[usable, None, None] * dirs[usable])
+            moveds.append(np.ones((len(usable), k), bool))
+    who = np.repeat(np.arange(M), _SURFACE_MOVES)
+    which = rng.integers(0, k, len(who))
+    n0 = mem.normals[who, which]
+    step = rng.normal(size=(len(who), 3))
+    step -= (step * n0).sum(1, keepdims=True) * n0
+    step *= (sigma[who] * rng.random(len(who)))[:, None] / np.maximum(
+        np.linalg.norm(step, axis=1, keepdims=True), 1e-300)
+    P = mem.points[who].copy()
+    P[np.arange(len(who)), which] += step
+    moved = np.zeros((len(who), k), bool)
+    moved[np.arange(len(who)), which] = True
+    whos.append(who)
+    Ps.append(P)
+    moveds.append(moved)
+    return np.concatenate(whos), np.concatenate(Ps), np.concatenate(moveds)
+
+
+def _settle(part: Any, members: GraspBatch, who: NDArray[np.int64], P: NDArray[np.float64],
+            moved: NDArray[np.bool_]) -> tuple[GraspBatch, NDArray[np.bool_]]:
+    """Snap the moved contacts onto the surface; candidates (c,) and which keep every moved
+    contact a single face contact."""
+    cand = members.take(who)
+    rows, cols = np.nonzero(moved)
+    c = part.resolve(P[rows, cols], snap=True)
+    n = len(rows)
+    one = np.bincount(c.finger, minlength=n) == 1
+    first = np.full(n, -1)
+    first[c.finger[::-1]] = np.arange(len(c))[::-1]
+    good = one & (first >= 0)
+    good[good] &= c.features[first[good]] == "face"
+    ok = np.ones(len(who), bool)
+    np.logical_and.at(ok, rows, good)
+    g = np.flatnonzero(good)
+    j = first[g]
+    cand.points[rows[g], cols[g]] = c.points[j]
+    cand.normals[rows[g], cols[g]] = c.normals[j]
+    cand.faces[rows[g], cols[g]] = c.faces[j]
+    cand.regions[rows[g], cols[g]] = c.region[j]
+    return cand, ok
+
+
+def _usable(part: Any, cand: GraspBatch, rows: NDArray[np.int64], moved: NDArray[np.bool_],
+            fingers: Fingers) -> NDArray[np.bool_]:
+    """Which candidates ``rows`` have every moved contact exposed and reachable by a finger."""
+    r, c = np.nonzero(moved[rows])
+    P, N = cand.points[rows[r], c], cand.normals[rows[r], c]
+    good = part.exposed(P, N)
+    good[good] &= reachable(part, P[good], N[good], fingers)
+    ok = np.ones(len(rows), bool)
+    np.logical_and.at(ok, r, good)
+    return ok

@@ -1,0 +1,53 @@
+"""Every mesh of the real-mesh corpus (meshes/corpus, made by nobody on this project) plans
+through the command line, and every grasp passes the independent check."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from synth.cli import main
+from tests.independent_check import Pieces, check_document
+
+CORPUS = Path(__file__).resolve().parent.parent / "meshes" / "corpus"
+ENTRIES = json.loads((CORPUS / "corpus.json").read_text())
+
+
+def _plan(entry: dict, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, str, str]:
+    args = ["plan", str(CORPUS / entry["file"]), "--json", "--no-files", *extra]
+    if entry["units"]:
+        args += ["--units", entry["units"]]
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_corpus_is_small_and_documented() -> None:
+    files = {p.name for p in CORPUS.iterdir() if p.is_file()} - {"corpus.json", "README.md"}
+    assert files == {e["file"] for e in ENTRIES}
+    assert sum((CORPUS / f).stat().st_size for f in files) < 4_000_000
+    readme = (CORPUS / "README.md").read_text()
+    for e in ENTRIES:
+        assert e["file"] in readme and e["licence"] and e["source_package"]
+    assert len(ENTRIES) >= 35
+    assert sum("compound" in e["kind"] for e in ENTRIES) >= 12
+    assert sum("polyhedral" in e["kind"] and "compound" not in e["kind"] for e in ENTRIES) >= 10
+
+
+@pytest.mark.parametrize("entry", ENTRIES, ids=[e["file"] for e in ENTRIES])
+def test_corpus_mesh_plans_and_every_grasp_passes_the_independent_check(
+        entry: dict, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = _plan(entry, capsys)
+    assert "internal error" not in err and "Traceback" not in err, err
+    if entry["expect"] == "refused":
+        assert code == 2 and err.strip().count("\n") == 0 and entry["file"] in err, err
+        return
+    doc = json.loads(out)
+    assert code == 0, err
+    assert doc["grasps"], doc["message"]
+    mesh = doc["mesh"]
+    assert sum(b["faces"] for b in mesh["bodies"]) > 0 and mesh["repairs"] is not None
+    failures = check_document(CORPUS / entry["file"], doc, Pieces(CORPUS / entry["file"]))
+    assert not failures, "\n".join(failures[:20])

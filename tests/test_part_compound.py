@@ -1,0 +1,131 @@
+"""Parts of several bodies: convex decompositions, overlapping bodies, objects far apart,
+open pieces; the exposed surface against independent inside tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth import check_fingers, default_fingers, load_part, sample_contacts
+from synth.cli import main
+from tests.independent_check import Pieces
+
+CORPUS = Path(__file__).resolve().parent.parent / "meshes" / "corpus"
+
+
+def _obj(path: Path, meshes: dict[str, trimesh.Trimesh]) -> Path:
+    """An OBJ with one object per mesh (as collision meshes store convex pieces)."""
+    lines, base = [], 1
+    for name, m in meshes.items():
+        lines.append(f"o {name}")
+        lines += [f"v {x!r} {y!r} {z!r}" for x, y, z in m.vertices.tolist()]
+        lines += [f"f {a + base} {b + base} {c + base}" for a, b, c in m.faces.tolist()]
+        base += len(m.vertices)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _box(extents, at) -> trimesh.Trimesh:
+    b = trimesh.creation.box(extents)
+    return b.apply_translation(at)
+
+
+def test_touching_pieces_are_one_part_and_their_facing_sides_hidden(tmp_path: Path) -> None:
+    gap = 1e-4
+    path = _obj(tmp_path / "pair.obj", {"a": _box((1, 1, 1), (0, 0, 0)),
+                                        "b": _box((1, 1, 1), (1 + gap, 0, 0))})
+    part = load_part(path)
+    assert [b.name for b in part.bodies] == ["a", "b"] and part.dropped == ()
+    assert all(b.closed and b.convex for b in part.bodies)
+    assert part.volume == pytest.approx(2.0)
+    assert np.allclose(part.center_mass, [0.5 + gap / 2, 0, 0])
+    c = part.mesh.triangles_center
+    facing = (np.abs(c[:, 0] - 0.5) < 1e-9) | (np.abs(c[:, 0] - 0.5 - gap) < 1e-9)
+    assert facing.sum() == 4
+    assert (part.face_exposure[facing] == 0).all() and (part.face_exposure[~facing] == 2).all()
+    assert [b.exposed_area for b in part.bodies] == pytest.approx([5.0, 5.0])
+    pts = sample_contacts(part, 4000, seed=0).points
+    # nothing sampled on the facing sides: a point there is 0.5 in from the outer faces
+    inner = (np.abs(pts[:, 0] - 0.5 - gap / 2) < 2 * gap) & (np.abs(pts[:, 1:]) < 0.5 - 1e-6).all(1)
+    assert not inner.any()
+    # the exposed area is sampled uniformly: the two ends hold 1 / 10 of it each
+    assert np.mean(pts[:, 0] < -0.5 + 1e-9) == pytest.approx(0.1, abs=0.02)
+
+
+def test_overlapping_closed_bodies_are_united(tmp_path: Path) -> None:
+    path = _obj(tmp_path / "cross.obj", {"a": _box((1, 1, 1), (0, 0, 0)),
+                                         "b": _box((1, 1, 1), (0.5, 0.5, 0))})
+    part = load_part(path)
+    assert len(part.bodies) == 1 and part.bodies[0].closed and not part.bodies[0].convex
+    assert part.volume == pytest.approx(1.75)
+    # centre of mass of the union: two unit cubes minus the doubly counted quarter
+    expect = (np.array([0, 0, 0]) + np.array([0.5, 0.5, 0]) - 0.25 * np.array([0.25, 0.25, 0]))
+    assert np.allclose(part.center_mass, expect / 1.75)
+    assert any("united 2 overlapping bodies" in r for r in part.repairs)
+    assert (part.face_exposure == 2).all()
+    # the seam of the union is a crease: its two inside corners are concave edges
+    assert len(part.features.edges_of_kind("concave")) >= 2
+
+
+def test_objects_far_apart_plan_one_and_say_which(tmp_path: Path, capsys) -> None:
+    path = _obj(tmp_path / "two.obj", {"big": _box((1, 1, 1), (0, 0, 0)),
+                                       "small": _box((0.2, 0.2, 0.2), (10, 0, 0))})
+    part = load_part(path)
+    assert part.volume == pytest.approx(1.0) and len(part.dropped) == 1
+    assert "small" in part.dropped[0] and "--body" in part.dropped[0]
+    assert load_part(path, body="small").volume == pytest.approx(0.008)
+    assert load_part(path, body=1).volume == pytest.approx(0.008)
+    both = load_part(path, body="all")
+    assert len(both.bodies) == 2 and both.dropped == ()
+    code = main(["plan", str(path), "--quiet", "--no-files", "--evals", "2000"])
+    err = capsys.readouterr().err
+    assert code == 0 and err.count("dropped object") == 1 and "small" in err
+
+
+def test_open_piece_is_kept_as_a_surface_fingers_collide_with(tmp_path: Path) -> None:
+    sheet = trimesh.Trimesh([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]],
+                            [[0, 1, 2], [0, 2, 3]])
+    sheet.apply_translation((0, 0, 0.5 + 1e-3))  # a single-sided surface just above the lid
+    path = _obj(tmp_path / "lid.obj", {"box": _box((1, 1, 1), (0, 0, 0)), "sheet": sheet})
+    part = load_part(path)
+    kinds = {b.name: b.closed for b in part.bodies}
+    assert kinds == {"box": True, "sheet": False}
+    assert any("open surfaces" in w and "sheet" in w for w in part.warnings)
+    assert part.volume == pytest.approx(1.0) and np.allclose(part.center_mass, 0)
+    fingers = default_fingers(part)
+    under = check_fingers(part, [[0.0, 0.0, 0.5]], [[0.0, 0.0, -1.0]], fingers)
+    beside = check_fingers(part, [[0.0, -0.5, 0.0]], [[0.0, 1.0, 0.0]], fingers)
+    assert not under.mask[0] and beside.mask[0]
+
+
+@pytest.mark.parametrize("name", ["coacd_robosuite_bread.obj", "pybullet_mug_collision.obj",
+                                  "robosuite_bd_gripper_stator_collision.obj"])
+def test_exposure_agrees_with_an_independent_inside_test(name: str) -> None:
+    path = CORPUS / name
+    part = load_part(path)
+    pieces = Pieces(path)  # the file's own pieces, never united, trimesh's inside test
+    rng = np.random.default_rng(4)
+    pts, faces = trimesh.sample.sample_surface(part.mesh, 3000, seed=rng)
+    inward = -part.mesh.face_normals[faces]
+    mine = part.exposed(pts, inward)
+    step = 2e-3 * part.length
+    depth = pieces.inside_depth(pts - step * inward)
+    sure = np.abs(depth) > 1e-3 * part.length  # away from the boundary of a piece
+    assert sure.mean() > 0.9
+    assert np.array_equal(mine[sure], depth[sure] < 0)
+    assert (~mine).sum() > 20  # the test saw hidden points
+
+
+def test_convex_decomposition_mass_properties_are_those_of_the_whole() -> None:
+    part = load_part(CORPUS / "coacd_robosuite_bread.obj", units="m")
+    loaded = trimesh.load(CORPUS / "coacd_robosuite_bread.obj", split_objects=True,
+                          group_material=False)
+    pieces = list(loaded.geometry.values())
+    vol = np.array([p.volume for p in pieces])
+    centre = (vol[:, None] * np.array([p.center_mass for p in pieces])).sum(0) / vol.sum()
+    assert part.volume == pytest.approx(vol.sum(), rel=1e-9)
+    assert np.allclose(part.center_mass, centre, rtol=0, atol=1e-9 * part.length)
+    assert len(part.bodies) == len(pieces)

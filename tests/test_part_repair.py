@@ -1,0 +1,86 @@
+"""Mesh repairs: slivers removed without opening the mesh, duplicate faces, and the
+precision of stored coordinates."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth import load_part
+from synth.part.repair import drop_duplicate_faces, fix_degenerate
+from synth.part.tolerances import coordinate_precision
+
+
+def _cube_with_cap(t: float = 0.5) -> trimesh.Trimesh:
+    """A closed unit cube where one edge (a, b) carries an extra vertex m = a + t (b - a): the
+    face on one side is split at m and a zero-area sliver (a, b, m) closes the other side
+    (its directed edge a -> b meets b -> a of the face across). t = 0.5 makes a cap, a tiny
+    t a needle."""
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    v, f = box.vertices.tolist(), box.faces.tolist()
+    a, b, c = f[0]
+    m = len(v)
+    v.append((np.array(v[a]) + t * (np.array(v[b]) - np.array(v[a]))).tolist())
+    f[0:1] = [[a, m, c], [m, b, c], [a, b, m]]
+    return trimesh.Trimesh(v, f, process=False)
+
+
+def test_cap_is_flipped_away_and_the_cube_stays_closed() -> None:
+    mesh = _cube_with_cap()
+    assert mesh.is_watertight and (mesh.area_faces < 1e-12).sum() == 1
+    out, fixed, dropped, kept = fix_degenerate(mesh, 1e-9)
+    assert (fixed, dropped) == (1, 0)
+    assert out.is_watertight and out.volume == pytest.approx(1.0)
+    assert out.area_faces.min() > 1e-3 and len(out.faces) == len(mesh.faces)
+    assert np.array_equal(np.sort(kept), np.arange(len(mesh.faces)))
+
+
+def test_needle_corners_are_merged_and_the_cube_stays_closed() -> None:
+    mesh = _cube_with_cap(1e-8)
+    assert mesh.is_watertight
+    out, fixed, dropped, _ = fix_degenerate(mesh, 1e-9)
+    assert (fixed, dropped) == (1, 0)
+    assert out.is_watertight and out.volume == pytest.approx(1.0) and len(out.faces) == 12
+    assert trimesh.triangles.normals(out.triangles)[1].all()
+
+
+def test_a_sliver_laden_file_loads_closed_with_real_normals(tmp_path: Path) -> None:
+    path = tmp_path / "cap.stl"
+    _cube_with_cap().export(path)
+    part = load_part(path)
+    assert part.watertight and part.volume == pytest.approx(1.0)
+    assert np.allclose(np.linalg.norm(part.mesh.face_normals, axis=1), 1.0)
+    assert any("sliver" in r for r in part.repairs)
+
+
+def test_duplicate_faces_of_one_orientation_are_dropped_opposite_ones_kept() -> None:
+    tri = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2], [1, 2, 0], [0, 2, 1]],
+                          process=False)
+    out, n = drop_duplicate_faces(tri)
+    assert n == 1 and out.faces.tolist() == [[0, 1, 2], [0, 2, 1]]
+
+
+def test_coordinate_precision_follows_the_stored_values() -> None:
+    f32 = np.array([[1000.0, -3.25, 0.1]], np.float32).astype(float)
+    assert coordinate_precision(f32) == pytest.approx(1000.0 * 2.0**-24)
+    decimals = np.array([[0.123456, 1.5, -2.000001]])
+    assert coordinate_precision(decimals) == pytest.approx(5e-7)
+    rng = np.random.default_rng(0)
+    f64 = rng.normal(size=(100, 3)) * 7.0
+    assert coordinate_precision(f64) == pytest.approx(np.abs(f64).max() * 2.0**-53)
+
+
+def test_float32_part_far_away_keeps_its_planar_facets(tmp_path: Path) -> None:
+    """A 4 cm box 40 m from the origin in a float32 STL: its faces' normals carry errors of
+    ~1e-4 rad, above the plain coplanarity threshold; the precision term keeps each side one
+    planar facet."""
+    box = trimesh.creation.box((0.04, 0.03, 0.02)).subdivide().subdivide()
+    box.apply_translation((40.0, -25.0, 12.0))
+    path = tmp_path / "far.stl"
+    box.export(path)
+    part = load_part(path, units="m")
+    assert part.precision == pytest.approx(40.0 * 2.0**-24, rel=0.1)
+    assert len(part.regions) == 6 and all(r.planar for r in part.regions)

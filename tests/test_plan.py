@@ -3,6 +3,7 @@ returned grasp re-verified from its JSON with checks that do not share the plann
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -151,3 +152,22 @@ def test_ranking_ties_by_conditioning_and_rank_by():
     assert [x["rank"] for x in plan.to_json()["grasps"]] == [1, 2, 3, 4]
     with pytest.raises(InputError, match="rank_by"):
         PlanParams(rank_by="volume")
+
+
+@pytest.mark.parametrize("fingers", [None, 4])
+def test_time_caps_the_search_whatever_the_budget(fingers):
+    """A budget far beyond the time cap (the seed stage alone would take minutes and gigabytes
+    if it were drawn at once) stops at the cap, says so, and still returns what it found."""
+    part = load_part(MESHES / "bracket.stl")
+    t0 = time.perf_counter()
+    plan = plan_part(part, PlanParams(evals=5_000_000, time=1.0, fingers=fingers, top=3))
+    elapsed = time.perf_counter() - t0
+    assert plan.stopped_by_time and plan.evaluations < 1_000_000
+    assert "time limit" in plan.message
+    # the contract, not a speed target: the cap holds to within one bounded chunk of work
+    assert elapsed < 1.0 + 5.0, elapsed
+
+
+def test_a_search_well_inside_its_cap_does_not_report_a_cut():
+    plan = plan_part(load_part(MESHES / "cube.stl"), PlanParams(evals=2000, time=600.0))
+    assert not plan.stopped_by_time and "time limit" not in plan.message

@@ -37,7 +37,9 @@ def vgroove(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _plan(path: Path, capsys: pytest.CaptureFixture[str], *extra: str) -> tuple[int, dict, str]:
-    code = main(["plan", str(path), "--json", "--no-files", "--seed", "0", "--top", "3", *extra])
+    # a time cap far above the work keeps the outcome fixed by --seed and --evals alone
+    code = main(["plan", str(path), "--json", "--no-files", "--seed", "0", "--top", "3",
+                 "--time", "600", *extra])
     out = capsys.readouterr()
     return code, (json.loads(out.out) if out.out.strip() else {}), out.err
 

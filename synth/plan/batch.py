@@ -4,10 +4,15 @@ A grasp's *fitness* orders the search: its d* when it is (frictional) form closu
 conditioned (``PlanParams.min_conditioning``) and its fingertips do not overlap; d* - 1 when
 only closure or conditioning fails (so better candidates still rank higher); -2 when two
 fingertips overlap. Every candidate scored counts as one evaluation of the budget.
+
+The scorer also keeps the search's clock: it scores in chunks of ``_CHUNK`` grasps and stops
+at the deadline between two chunks, so no stage of the search runs more than one chunk past
+``PlanParams.time``, and the memory of one call is bounded by the chunk, not by the batch.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -82,14 +87,33 @@ class Scorer:
     part : synth.Part
     params : PlanParams
     fingers : Fingers
+    deadline : float, optional
+        ``time.perf_counter()`` value after which nothing more is scored (default: none).
+
+    Attributes
+    ----------
+    evaluations : int
+        Grasps scored so far.
+    timed_out : bool
+        True once the deadline was found passed; grasps left unscored then have d* 0 and the
+        lowest fitness.
     """
 
-    def __init__(self, part: Any, params: PlanParams, fingers: Fingers) -> None:
+    def __init__(self, part: Any, params: PlanParams, fingers: Fingers,
+                 deadline: float | None = None) -> None:
         self.center = np.asarray(part.center_mass, dtype=np.float64)
         self.length = float(part.length)
         self.params = params
         self.r = float(fingers.tip_radius)
         self.evaluations = 0
+        self.deadline = np.inf if deadline is None else float(deadline)
+        self.timed_out = False
+
+    def out_of_time(self) -> bool:
+        """True (and ``timed_out`` set) once the deadline has passed."""
+        if not self.timed_out and time.perf_counter() > self.deadline:
+            self.timed_out = True
+        return self.timed_out
 
     def matrix(self, P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
         """The scaled wrench matrix (or matrices) whose conditioning is reported."""
@@ -102,12 +126,16 @@ class Scorer:
         """d* and fitness (B,) of grasps ``P, N`` (B, k, 3) whose contacts belong to fingertips
         ``finger`` (B, k) (default: one each)."""
         B = P.shape[0]
-        self.evaluations += B
         prm = self.params
-        d = np.empty(B)
-        ok = np.empty(B, dtype=bool)
+        d = np.zeros(B)
+        ok = np.zeros(B, dtype=bool)
+        scored = np.zeros(B, dtype=bool)
         for s in range(0, B, _CHUNK):
+            if self.out_of_time():
+                break
             p, n = P[s : s + _CHUNK], N[s : s + _CHUNK]
+            scored[s : s + _CHUNK] = True
+            self.evaluations += len(p)
             if prm.mu == 0:
                 res = form_closure_batch(scaled_wrenches(p, n, self.center, self.length))
             else:
@@ -124,7 +152,7 @@ class Scorer:
         gap = np.where(present[:, iu[0]] & present[:, iu[1]],
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
-        fit = np.where(tips_ok, np.where(ok, d, d - 1.0), -2.0)
+        fit = np.where(tips_ok & scored, np.where(ok, d, d - 1.0), -2.0)
         return d, fit
 
     def score(self, b: GraspBatch) -> None:

@@ -142,7 +142,8 @@ def _first_of_each(who: NDArray[np.int64], rows: NDArray[np.int64]) -> NDArray[n
 
 def pool_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
                rng: np.random.Generator, evals: int, length: float) -> GraspBatch:
-    """Climb seeds over a pool of contacts (see the module notes).
+    """Climb seeds over a pool of contacts (see the module notes), until ``evals`` are spent,
+    every member has converged or the scorer's deadline passes.
 
     Parameters
     ----------
@@ -175,7 +176,7 @@ def pool_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     pop = Population(batch(seeds), _POOL_MEMBERS, FIRST_STEP * length, 0.5 * spacing, seeds)
     used = 0
     k = seeds.shape[1]
-    while used < evals and len(pop):
+    while used < evals and len(pop) and not score.out_of_time():
         idx: NDArray[np.int64] = pop.tags  # type: ignore[assignment]  # set: seeds have tags
         who = np.repeat(np.arange(len(pop)), _POOL_MOVES)
         j = rng.integers(0, k, len(who))
@@ -231,7 +232,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     pool contact (exact d*, fingertips apart, a pool contact once only) when the full scorer
     confirms the gain (rank, conditioning); a member that gains nothing over ``2 k`` tries in
     a row has converged and the next seed takes its place. Each seed climbs at most
-    ``sweeps`` times k tries.
+    ``sweeps`` times k tries. The climb stops early when the scorer's deadline passes.
 
     Parameters
     ----------
@@ -266,6 +267,9 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     cur_fit = score(pp[members], pn[members])[1]
     screened = 0
     while len(members):
+        if score.out_of_time():  # members still climbing keep where they got to
+            out[slot_of] = members
+            break
         M = len(members)
         j = int(rng.integers(0, k))
         C, vj = _cofactors(X[:, members].transpose(1, 0, 2), j)

@@ -69,6 +69,11 @@ _KEEP = 400
 _CHOICE = 4
 #: d* values closer than this are equal for ranking (the LPs' accuracy is 1e-7).
 D_STAR_TIE = 1e-6
+#: Seeds drawn and scored at a time: bounds the memory of the seed stage whatever ``evals``.
+_SEED_CHUNK = 32_768
+#: Share of ``PlanParams.time`` the search may use; the finger checks of the selection have
+#: the rest, so a plan cut by the clock still returns the grasps it found.
+_SEARCH_TIME = 0.9
 
 
 def plan_part(part: Part, params: PlanParams | None = None,
@@ -118,7 +123,7 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     """The stages of the search (see the module notes)."""
     deadline = t0 + prm.time
     rng = np.random.default_rng(prm.seed)
-    score = Scorer(part, prm, fingers)
+    score = Scorer(part, prm, fingers, t0 + _SEARCH_TIME * prm.time)
     k = prm.contacts
     L = float(part.length)
     budget = prm.evals if prm.mu == 0 else max(100, prm.evals // 5)
@@ -128,11 +133,10 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     say(0.0, "sampling contacts")
     pool = _pool(part, k, rng, fingers)
     say(0.1, f"{len(pool)} reachable contacts in the pool")
-    seeds, seed_idx = _seeds(pool, k, rng, score, max(_MIN_SEEDS, int(SEED_SHARE * budget)))
-    top = distinct_top(seeds, _KEEP, 1e-6 * L)
-    archive, seed_idx = seeds.take(top), seed_idx[top]
-    say(0.25, f"{score.evaluations} seeds scored, best d* {max(0.0, archive.fit.max()):.4f}")
-    lp = _region_lp(part, archive, fingers, score, deadline)
+    archive, seed_idx = _seeds(pool, k, rng, score, max(_MIN_SEEDS, int(SEED_SHARE * budget)),
+                               1e-6 * L)
+    say(0.25, f"{score.evaluations} seeds scored, best d* {archive.fit.max(initial=0.0):.4f}")
+    lp = _region_lp(part, archive, fingers, score)
     say(0.3, f"region LPs solved: {len(lp)}")
     if len(pool) > 4 * k:
         if k == 7 and prm.mu == 0:
@@ -141,18 +145,19 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         else:
             climbed = pool_climb(pool, seed_idx, score, rng, int(POOL_SHARE * budget), L)
         archive = GraspBatch.concat([archive, climbed])
-        say(0.5, f"pool climb: best d* {max(0.0, archive.fit.max()):.4f}")
+        say(0.5, f"pool climb: best d* {archive.fit.max(initial=0.0):.4f}")
     archive = GraspBatch.concat([archive, lp])
     starts = archive.take(distinct_top(archive, _KEEP, 1e-6 * L))
-    climbed, stopped_by_time = surface_climb(
+    climbed, _ = surface_climb(
         part, starts, score, fingers, rng, max(_MIN_SURFACE, int(SURFACE_SHARE * budget)),
-        lambda: time.perf_counter() > deadline,
+        score.out_of_time,
         lambda best: say(0.5 + 0.4 * min(1.0, score.evaluations / budget),
                          f"climbing: best d* {max(0.0, best):.4f}"))
     archive = GraspBatch.concat([archive, climbed])
 
     say(0.9, "checking fingers")
-    grasps, rejected = _select(part, archive, prm, fingers, score)
+    grasps, rejected = _select(part, archive, prm, fingers, score, deadline)
+    stopped_by_time = score.timed_out or time.perf_counter() > deadline
     total = time.perf_counter() - t0
     escape = None
     if grasps:
@@ -178,6 +183,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
                         "4 contacts")
         if prm.evals < PlanParams().evals:
             message += f"; a budget above --evals {prm.evals} may find one"
+    if stopped_by_time:
+        message += _cut_note(prm, score)
     say(1.0, "done")
     return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, escape)
@@ -191,7 +198,7 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     gives a grasp; counts whose tips cannot make enough contacts are skipped."""
     L = float(part.length)
     deadline = t0 + prm.time
-    out_of_time = lambda: time.perf_counter() > deadline  # noqa: E731
+    out_of_time = score.out_of_time
     say(0.0, "sampling finger placements")
     pool = placement_pool(part, fingers, rng, _POOL, _POOL // 3, _POOL // 10)
     need = 7 if prm.mu == 0 else 3
@@ -202,23 +209,26 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     grasps: list[PlannedGrasp] = []
     rejected: dict[str, int] = {}
     tried: list[int] = []
-    stopped_by_time = False
     for n, F in enumerate(counts):
         if out_of_time():
-            stopped_by_time = True
             break
         tried.append(F)
         n_seed = max(_MIN_SEEDS, int(SEED_SHARE * budget))
-        chosen = placement_seeds(pool, n_seed, F, rng)
-        fit = np.full(n_seed, -np.inf)
         archives: dict[int, list[GraspBatch]] = {}
-        for kk, (g, rows) in placement_grasps(pool, chosen, score).items():
-            fit[rows] = g.fit
-            archives.setdefault(kk, []).append(g.take(distinct_top(g, _KEEP, 1e-6 * L)))
-        order = np.argsort(-fit, kind="stable")[:_KEEP]
-        climbed, stopped_by_time = finger_climb(
-            pool, chosen[order], fit[order], score, rng,
-            int((POOL_SHARE + SURFACE_SHARE) * budget), L, out_of_time)
+        chosen, fit = np.zeros((0, F), np.int64), np.zeros(0)
+        for s in range(0, n_seed, _SEED_CHUNK):  # the best _KEEP seeds, a chunk at a time
+            if out_of_time():
+                break
+            more = placement_seeds(pool, min(_SEED_CHUNK, n_seed - s), F, rng)
+            more_fit = np.full(len(more), -np.inf)
+            for kk, (g, rows) in placement_grasps(pool, more, score).items():
+                more_fit[rows] = g.fit
+                archives.setdefault(kk, []).append(g.take(distinct_top(g, _KEEP, 1e-6 * L)))
+            chosen, fit = np.concatenate([chosen, more]), np.concatenate([fit, more_fit])
+            order = np.argsort(-fit, kind="stable")[:_KEEP]
+            chosen, fit = chosen[order], fit[order]
+        climbed, _ = finger_climb(pool, chosen, fit, score, rng,
+                                  int((POOL_SHARE + SURFACE_SHARE) * budget), L, out_of_time)
         for kk, g in climbed.items():
             archives.setdefault(kk, []).append(g)
         say((n + 1) / (len(counts) + 1), f"{F} fingers searched")
@@ -226,15 +236,16 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
         for kk, parts in archives.items():
             if kk < need:
                 continue
-            g, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score)
+            g, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score, deadline)
             found.extend(g)
             for key, v in rej.items():
                 rejected[key] = rejected.get(key, 0) + v
         if found:
             grasps = rank_grasps(found, prm.rank_by)[: prm.top]
             break
-        if stopped_by_time:
+        if score.timed_out:
             break
+    stopped_by_time = score.timed_out or time.perf_counter() > deadline
     total = time.perf_counter() - t0
     kind = "frictional form" if prm.mu > 0 else "form"
     if grasps:
@@ -245,6 +256,9 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     elif not len(pool):
         message = (f"no {kind}-closure grasp: a fingertip of radius {fingers.tip_radius:.4g} fits "
                    f"nowhere on the exposed surface; try a smaller --finger-radius")
+    elif not tried and counts:
+        message = (f"no {kind}-closure grasp: the time limit (--time {prm.time:g} s) passed "
+                   f"before the search began ({_placement_counts(pool)})")
     elif not tried:
         message = (f"no {kind}-closure grasp: {prm.fingers} fingers cannot make the {need} "
                    f"contacts {kind} closure needs (on this part a fingertip makes at most "
@@ -254,14 +268,20 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
                    f"found ({_placement_counts(pool)})")
         if prm.evals < PlanParams().evals:
             message += f"; a budget above --evals {prm.evals} may find one"
-        if stopped_by_time:
-            message += f"; stopped at the time limit ({prm.time:g} s)"
         if rejected:
             reason, _ = max(rejected.items(), key=lambda kv: kv[1])
             message += f"; grasps the fingers could not make were dropped (most often: {reason})"
+    if stopped_by_time and tried:
+        message += _cut_note(prm, score)
     say(1.0, "done")
     return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, None)
+
+
+def _cut_note(prm: PlanParams, score: Scorer) -> str:
+    """The end of a message of a search the clock stopped."""
+    return (f"; stopped at the time limit (--time {prm.time:g} s) after {score.evaluations} of "
+            f"{prm.evals} evaluations, so this result depends on the machine's speed")
 
 
 def _placement_counts(pool: Placements) -> str:
@@ -284,31 +304,42 @@ def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> Gra
                       c.region[keep][:, None], np.zeros(n), np.zeros(n))
 
 
-def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int
-           ) -> tuple[GraspBatch, NDArray[np.int64]]:
-    """``n`` random k-subsets of the pool, scored; and their pool indices (n, k)."""
+def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int,
+           scale: float) -> tuple[GraspBatch, NDArray[np.int64]]:
+    """The best ``_KEEP`` distinct (at ``scale``) of ``n`` random k-subsets of the pool,
+    scored, and their pool indices (m, k); drawn ``_SEED_CHUNK`` at a time, until the
+    scorer's deadline."""
     size = len(pool)
+    best = GraspBatch(np.zeros((0, k, 3)), np.zeros((0, k, 3)), np.zeros((0, k), np.int64),
+                      np.zeros((0, k), np.int64), np.zeros(0), np.zeros(0))
+    best_idx = np.zeros((0, k), np.int64)
     if size < k:
-        return GraspBatch(np.zeros((0, k, 3)), np.zeros((0, k, 3)), np.zeros((0, k), np.int64),
-                          np.zeros((0, k), np.int64), np.zeros(0), np.zeros(0)), \
-            np.zeros((0, k), np.int64)
-    idx = np.argsort(rng.random((n, size)), axis=1)[:, :k] if size <= 64 else (
-        _distinct_rows(rng, n, size, k))
-    b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.faces[idx, 0],
-                   pool.regions[idx, 0], np.zeros(n), np.zeros(n))
-    score.score(b)
-    return b, idx
+        return best, best_idx
+    for s in range(0, n, _SEED_CHUNK):
+        if score.out_of_time():
+            break
+        m = min(_SEED_CHUNK, n - s)
+        idx = np.argsort(rng.random((m, size)), axis=1)[:, :k] if size <= 64 else (
+            _distinct_rows(rng, m, size, k))
+        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.faces[idx, 0],
+                       pool.regions[idx, 0], np.zeros(m), np.zeros(m))
+        score.score(b)
+        merged = GraspBatch.concat([best, b])
+        merged_idx = np.concatenate([best_idx, idx])
+        top = distinct_top(merged, _KEEP, scale)
+        best, best_idx = merged.take(top), merged_idx[top]
+    return best, best_idx
 
 
-def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer,
-               deadline: float) -> GraspBatch:
+def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
+               ) -> GraspBatch:
     """Grasps from the planar-piece LP on the faces of the best seeds on planar facets."""
     k = archive.points.shape[1]
     pieces: dict[int, object] = {}
     found = []
     tuples_seen: set[tuple[int, ...]] = set()
     for i in range(min(_LP_SEEDS, len(archive))):
-        if time.perf_counter() > deadline:
+        if score.out_of_time():
             break
         faces = archive.faces[i]
         if not all(part.regions[int(part.face_region[f])].planar for f in faces):
@@ -365,13 +396,15 @@ def _hausdorff(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
     return float(max(D.min(axis=1).max(), D.min(axis=0).max()))
 
 
-def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer
-            ) -> tuple[list[PlannedGrasp], dict[str, int]]:
+def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
+            deadline: float = np.inf) -> tuple[list[PlannedGrasp], dict[str, int]]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
     ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
 
     Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
-    that ranking by conditioning or epsilon chooses among the best grasps, not among all."""
+    that ranking by conditioning or epsilon chooses among the best grasps, not among all.
+    Candidates are checked 64 at a time, and no new block is started after ``deadline``
+    (a ``time.perf_counter()`` value)."""
     valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
     chosen: list[PlannedGrasp] = []
@@ -380,6 +413,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     min_gap = prm.diversity * part.length
     want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
     for s in range(0, len(order), 64):
+        if time.perf_counter() > deadline:
+            break
         block = order[s : s + 64]
         block = np.array([i for i in block if all(
             _hausdorff(archive.points[i], q) >= min_gap for q in picked)], dtype=np.int64)

@@ -1,7 +1,7 @@
 """Benchmark: the planner on the real-mesh corpus, against random sampling and a slow reference.
 
-For every mesh of ``meshes/corpus`` that plans (all but the flat cloth and the can, which has no
-frictionless grasp), one run prints:
+For every mesh of ``meshes/corpus`` that plans (all but the flat cloth, which has no volume to
+hold), one run prints:
 
 * the planner's best d* at its defaults and its planning time (one core, ``plan_part`` only,
   the mesh already loaded);

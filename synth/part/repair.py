@@ -117,7 +117,8 @@ def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
     orientation are the touching sides of two bodies and are kept."""
     f = np.asarray(mesh.faces, np.int64)
     first = np.argmin(f, axis=1)
-    rolled = np.stack([np.roll(row, -k) for row, k in zip(f, first)]) if len(f) else f
+    # rotate each row to start at its smallest index (keeps the orientation)
+    rolled = np.take_along_axis(f, (first[:, None] + np.arange(3)) % 3, axis=1)
     _, keep = np.unique(rolled, axis=0, return_index=True)
     if len(keep) == len(f):
         return mesh, 0

@@ -9,7 +9,9 @@ returns the ``top`` best in the planner's JSON format (version 1). ``mu`` is rec
 (``epsilon`` is 0). It exists so the database can be tested before, and independently of, the
 synth planner; it is not that planner.
 
-``SYNTH_FAKEPLANNER_DELAY`` (seconds) adds a sleep per mesh so tests can interrupt a run.
+``SYNTH_FAKEPLANNER_DELAY`` (seconds) adds a sleep per mesh so tests can interrupt a run;
+``SYNTH_FAKEPLANNER_PIDS`` (a folder) makes every process that plans a mesh leave an empty file
+named by its pid there, so tests know the worker processes.
 """
 
 from __future__ import annotations
@@ -56,6 +58,9 @@ def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
         The planner's JSON document, format ``synth.grasps`` version 1.
     """
     t0 = time.perf_counter()
+    pids = os.environ.get("SYNTH_FAKEPLANNER_PIDS")
+    if pids:
+        open(os.path.join(pids, str(os.getpid())), "a").close()
     delay = float(os.environ.get("SYNTH_FAKEPLANNER_DELAY", "0") or 0)
     if delay:
         time.sleep(delay)
@@ -155,3 +160,12 @@ def plan_with_report(path: str, params: dict[str, Any]) -> dict[str, Any]:
         extra={"count": np.int64(2)},
     )
     return doc
+
+
+def plan_catching_everything(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, but any ``Exception`` becomes "cannot be read as STL", as a
+    mesh loader that wraps whatever its reader raises does."""
+    try:
+        return plan_mesh_file(path, params)
+    except Exception as e:  # noqa: BLE001 - the point of this planner
+        raise MeshError(f"{path}: cannot be read as STL ({type(e).__name__}: {e})") from e

@@ -15,7 +15,7 @@ from synth.database import GraspDatabase
 
 __all__ = [
     "TESTS_DIR", "REPO_DIR", "PLANNER", "PARAMS", "V1_DDL", "make_mesh_dir", "planner_env",
-    "snapshot", "write_v1_copy",
+    "snapshot", "write_v1_copy", "descendants", "alive", "folder_state",
 ]  # fmt: skip
 
 TESTS_DIR = str(Path(__file__).resolve().parent)
@@ -154,3 +154,47 @@ def write_v1_copy(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> N
         conn.execute("DETACH DATABASE src")
     finally:
         conn.close()
+
+
+def _proc_stat(pid: int) -> tuple[str, int] | None:
+    """(state, parent pid) of a process from ``/proc``, None if there is no such process."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
+            text = fh.read()
+    except OSError:
+        return None
+    fields = text[text.rindex(")") + 2 :].split()  # the name, in parentheses, may hold spaces
+    return fields[0], int(fields[1])
+
+
+def descendants(pid: int) -> set[int]:
+    """Pids of every live process below ``pid`` (children, their children, ...), from ``/proc``."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            stat = _proc_stat(int(entry))
+            if stat is not None:
+                children.setdefault(stat[1], []).append(int(entry))
+    found: set[int] = set()
+    todo = [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            if child not in found:
+                found.add(child)
+                todo.append(child)
+    return found
+
+
+def alive(pid: int) -> bool:
+    """Whether ``pid`` is a running process (a zombie, dead but not reaped, is not)."""
+    stat = _proc_stat(pid)
+    return stat is not None and stat[0] not in ("Z", "X")
+
+
+def folder_state(folder: str | os.PathLike[str]) -> dict[str, tuple[int, int, int]]:
+    """``name -> (size, mtime_ns, mode)`` of every entry of ``folder``, and ``"."`` for itself."""
+    out = {}
+    for name in [".", *sorted(os.listdir(folder))]:
+        st = os.stat(os.path.join(folder, name))
+        out[name] = (st.st_size, st.st_mtime_ns, st.st_mode)
+    return out

@@ -170,7 +170,9 @@ def test_timeout_is_recorded_as_failure(tmp_path: Path, mesh_dir: Path,
     assert report.failed == 1 and report.elapsed_s < 4
     with GraspDatabase(out) as db:
         m = db.mesh("box")
-        assert (m.status, m.error_kind, m.error) == ("failed", "timeout", "timed out after 0.3 s")
+        assert (m.status, m.error_kind, m.error) == (
+            "failed", "timeout", "timed out: the mesh exceeded --timeout 0.3 s"
+        )
 
 
 def test_list_file_with_relative_missing_and_non_mesh_entries(

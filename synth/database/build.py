@@ -5,11 +5,13 @@ skipped when a row with the same path, SHA-256 and parameters is ``done`` -- or 
 unless ``retry_failed``), inserts the new meshes as ``pending`` in sorted path order (so ids do
 not depend on the engine), then hands one task per mesh to an engine and writes each result in
 one transaction with its status. A run killed at any moment leaves only whole meshes; running
-the same command again finishes the rest.
+the same command again finishes the rest. One build at a time writes a database file (a second
+one is refused as busy), and worker processes end with the build's process, however it ends.
 
-Engines: ``local`` (a :class:`concurrent.futures.ProcessPoolExecutor` of spawned processes,
-each limited to ``cpus // workers`` BLAS/OpenMP threads unless ``OMP_NUM_THREADS`` and friends
-are set; ``workers=0`` plans in this process) and ``dask`` (a Dask distributed cluster, optional extra ``synth[dask]``; use
+Engines: ``local`` (:mod:`synth.database.local`: a pool of spawned processes, each limited to
+``cpus // workers`` BLAS/OpenMP threads unless ``OMP_NUM_THREADS`` and friends are set;
+``workers=0`` plans in this process) and ``dask`` (a Dask distributed cluster, optional extra
+``synth[dask]``; use
 dask-jobqueue's ``SLURMCluster``/``PBSCluster`` and pass its scheduler address to reach a batch
 system). The planner is deterministic given ``seed`` and the evaluation budget ``evals``; there
 is deliberately no wall-clock budget, so results are identical, grasp for grasp, whatever the
@@ -20,23 +22,28 @@ from __future__ import annotations
 
 import hashlib
 import os
+import signal
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
 
+from synth.database.local import run_local
 from synth.database.progress import ProgressBar, format_duration
 from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
-from synth.plan.params import PlanParams
-from synth.database.worker import PlanOutcome, load_planner, resolve_planner, run_one
+from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
 from synth.errors import InputError
+from synth.plan.params import PlanParams
 
 __all__ = [
     "MESH_EXTENSIONS",
     "DEFAULT_PARAMS",
     "MeshInputs",
     "BuildReport",
+    "BuildTerminated",
     "normalize_params",
     "collect_mesh_files",
     "build_database",
@@ -55,9 +62,6 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "time": 600.0,
 }
 _Task = tuple[int, str]  # (mesh id, path)
-# BLAS/OpenMP threads per local worker: the CPUs divided among the workers (unless already set),
-# so that N workers do not run N times the cores' worth of threads.
-_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 @dataclass(frozen=True)
@@ -74,12 +78,16 @@ class MeshInputs:
         Entries of list files that are not mesh files (recorded as failed).
     missing : tuple of str
         Entries of list files that do not exist (recorded as failed).
+    revisited : tuple of str
+        Folders met again through a symbolic link (a link cycle, or a second link to a folder
+        already searched): not searched twice.
     """
 
     paths: tuple[str, ...]
     ignored: tuple[str, ...]
     not_mesh: tuple[str, ...]
     missing: tuple[str, ...]
+    revisited: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -104,6 +112,8 @@ class BuildReport:
         Grasps stored in this run.
     ignored : tuple of str
         Non-mesh files met in directories.
+    revisited : tuple of str
+        Folders met again through a symbolic link, not searched twice.
     failures : tuple of (str, str)
         ``(path, reason)`` of the meshes that failed in this run.
     elapsed_s : float
@@ -127,6 +137,7 @@ class BuildReport:
     elapsed_s: float
     engine: str
     workers: int
+    revisited: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """A few readable lines for the end of a run."""
@@ -143,16 +154,32 @@ class BuildReport:
         if self.ignored:
             shown = ", ".join(self.ignored[:5]) + (", ..." if len(self.ignored) > 5 else "")
             lines.append(f"  ignored {len(self.ignored)} non-mesh files: {shown}")
+        if self.revisited:
+            shown = ", ".join(self.revisited[:5]) + (", ..." if len(self.revisited) > 5 else "")
+            lines.append(f"  searched once: {len(self.revisited)} folders met again through "
+                         f"symbolic links (a link cycle or a second link): {shown}")  # fmt: skip
         return "\n".join(lines)
 
 
 def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Planner parameters with defaults filled in and types checked.
+    """Planner parameters with defaults filled in, types checked, and checked by the planner.
+
+    The values are checked as the planner will check them (:class:`synth.plan.PlanParams`:
+    enough contacts for closure, a finite friction coefficient, an evaluation budget of at
+    least 100, ...), so that a build with bad parameters fails before any file is touched,
+    instead of recording every mesh as failed.
 
     Raises
     ------
     InputError
         On an unknown key or a value of the wrong type or range.
+
+    Examples
+    --------
+    >>> normalize_params({"contacts": 3})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    synth.errors.InputError: contacts: frictionless form closure in space needs at least 7 ...
     """
     out = dict(DEFAULT_PARAMS)
     for key, value in (params or {}).items():
@@ -162,18 +189,14 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     for key in ("contacts", "top", "seed", "evals"):
         if isinstance(out[key], bool) or not isinstance(out[key], int):
             raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
-    if out["contacts"] < 1 or out["top"] < 1 or out["evals"] < 1:
-        raise InputError("planner parameters contacts, top and evals must be at least 1")
-    out["time"] = float(out["time"])
-    if not out["time"] > 0.0:
-        raise InputError(f"planner parameter 'time' must be > 0 seconds, got {out['time']!r}")
-    out["mu"] = float(out["mu"])
-    if not out["mu"] >= 0.0:
-        raise InputError(f"planner parameter 'mu' must be >= 0, got {out['mu']!r}")
-    if out["finger_radius"] is not None:
-        out["finger_radius"] = float(out["finger_radius"])
-        if not out["finger_radius"] > 0.0:
-            raise InputError(f"finger_radius must be > 0, got {out['finger_radius']!r}")
+    for key in ("time", "mu", "finger_radius"):
+        if out[key] is not None:
+            try:
+                out[key] = float(out[key])
+            except (TypeError, ValueError) as e:
+                raise InputError(f"planner parameter {key!r} must be a number, got "
+                                 f"{out[key]!r}") from e  # fmt: skip
+    PlanParams(**out)
     return out
 
 
@@ -181,13 +204,32 @@ def _is_mesh(path: str) -> bool:
     return os.path.splitext(path)[1].lower().lstrip(".") in MESH_EXTENSIONS
 
 
+def _walk(folder: str, seen: set[str]) -> Iterator[tuple[str, list[str], bool]]:
+    """``(folder, file names, first visit)`` under ``folder``, following symbolic links.
+
+    A folder whose real path is in ``seen`` (met before through another path: a link cycle,
+    or two links to one folder) is reported once with ``first visit`` False and not entered.
+    """
+    for root, dirs, files in os.walk(folder, followlinks=True):
+        real = os.path.realpath(root)
+        if real in seen:
+            dirs.clear()
+            yield root, [], False
+            continue
+        seen.add(real)
+        dirs.sort()
+        yield root, sorted(files), True
+
+
 def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     """Find mesh files: directories (recursively), mesh files, or text files listing paths.
 
     A source that is a directory contributes every file under it with a mesh extension
-    (``stl obj ply off glb gltf 3mf``, any case); a file with a mesh extension is itself; any
-    other file is read as a list of paths, one per line (blank lines and ``#`` comments
-    skipped; relative paths are relative to the list file's folder).
+    (``stl obj ply off glb gltf 3mf``, any case), following symbolic links to files and
+    folders; a folder met again through a link (a link cycle, or a second link to the same
+    folder) is searched once and listed in ``revisited``. A file with a mesh extension is
+    itself; any other file is read as a list of paths, one per line (blank lines and ``#``
+    comments skipped; relative paths are relative to the list file's folder).
 
     Raises
     ------
@@ -198,12 +240,15 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     ignored: list[str] = []
     not_mesh: set[str] = set()
     missing: set[str] = set()
+    seen: set[str] = set()  # real paths of the folders searched
+    revisited: list[str] = []
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
     for src in map(os.fspath, sources):
         if os.path.isdir(src):
-            for root, dirs, files in os.walk(src):
-                dirs.sort()
+            for root, files, first in _walk(src, seen):
+                if not first:
+                    revisited.append(os.path.abspath(root))
                 for name in files:
                     full = os.path.abspath(os.path.join(root, name))
                     (paths.add(full) if _is_mesh(name) else ignored.append(full))
@@ -240,8 +285,9 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
             f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in {', '.join(map(str, sources))}"
         )
     return MeshInputs(
-        tuple(sorted(paths)), tuple(sorted(ignored)), tuple(sorted(not_mesh)), tuple(sorted(missing))
-    )
+        tuple(sorted(paths)), tuple(sorted(ignored)), tuple(sorted(not_mesh)),
+        tuple(sorted(missing)), tuple(revisited),
+    )  # fmt: skip
 
 
 def _hash_file(path: str) -> tuple[str, int]:
@@ -361,78 +407,11 @@ def _prepare(
     return task_list, sizes, skipped, duplicates, failures  # type: ignore[return-value]
 
 
-def _crash(path: str, reason: str) -> PlanOutcome:
-    return PlanOutcome(path, False, "crash", reason, None, None, None, None, (), None, 0.0)
-
-
 def _run_inline(
     tasks: list[_Task], params: dict[str, Any], planner: str, timeout: float | None
 ) -> Iterator[tuple[int, PlanOutcome]]:
     for mesh_id, path in tasks:
         yield mesh_id, run_one(path, params, planner, timeout)
-
-
-def _ignore_sigint() -> None:
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-
-
-def _run_local(
-    tasks: list[_Task], params: dict[str, Any], planner: str, timeout: float | None, workers: int
-) -> Iterator[tuple[int, PlanOutcome]]:
-    """One task per mesh on a process pool; a crashed worker fails only the mesh that crashes."""
-    from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    import multiprocessing
-
-    context = multiprocessing.get_context("spawn")  # fresh workers that read the env below
-
-    def new_pool(n: int) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_ignore_sigint)
-
-    saved = {k: os.environ.get(k) for k in _THREAD_VARS}
-    threads = str(max(1, len(os.sched_getaffinity(0)) // workers))
-    os.environ.update({k: threads for k, v in saved.items() if v is None})
-    queue = list(reversed(tasks))
-    suspects: list[_Task] = []  # in flight when a worker died: rerun alone, one at a time
-    pool = new_pool(workers)
-    running: dict[Future[PlanOutcome], _Task] = {}
-    try:
-        while queue or running or suspects:
-            if suspects and not running:
-                task = suspects.pop()
-                solo = new_pool(1)
-                try:
-                    yield task[0], solo.submit(run_one, task[1], params, planner, timeout).result()
-                except BrokenProcessPool:
-                    yield task[0], _crash(task[1], "worker process died (crash or out of memory)")
-                finally:
-                    solo.shutdown(wait=True)
-                continue
-            while queue and not suspects and len(running) < 2 * workers:
-                task = queue.pop()
-                running[pool.submit(run_one, task[1], params, planner, timeout)] = task
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            broken = False
-            for fut in finished:
-                task = running.pop(fut)
-                try:
-                    yield task[0], fut.result()
-                except BrokenProcessPool:
-                    broken = True
-                    suspects.append(task)
-            if broken:
-                suspects.extend(running.values())
-                running.clear()
-                pool.shutdown(wait=True)
-                pool = new_pool(workers)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
 
 
 def _run_dask(
@@ -479,7 +458,7 @@ def _run_dask(
             try:
                 outcome = fut.result()
             except Exception as e:  # noqa: BLE001 - KilledWorker and the like
-                outcome = _crash(task[1], f"Dask task failed: {type(e).__name__}: {e}")
+                outcome = crashed(task[1], f"Dask task failed: {type(e).__name__}: {e}")
             fut.release()
             yield task[0], outcome
             if queue:
@@ -488,6 +467,33 @@ def _run_dask(
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+class BuildTerminated(KeyboardInterrupt):
+    """A build stopped by SIGTERM: its workers are stopped, the meshes finished are stored."""
+
+
+@contextmanager
+def _sigterm_stops_build() -> Iterator[None]:
+    """In the main thread, make SIGTERM raise :class:`BuildTerminated` (once) in the block.
+
+    The exception unwinds the build like Ctrl-C: the transaction in progress is rolled back,
+    the workers are terminated and the database is closed whole. A second SIGTERM acts as
+    it did before the build (by default, ending the process at once).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _raise(signum: int, frame: object) -> None:
+        signal.signal(signal.SIGTERM, previous)
+        raise BuildTerminated
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def build_database(
@@ -542,73 +548,81 @@ def build_database(
         On bad sources, parameters, engine or planner (nothing is written then).
     DatabaseError
         If ``out`` is not a synth database of this version or an older one (a schema-1 file is
-        migrated to this version before the first write), or was built with other parameters.
+        migrated to this version before the first write), was built with other parameters, or
+        is busy (another build is writing it).
+    BuildTerminated
+        If the process receives SIGTERM during the build (when run in the main thread): the
+        workers are terminated, the meshes finished are stored, and running the same build
+        again finishes the rest. Worker processes never outlive the build's process, even
+        when it is killed (see :mod:`synth.database.local`).
 
     Examples
     --------
     >>> report = build_database(["meshes/"], "grasps.sqlite", {"seed": 1})  # doctest: +SKIP
     >>> print(report.summary())  # doctest: +SKIP
     """
-    start = time.perf_counter()
-    if engine not in ("local", "dask"):
-        raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
-    n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
-    if n_workers < 0 or (engine == "dask" and n_workers == 0):
-        raise InputError(f"workers must be >= 1 (or 0 for the local engine), got {workers}")
-    if timeout is not None and not timeout > 0:
-        raise InputError(f"timeout must be > 0 seconds, got {timeout!r}")
-    run_params = normalize_params(params)
-    planner_name = resolve_planner(planner)
-    load_planner(planner_name)  # fail now, not once per mesh
-    inputs = collect_mesh_files(sources)
-    params_text = canonical_json(run_params)
-    seen_workers = [n_workers]
-    with GraspDatabase(out, mode="w") as db:
-        db.bind(run_params, planner_name)
-        tasks, hashes, skipped, duplicates, failures = _prepare(
-            db, inputs, params_text, planner_name, retry_failed
+    with _sigterm_stops_build():
+        start = time.perf_counter()
+        if engine not in ("local", "dask"):
+            raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
+        n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
+        if n_workers < 0 or (engine == "dask" and n_workers == 0):
+            raise InputError(f"workers must be >= 1 (or 0 for the local engine), got {workers}")
+        if timeout is not None and not timeout > 0:
+            raise InputError(f"timeout must be > 0 seconds, got {timeout!r}")
+        run_params = normalize_params(params)
+        planner_name = resolve_planner(planner)
+        load_planner(planner_name)  # fail now, not once per mesh
+        inputs = collect_mesh_files(sources)
+        params_text = canonical_json(run_params)
+        seen_workers = [n_workers]
+        with GraspDatabase(out, mode="w") as db:
+            db.bind(run_params, planner_name)
+            tasks, hashes, skipped, duplicates, failures = _prepare(
+                db, inputs, params_text, planner_name, retry_failed
+            )
+            n_failed_before = len(failures)
+            done = failed = grasps = 0
+            bar = ProgressBar(len(tasks), stream=stream, quiet=quiet)
+            if engine == "dask":
+                results = _run_dask(
+                    tasks, run_params, planner_name, n_workers, scheduler,
+                    lambda n: seen_workers.__setitem__(0, n),
+                )  # fmt: skip
+            elif n_workers == 0:
+                results = _run_inline(tasks, run_params, planner_name, timeout)
+            else:
+                results = run_local(tasks, run_params, planner_name, timeout, n_workers)
+            try:
+                bar.update(0, 0, 0, force=True)
+                for mesh_id, outcome in results:
+                    sha, size = hashes[mesh_id]
+                    db.store_outcome(mesh_id, sha, size, outcome)
+                    if outcome.ok:
+                        done += 1
+                        grasps += len(outcome.rows)
+                    else:
+                        failed += 1
+                        failures.append((outcome.path, outcome.error or outcome.error_kind or ""))
+                    bar.update(done + failed, failed, grasps, force=done + failed == len(tasks))
+            finally:
+                close = getattr(results, "close", None)
+                if close is not None:
+                    close()
+                bar.close()
+        return BuildReport(
+            database=os.fspath(out),
+            found=len(inputs.paths) + len(inputs.missing) + len(inputs.not_mesh),
+            planned=len(tasks),
+            done=done,
+            failed=failed + n_failed_before,
+            duplicates=duplicates,
+            skipped=skipped,
+            grasps=grasps,
+            ignored=inputs.ignored,
+            failures=tuple(failures),
+            elapsed_s=time.perf_counter() - start,
+            engine=engine,
+            workers=seen_workers[0],
+            revisited=inputs.revisited,
         )
-        n_failed_before = len(failures)
-        done = failed = grasps = 0
-        bar = ProgressBar(len(tasks), stream=stream, quiet=quiet)
-        if engine == "dask":
-            results = _run_dask(
-                tasks, run_params, planner_name, n_workers, scheduler,
-                lambda n: seen_workers.__setitem__(0, n),
-            )  # fmt: skip
-        elif n_workers == 0:
-            results = _run_inline(tasks, run_params, planner_name, timeout)
-        else:
-            results = _run_local(tasks, run_params, planner_name, timeout, n_workers)
-        try:
-            bar.update(0, 0, 0, force=True)
-            for mesh_id, outcome in results:
-                sha, size = hashes[mesh_id]
-                db.store_outcome(mesh_id, sha, size, outcome)
-                if outcome.ok:
-                    done += 1
-                    grasps += len(outcome.rows)
-                else:
-                    failed += 1
-                    failures.append((outcome.path, outcome.error or outcome.error_kind or ""))
-                bar.update(done + failed, failed, grasps, force=done + failed == len(tasks))
-        finally:
-            close = getattr(results, "close", None)
-            if close is not None:
-                close()
-            bar.close()
-    return BuildReport(
-        database=os.fspath(out),
-        found=len(inputs.paths) + len(inputs.missing) + len(inputs.not_mesh),
-        planned=len(tasks),
-        done=done,
-        failed=failed + n_failed_before,
-        duplicates=duplicates,
-        skipped=skipped,
-        grasps=grasps,
-        ignored=inputs.ignored,
-        failures=tuple(failures),
-        elapsed_s=time.perf_counter() - start,
-        engine=engine,
-        workers=seen_workers[0],
-    )

@@ -8,16 +8,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import signal
 import sys
-from typing import Any
+from collections.abc import Callable
+from typing import Any, NoReturn
 
-from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS
+from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
 
 __all__ = ["add_db_parser", "run_db"]
 
 _DESCRIPTION = (
     "Build and query offline grasp databases: 'synth db build' plans grasps for many meshes "
-    "into one SQLite file; 'info', 'top' and 'export' read it."
+    "into one SQLite file; 'info', 'top' and 'export' read it without writing anything, so "
+    "they work on a database in a read-only folder and while a build runs."
 )
 
 _BUILD_DESCRIPTION = """\
@@ -34,16 +38,74 @@ _BUILD_EPILOG = """\
 evals: a database build defaults to the same evaluation budget as 'synth plan', so the
 database holds the grasps plan would give; a smaller --evals trades quality for throughput.
 
+stopping: Ctrl-C or SIGTERM stop the workers and keep the meshes finished (exit status 130
+or 143); even after SIGKILL no worker process outlives the build, and rerunning the command
+finishes the database. One build at a time writes a database: another build of the same
+--out file is refused as busy (exit status 1).
+
 planner hook: set SYNTH_DB_PLANNER=module:function (or --planner) to plan with any function
 plan_mesh_file(path, params) -> dict returning synth's grasp document.
 """
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
+class _OneLineParser(argparse.ArgumentParser):
+    """A parser whose errors are one ``synth: error: ...`` line (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"synth: error: {message} (see '{self.prog} --help')\n")
+
+
+def _shown(text: str) -> str:
+    """``text`` quoted, cut to 40 characters (a 5000-digit value must not fill the screen)."""
+    return repr(text if len(text) <= 40 else text[:37] + "...")
+
+
+def _int_in(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: an integer from ``low`` to ``high``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer from {low} to {high:,}, got {_shown(text)}"
+            )
+        return value
+
+    return parse
+
+
+def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str], float]:
+    """An argparse type: a number from ``low`` (excluded if ``low_open``) to ``high``."""
+    bounds = f"{'above' if low_open else 'from'} {low:g} to " + (
+        f"{high:,.0f}" if high < 1e7 else f"{high:g}"
+    )
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (low < value if low_open else low <= value) or not value <= high:
+            raise argparse.ArgumentTypeError(f"expected a number {bounds}, got {_shown(text)}")
+        return value
+
+    return parse
+
+
+# Ranges of the numeric options (shown in --help, checked before anything is read or written);
+# the planner's own limits (synth.plan.PlanParams) are checked again before the database opens.
+_CONTACTS = (2, 64)
+_MU = (0.0, 100.0)
+_TOP = (1, 1000)
+_SEED = (0, 2**63 - 1)
+_RADIUS = (0.0, 1e15)
+_EVALS = (100, 10_000_000)
+_WORKERS = (0, 1024)
+_TIMEOUT = (0.0, 1e6)
+_K = (1, 10_000)
 
 
 def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -51,7 +113,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     db = subparsers.add_parser(
         "db", help="build and query offline grasp databases", description=_DESCRIPTION
     )
-    sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}")
+    sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}",
+                            parser_class=_OneLineParser)  # fmt: skip
     sub.required = True
     db.set_defaults(run=run_db)
 
@@ -64,33 +127,41 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     b.add_argument("sources", nargs="+", metavar="MESH_DIR_OR_LIST",
                    help="folders (searched recursively for mesh files: "
-                   f"{', '.join('.' + e for e in MESH_EXTENSIONS)}), mesh files, or text files "
-                   "listing mesh paths")
-    b.add_argument("--out", required=True, help="database file (created or resumed)")
-    b.add_argument("--contacts", type=int, default=DEFAULT_PARAMS["contacts"],
-                   help="contacts per grasp (default %(default)s)")
-    b.add_argument("--mu", type=float, default=DEFAULT_PARAMS["mu"],
-                   help="Coulomb friction coefficient (default %(default)g: frictionless)")
-    b.add_argument("--top", type=int, default=DEFAULT_PARAMS["top"],
-                   help="grasps kept per mesh (default %(default)s)")
-    b.add_argument("--seed", type=int, default=DEFAULT_PARAMS["seed"],
-                   help="random seed (default %(default)s)")
-    b.add_argument("--finger-radius", type=float, default=DEFAULT_PARAMS["finger_radius"],
-                   metavar="R",
-                   help="fingertip radius in the mesh's units (default: sized from each part)")
-    b.add_argument("--evals", type=int, default=DEFAULT_PARAMS["evals"],
-                   help="grasp evaluations per mesh (default %(default)s, as 'synth plan'); "
-                   "with --seed this fixes the result")
-    b.add_argument("--workers", type=_positive_int, default=None,
-                   help="worker processes (default: all CPUs; 0 = plan in this process)")
+                   f"{', '.join('.' + e for e in MESH_EXTENSIONS)}; symbolic links to files and "
+                   "folders are followed, and a folder met again through a link, as in a link "
+                   "cycle, is searched once), mesh files, or text files listing mesh paths")
+    b.add_argument("--out", required=True,
+                   help="database file (created or resumed; one build at a time writes it)")
+    b.add_argument("--contacts", type=_int_in(*_CONTACTS), default=DEFAULT_PARAMS["contacts"],
+                   help=f"contacts per grasp, {_CONTACTS[0]} to {_CONTACTS[1]}: at least 7 "
+                   "without friction, 3 with --mu > 0 (default %(default)s)")
+    b.add_argument("--mu", type=_float_in(*_MU), default=DEFAULT_PARAMS["mu"],
+                   help=f"Coulomb friction coefficient, {_MU[0]:g} to {_MU[1]:g} "
+                   "(default %(default)g: frictionless)")
+    b.add_argument("--top", type=_int_in(*_TOP), default=DEFAULT_PARAMS["top"],
+                   help=f"grasps kept per mesh, {_TOP[0]} to {_TOP[1]} (default %(default)s)")
+    b.add_argument("--seed", type=_int_in(*_SEED), default=DEFAULT_PARAMS["seed"],
+                   help="random seed, 0 to 2**63-1 (default %(default)s)")
+    b.add_argument("--finger-radius", type=_float_in(*_RADIUS, low_open=True),
+                   default=DEFAULT_PARAMS["finger_radius"], metavar="R",
+                   help=f"fingertip radius in the mesh's units, above 0 to {_RADIUS[1]:g} "
+                   "(default: sized from each part)")
+    b.add_argument("--evals", type=_int_in(*_EVALS), default=DEFAULT_PARAMS["evals"],
+                   help=f"grasp evaluations per mesh, {_EVALS[0]} to {_EVALS[1]:,} (default "
+                   "%(default)s, as 'synth plan'); with --seed this fixes the result")
+    b.add_argument("--workers", type=_int_in(*_WORKERS), default=None,
+                   help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
+                   "0 = plan in this process)")
     b.add_argument("--engine", choices=("local", "dask"), default="local",
                    help="local worker processes or a Dask cluster (default local)")
     b.add_argument("--scheduler", default=None,
                    help="Dask scheduler address (engine dask; default: a local Dask cluster)")
     b.add_argument("--planner", default=None, help="planner 'module:function'")
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
-    b.add_argument("--timeout", type=float, default=None,
-                   help="seconds per mesh before it is recorded as timed out (local engine)")
+    b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
+                   metavar="SECONDS",
+                   help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, before it is "
+                   "stopped and recorded as failed with kind 'timeout' (local engine)")
     b.add_argument("--quiet", action="store_true", help="no progress bar nor summary")
 
     i = sub.add_parser("info", help="counts, failures and parameters of a database", description="Counts, failures and parameters of a database.")
@@ -100,7 +171,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     t = sub.add_parser("top", help="best grasps of one mesh", description="Best grasps of one mesh.")
     t.add_argument("database", help="database file")
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
-    t.add_argument("-k", type=int, default=5, help="number of grasps (default 5)")
+    t.add_argument("-k", type=_int_in(*_K), default=5,
+                   help=f"number of grasps, {_K[0]} to {_K[1]:,} (default 5)")
     t.add_argument("--json", action="store_true", help="print the grasps as JSON")
 
     e = sub.add_parser("export", help="export a database to HDF5, NPZ or JSON", description="Export a database to HDF5, NPZ or JSON.")
@@ -193,13 +265,18 @@ def _export(args: argparse.Namespace) -> int:
 def run_db(args: argparse.Namespace) -> int:
     """Run a parsed ``synth db`` command; returns the exit status.
 
-    0 on success (a build that records failed meshes still succeeds); 130 when interrupted (what
-    is stored is kept). Errors propagate to :func:`synth.cli.main`, which prints them as one
-    ``synth: error: ...`` line and exits 2 for bad input, 1 otherwise.
+    0 on success (a build that records failed meshes still succeeds); 130 when interrupted and
+    143 when terminated by SIGTERM (what is stored is kept). Errors propagate to
+    :func:`synth.cli.main`, which prints them as one ``synth: error: ...`` line and exits 2 for
+    bad input, 1 otherwise.
     """
     commands = {"build": _build, "info": _info, "top": _top, "export": _export}
     try:
         return commands[args.db_command](args)
+    except BuildTerminated:
+        print("synth: terminated (SIGTERM); finished meshes are stored, run the same command to "
+              "resume", file=sys.stderr)  # fmt: skip
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print("synth: interrupted; finished meshes are stored, run the same command to resume",
               file=sys.stderr)  # fmt: skip

@@ -15,8 +15,8 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from types import TracebackType
 from typing import Any
-from urllib.parse import quote
 
+from synth.database.access import open_reader, open_writer, release, rest
 from synth.database.schema import (
     SCHEMA_VERSION,
     GraspRecord,
@@ -32,8 +32,8 @@ from synth.errors import DatabaseError, InputError
 
 __all__ = ["GraspDatabase", "DatabaseInfo"]
 
-_SQLITE_MAGIC = b"SQLite format 3\x00"
 _BUSY_TIMEOUT_MS = 30_000
+_SQLITE_INT_MAX = 2**63 - 1
 
 
 def _now() -> str:
@@ -94,6 +94,16 @@ class DatabaseInfo:
         return d
 
 
+def _probe(conn: sqlite3.Connection, path: str) -> None:
+    """Read the schema of a read-only connection; a failure to read says so, naming the file."""
+    try:
+        conn.execute("SELECT count(*) FROM sqlite_master").fetchone()
+    except sqlite3.OperationalError as e:  # the file is SQLite (its header was checked)
+        folder = os.path.dirname(os.path.abspath(path))
+        why = "" if os.access(folder, os.W_OK) else f"; its folder {folder} cannot be written"
+        raise DatabaseError(f"{path}: cannot read grasp database ({e}{why})") from e
+
+
 class GraspDatabase:
     """A synth grasp database (SQLite), opened for reading unless ``mode="w"``.
 
@@ -129,8 +139,14 @@ class GraspDatabase:
             raise InputError(f"mode must be 'r' or 'w', got {mode!r}")
         self.path = os.fspath(path)
         self.mode = mode
+        self._lock: int | None = None  # see synth.database.access
+        self._closed = False
         self._conn = self._connect(meta)
-        self.meta: dict[str, str] = check_schema(self._conn, self.path)
+        try:
+            self.meta: dict[str, str] = check_schema(self._conn, self.path)
+        except BaseException:
+            self._close_connection(self._conn)
+            raise
         #: Schema version of the file (older than ``SCHEMA_VERSION`` until migrated).
         self.schema_version: int = schema_version(self.meta)
 
@@ -139,29 +155,15 @@ class GraspDatabase:
         path = self.path
         if os.path.isdir(path):
             raise DatabaseError(f"{path}: is a directory, not a grasp database")
-        exists = os.path.exists(path)
-        if self.mode == "r" and not exists:
-            raise DatabaseError(f"{path}: no such grasp database")
-        if exists and os.path.getsize(path) > 0:
-            try:
-                with open(path, "rb") as fh:
-                    head = fh.read(len(_SQLITE_MAGIC))
-            except OSError as e:
-                raise DatabaseError(f"{path}: cannot read grasp database: {e}") from e
-            if head != _SQLITE_MAGIC:
-                raise DatabaseError(f"{path}: not a synth grasp database (not an SQLite file)")
-        try:
-            if self.mode == "r":
-                conn = sqlite3.connect(
-                    f"file:{quote(os.path.abspath(path))}?mode=ro", uri=True, isolation_level=None
-                )
-            else:
-                parent = os.path.dirname(os.path.abspath(path))
-                if not os.path.isdir(parent):
-                    raise DatabaseError(f"{path}: folder {parent} does not exist")
-                conn = sqlite3.connect(path, isolation_level=None)
-        except sqlite3.Error as e:
-            raise DatabaseError(f"{path}: cannot open grasp database: {e}") from e
+        if self.mode == "r":
+            if not os.path.exists(path):
+                raise DatabaseError(f"{path}: no such grasp database")
+            conn, self._lock = open_reader(path)
+        else:
+            parent = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(parent):
+                raise DatabaseError(f"{path}: folder {parent} does not exist")
+            conn, self._lock = open_writer(path)
         conn.row_factory = sqlite3.Row
         try:
             conn.execute(f"PRAGMA busy_timeout = {_BUSY_TIMEOUT_MS}")
@@ -179,17 +181,33 @@ class GraspDatabase:
                     conn.execute("PRAGMA journal_mode = WAL")
                 conn.execute("PRAGMA synchronous = FULL")
                 conn.execute("PRAGMA foreign_keys = ON")
+            else:
+                _probe(conn, path)
         except sqlite3.DatabaseError as e:
-            conn.close()
+            self._close_connection(conn)
             raise DatabaseError(f"{path}: not a synth grasp database ({e})") from e
-        except DatabaseError:
-            conn.close()
+        except BaseException:
+            self._close_connection(conn)
             raise
         return conn
 
+    def _close_connection(self, conn: sqlite3.Connection) -> None:
+        conn.close()
+        release(self._lock)
+        self._lock = None
+        self._closed = True
+
     def close(self) -> None:
-        """Close the connection (idempotent)."""
-        self._conn.close()
+        """Close the connection (idempotent); a writer first leaves the file at rest.
+
+        At rest the file is in rollback-journal mode, without ``-wal`` and ``-shm`` files
+        (:func:`synth.database.access.rest`), so that reading it never creates files.
+        """
+        if self._closed:
+            return
+        if self.mode == "w":
+            rest(self._conn)
+        self._close_connection(self._conn)
 
     def __enter__(self) -> GraspDatabase:
         return self
@@ -313,7 +331,7 @@ class GraspDatabase:
             raise InputError(f"k must be at least 1, got {k}")
         rows = self._query(
             "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank LIMIT ?",
-            (self._grasp_owner(mesh), int(k)),
+            (self._grasp_owner(mesh), min(int(k), _SQLITE_INT_MAX)),  # any larger k: all of them
         )
         return [GraspRecord.from_row(r) for r in rows]
 

@@ -24,8 +24,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +39,7 @@ __all__ = [
     "load_planner",
     "plan_one",
     "run_one",
+    "crashed",
     "mesh_report",
 ]
 
@@ -53,8 +53,12 @@ _GRASP_COLUMNS = (
 )  # fmt: skip
 
 
-class _Timeout(Exception):
-    """Raised inside a task when its time limit is reached."""
+class _Timeout(BaseException):
+    """Raised inside a task when its time limit is reached.
+
+    A ``BaseException``, so that a planner's ``except Exception`` (a mesh loader turning any
+    error into "cannot be read") lets it through.
+    """
 
 
 @dataclass(frozen=True)
@@ -176,28 +180,38 @@ def plan_one(path: str, params: dict[str, Any], planner: str | None = None) -> d
     return load_planner(resolve_planner(planner))(path, dict(params))
 
 
-@contextmanager
-def _time_limit(seconds: float | None) -> Iterator[None]:
-    """Raise :class:`_Timeout` after ``seconds``, when the task runs in a main thread (SIGALRM)."""
-    usable = (
-        seconds is not None
-        and hasattr(signal, "setitimer")
-        and threading.current_thread() is threading.main_thread()
-    )
-    if not usable:
-        yield
-        return
+class _TimeLimit:
+    """Raise :class:`_Timeout` in the block after ``seconds``, when run in a main thread (SIGALRM).
 
-    def _raise(signum: int, frame: object) -> None:
+    ``expired`` tells afterwards whether the limit was reached, even if the planner caught the
+    exception and raised another one (or returned).
+    """
+
+    def __init__(self, seconds: float | None) -> None:
+        self.seconds = seconds
+        self.expired = False
+        self._previous: Any = None
+        self._armed = (
+            seconds is not None
+            and hasattr(signal, "setitimer")
+            and threading.current_thread() is threading.main_thread()
+        )
+
+    def _raise(self, signum: int, frame: object) -> None:
+        self.expired = True
+        signal.signal(signal.SIGALRM, self._previous)  # one shot, even if raised in __exit__
         raise _Timeout
 
-    previous = signal.signal(signal.SIGALRM, _raise)
-    signal.setitimer(signal.ITIMER_REAL, float(seconds))  # type: ignore[arg-type]
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0.0)
-        signal.signal(signal.SIGALRM, previous)
+    def __enter__(self) -> _TimeLimit:
+        if self._armed:
+            self._previous = signal.signal(signal.SIGALRM, self._raise)
+            signal.setitimer(signal.ITIMER_REAL, float(self.seconds))  # type: ignore[arg-type]
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._armed:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, self._previous)
 
 
 def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
@@ -235,6 +249,20 @@ def _failure(
         path, False, kind, error, None, None, None, None, (), None, time.perf_counter() - start,
         report,
     )  # fmt: skip
+
+
+def crashed(path: str, reason: str) -> PlanOutcome:
+    """The outcome of a task whose worker died (or whose Dask task failed) with ``reason``."""
+    return PlanOutcome(path, False, "crash", reason, None, None, None, None, (), None, 0.0)
+
+
+def _planner_failure(path: str, e: Exception, start: float) -> PlanOutcome:
+    """The outcome of a planner that raised ``e``."""
+    if isinstance(e, MeshError):
+        return _failure(path, "mesh", f"cannot load mesh: {e}", start)
+    if isinstance(e, SynthError):
+        return _failure(path, "planner", f"{type(e).__name__}: {e}", start)
+    return _failure(path, "planner", f"planner raised {type(e).__name__}: {e}", start)
 
 
 def _json_ready(value: Any) -> Any:
@@ -296,8 +324,10 @@ def run_one(
     planner : str
         ``"module:function"`` (resolved by the parent).
     timeout : float, optional
-        Seconds before the task is recorded as timed out. Enforced with SIGALRM when the task
-        runs in a process's main thread (the local engine); not enforced in Dask worker threads.
+        Seconds of planning (the planner's module is imported before the clock starts) before
+        the task is stopped and recorded as failed with ``error_kind`` ``"timeout"``, whatever
+        the planner was doing then. Enforced with SIGALRM when the task runs in a process's
+        main thread (the local engine); not enforced in Dask worker threads.
 
     Returns
     -------
@@ -305,17 +335,20 @@ def run_one(
         Packed grasps, or the failure category and reason.
     """
     start = time.perf_counter()
+    limit = _TimeLimit(timeout)
+    doc: Any = None
     try:
-        with _time_limit(timeout):
-            doc = plan_one(path, params, planner)
+        plan = load_planner(resolve_planner(planner))
+        with limit:
+            doc = plan(path, dict(params))
     except _Timeout:
-        return _failure(path, "timeout", f"timed out after {timeout:g} s", start)
-    except MeshError as e:
-        return _failure(path, "mesh", f"cannot load mesh: {e}", start)
-    except SynthError as e:
-        return _failure(path, "planner", f"{type(e).__name__}: {e}", start)
+        pass
     except Exception as e:  # noqa: BLE001 - a planner bug must not stop a long run
-        return _failure(path, "planner", f"planner raised {type(e).__name__}: {e}", start)
+        if not limit.expired:
+            return _planner_failure(path, e, start)
+    if limit.expired:
+        return _failure(path, "timeout", f"timed out: the mesh exceeded --timeout {timeout:g} s",
+                        start)  # fmt: skip
     try:
         if not isinstance(doc, dict) or doc.get("format") != "synth.grasps":
             raise ValueError("not a 'synth.grasps' document")

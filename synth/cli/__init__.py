@@ -12,7 +12,10 @@ Every command returns an exit status instead of raising:
 130    interrupted
 =====  ======================================================================================
 
-Errors print one readable line, ``synth: error: ...``, never a traceback.
+Errors print one readable line, ``synth: error: ...``, never a traceback; a bad command line
+(an unknown option, a value that is not a number) is bad input too: one line, status 2.
+Numeric options are checked against their documented ranges before any file is read or
+written (:mod:`synth.cli.checks`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import os
 import sys
 import traceback
 from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 from synth import __version__
 from synth.errors import InputError, InternalError, SolverError, SynthError
@@ -32,10 +36,22 @@ EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
 Runner = Callable[[argparse.Namespace], int]
 
+#: Longest error line printed; longer messages (a value of thousands of characters) are cut.
+_MAX_LINE = 400
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser that raises :class:`InputError` on a bad command line instead of
+    printing its usage and exiting, so that ``main`` reports it as one line."""
+
+    def error(self, message: str) -> NoReturn:
+        """Raise the parse error as bad input, pointing at the command's help."""
+        raise InputError(f"{message} (see '{self.prog} --help')")
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="synth",
         description="Grasp synthesis on triangle meshes, ranked by the quantitative "
         "form-closure measure d* of Trinkle (1992).",
@@ -58,36 +74,40 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    run: Runner | None = getattr(args, "run", None)
-    if run is None:
-        parser.print_help()
-        return 2
     try:
+        args = parser.parse_args(argv)
+        run: Runner | None = getattr(args, "run", None)
+        if run is None:
+            parser.print_help()
+            return EXIT_INPUT
         return run(args)
     except InputError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
+        print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print("synth: interrupted", file=sys.stderr)
         return 130
     except (InternalError, SolverError) as e:
         return _internal(e)
-    except SynthError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
-        return EXIT_FAILED
-    except OSError as e:
-        print(f"synth: error: {e}", file=sys.stderr)
+    except (SynthError, OSError) as e:
+        print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
         return _internal(e)
+
+
+def _line(e: BaseException) -> str:
+    """An error message as one line: line breaks become spaces, and it is cut to
+    ``_MAX_LINE`` characters."""
+    text = " ".join(str(e).split())
+    return text if len(text) <= _MAX_LINE else text[: _MAX_LINE - 3] + "..."
 
 
 def _internal(e: BaseException) -> int:
     """Report a failure of synth itself (exit status 3)."""
     if os.environ.get("SYNTH_TRACEBACK"):
         traceback.print_exception(e)
-    what = str(e).splitlines()[0] if str(e) else ""
+    what = _line(e)
     print(f"synth: internal error: {type(e).__name__}{': ' + what if what else ''} -- this is a "
           f"bug in synth {__version__}, not a problem with your input; please report it with "
           "the command line and the input files (SYNTH_TRACEBACK=1 prints the traceback)",

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import math
 import sys
 from pathlib import Path
+
+from synth.cli.checks import check_finger_options, check_part_options, integer, output_path, real
 
 __all__ = ["add_parser", "run", "add_finger_options", "add_part_options", "format_plan_table",
            "load_part_from_args", "report_part"]
@@ -23,7 +27,8 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
                    "Bodies that touch or overlap, like the pieces of a convex decomposition, "
                    "are always one part")
     g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
-                   help="dihedral angle above which an edge is sharp (default 30)")
+                   help="dihedral angle above which an edge is sharp, in (0, 180) degrees "
+                   "(default 30)")
 
 
 def load_part_from_args(args: argparse.Namespace):
@@ -32,7 +37,10 @@ def load_part_from_args(args: argparse.Namespace):
 
     from synth.part import load_part
 
-    body = int(args.body) if str(args.body).lstrip("-").isdigit() else args.body
+    try:
+        body: int | str = int(args.body)
+    except ValueError:
+        body = args.body
     return load_part(args.mesh, units=args.units, body=body,
                      sharp_angle=math.radians(args.sharp_angle))
 
@@ -60,17 +68,20 @@ def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
 
 def add_finger_options(p: argparse.ArgumentParser) -> None:
     """Options of the finger model, shared by ``plan`` and ``rank``."""
+    from synth.plan.params import MAX_LENGTH
+
     g = p.add_argument_group("fingers")
     g.add_argument("--finger-radius", type=float, default=None, metavar="R",
-                   help="fingertip radius in the mesh's units (default: 2.5%% of the part's "
-                   "bounding-box diagonal)")
+                   help=f"fingertip radius in the mesh's units, in (0, {MAX_LENGTH:g}] "
+                   "(default: 2.5%% of the part's bounding-box diagonal)")
     g.add_argument("--body-length", type=float, default=None, metavar="L",
-                   help="finger body length (default: 10 tip radii)")
+                   help=f"finger body length, in (0, {MAX_LENGTH:g}] (default: 10 tip radii)")
     g.add_argument("--body-radius", type=float, default=None, metavar="R",
-                   help="finger body radius, at most the tip radius (default: 0.75 tip radius)")
+                   help="finger body radius, positive and at most the tip radius (default: "
+                   "0.75 tip radius)")
     g.add_argument("--approach-cone", type=float, default=0.0, metavar="DEG",
                    help="half-angle of the cone of approach directions tried around the "
-                   "contact normal, degrees (default 0: straight out)")
+                   "contact normal, in [0, 90) degrees (default 0: straight out)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -81,45 +92,57 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         description="Search a mesh for the point-contact grasps with the highest d* "
         "(Trinkle 1992), check fingers for collisions with FCL, print a ranked table and "
         "write JSON, PNG and GLB files.",
-        epilog="exit status: 0 grasps found; 1 none found (the message names the motion left "
-        "free); 2 bad input (the line says what is wrong); 3 internal error (a bug in synth).",
+        epilog="The JSON, PNG and GLB of one run carry the same run id (JSON 'run_id', the "
+        "PNG's title, the GLB scene's extras). exit status: 0 grasps found; 1 none found (the "
+        "message names the motion left free) or a file could not be written; 2 bad input (the "
+        "line says what is wrong); 3 internal error (a bug in synth).",
     )
     p.add_argument("mesh", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
-    from synth.plan.params import PlanParams
+    from synth.plan import params as lim
 
-    d = PlanParams()
+    d = lim.PlanParams()
     p.add_argument("--contacts", type=int, default=d.contacts, metavar="K",
-                   help=f"contacts per grasp, one fingertip each (default {d.contacts})")
+                   help=f"contacts per grasp, one fingertip each: 7 to {lim.MAX_CONTACTS} "
+                   f"without friction, 3 to {lim.MAX_CONTACTS} with (default {d.contacts})")
     p.add_argument("--fingers", default=None, metavar="N|auto",
                    help="plan grasps of N fingertips instead of --contacts: a tip in a groove "
-                   "makes 2 contacts, in an inside corner 3; 'auto' finds the fewest fingers "
-                   "that hold the part")
+                   "makes 2 contacts, in an inside corner 3; N from 2 to "
+                   f"{lim.MAX_FINGERS}; 'auto' finds the fewest fingers that hold the part")
     p.add_argument("--mu", type=float, default=0.0, metavar="MU",
-                   help="Coulomb friction coefficient (default 0: frictionless form closure)")
+                   help=f"Coulomb friction coefficient, in [0, {lim.MAX_MU:g}] (default 0: "
+                   "frictionless form closure)")
     p.add_argument("--top", type=int, default=d.top, metavar="N",
-                   help=f"grasps to return (default {d.top})")
+                   help=f"grasps to return, 1 to {lim.MAX_TOP} (default {d.top})")
     p.add_argument("--time", type=float, default=d.time, metavar="SECONDS",
-                   help=f"wall-clock cap in seconds (default {d.time:g}; the search usually ends "
-                   "sooner)")
+                   help=f"wall-clock cap in seconds, positive (default {d.time:g}; the search "
+                   "usually ends sooner)")
     p.add_argument("--evals", type=int, default=d.evals, metavar="N",
-                   help=f"budget of grasp evaluations (default {d.evals}): the search stops when "
-                   "it is spent; with --seed it fixes the result on any machine")
+                   help=f"budget of grasp evaluations, {lim.MIN_EVALS} to {lim.MAX_EVALS:,} "
+                   f"(default {d.evals:,}): the search stops when it is spent; with --seed it "
+                   "fixes the result on any machine")
     p.add_argument("--min-d-star", type=float, default=0.0, metavar="D",
-                   help="return no grasp with a lower d* (default 0)")
-    p.add_argument("--rank-by", choices=("d_star", "conditioning", "epsilon"), default="d_star",
+                   help="return no grasp with a lower d*; in [0, 1], the range of d* "
+                   "(default 0)")
+    p.add_argument("--rank-by", choices=lim.RANK_BY, default="d_star",
                    help="order of the grasps returned (default d_star: d* values equal to the "
                    "LPs' accuracy, 1e-6, are ordered by conditioning)")
     p.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
-                   help=f"random seed (default {d.seed})")
+                   help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     p.add_argument("--table", type=float, default=None, metavar="Z",
-                   help="a support plane z = Z under the part that fingers must not cross")
+                   help="a support plane z = Z under the part that fingers must not cross; "
+                   f"|Z| at most {lim.MAX_LENGTH:g}")
     add_part_options(p)
     add_finger_options(p)
     o = p.add_argument_group("output")
     o.add_argument("--out", default=None, metavar="JSON",
-                   help="grasp file (default: MESHNAME.grasps.json in the current folder)")
-    o.add_argument("--png", default=None, help="picture (default: MESHNAME.grasps.png)")
-    o.add_argument("--glb", default=None, help="3-D scene (default: MESHNAME.grasps.glb)")
+                   help="grasp file, ending in .json (default: MESHNAME.grasps.json in the "
+                   "current folder)")
+    o.add_argument("--png", default=None, metavar="PNG",
+                   help="picture, ending in .png (default: the --out name with .png, else "
+                   "MESHNAME.grasps.png)")
+    o.add_argument("--glb", default=None, metavar="GLB",
+                   help="3-D scene, ending in .glb (default: the --out name with .glb, else "
+                   "MESHNAME.grasps.glb)")
     o.add_argument("--no-files", action="store_true", help="write no files, only print")
     o.add_argument("--json", action="store_true", help="print the JSON document, not a table")
     o.add_argument("--quiet", action="store_true",
@@ -143,22 +166,58 @@ def format_plan_table(plan) -> str:
 
 def _fingers(text: str | None) -> int | str | None:
     """``--fingers``: None, 'auto' or a number of fingertips."""
+    from synth.plan.params import MAX_FINGERS
+
     if text is None or text == "auto":
         return text
     try:
-        return int(text)
+        n = int(text)
     except ValueError:
         from synth.errors import InputError
 
-        raise InputError(f"--fingers: expected a number of fingertips or 'auto', got {text!r}")
+        raise InputError(f"--fingers: expected a number of fingertips from 2 to {MAX_FINGERS} "
+                         f"or 'auto', got {text[:40]!r}") from None
+    integer("--fingers", n, 2, MAX_FINGERS)
+    return n
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    """Every numeric option of ``synth plan`` against its documented range."""
+    from synth.plan import params as lim
+
+    integer("--contacts", args.contacts, 2, lim.MAX_CONTACTS)
+    real("--mu", args.mu, 0, lim.MAX_MU)
+    integer("--top", args.top, 1, lim.MAX_TOP)
+    real("--time", args.time, 0, math.inf, open_lo=True, open_hi=True, unit=" seconds")
+    integer("--evals", args.evals, lim.MIN_EVALS, lim.MAX_EVALS)
+    real("--min-d-star", args.min_d_star, 0, 1)
+    integer("--seed", args.seed, 0, lim.MAX_SEED, "2**63 - 1")
+    real("--table", args.table, -lim.MAX_LENGTH, lim.MAX_LENGTH)
+    check_part_options(args)
+    check_finger_options(args)
+
+
+def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
+    """The JSON, PNG and GLB files of a plan, checked before any work: ``--png`` and ``--glb``
+    default to the folder and name of ``--out``, which defaults to MESHNAME.grasps.json."""
+    stem = Path(args.mesh).name.rsplit(".", 1)[0]
+    out = output_path("--out", args.out or f"{stem}.grasps.json", ".json")
+    png = output_path("--png", args.png or out.with_suffix(".png"), ".png")
+    glb = output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb")
+    return out, png, glb
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``synth plan``; exit status 1 when no grasp was found."""
+    """Run ``synth plan``; exit status 1 when no grasp was found.
+
+    Options and output names are checked before the mesh is read; the three files are
+    written together at the end (none is replaced when making any of them fails).
+    """
     from synth.cli.progress import LineProgress
-    from synth.files import write_atomic
+    from synth.files import atomic_path
     from synth.plan import PlanParams, export_glb, plan_part, render_png
 
+    _check_options(args)
     params = PlanParams(
         contacts=args.contacts, fingers=_fingers(args.fingers), mu=args.mu, top=args.top,
         time=args.time, evals=args.evals,
@@ -166,6 +225,7 @@ def run(args: argparse.Namespace) -> int:
         body_radius=args.body_radius, approach_cone=args.approach_cone,
         min_d_star=args.min_d_star, support_z=args.table, rank_by=args.rank_by,
     )
+    paths = None if args.no_files else _output_paths(args)
     part = load_part_from_args(args)
     report_part(part, args.quiet or args.json)
     bar = LineProgress(enabled=not (args.quiet or args.json))
@@ -174,20 +234,18 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     doc = plan.to_json()
-    stem = Path(args.mesh).name.rsplit(".", 1)[0]
-    written = []
-    if not args.no_files:
-        out = Path(args.out or f"{stem}.grasps.json")
-        write_atomic(out, json.dumps(doc, indent=1) + "\n")
-        png = render_png(part, plan, args.png or f"{stem}.grasps.png")
-        glb = export_glb(part, plan, args.glb or f"{stem}.grasps.glb")
-        written = [str(out), str(png), str(glb)]
+    if paths is not None:
+        with contextlib.ExitStack() as stack:
+            tmp_out, tmp_png, tmp_glb = (stack.enter_context(atomic_path(p)) for p in paths)
+            tmp_out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+            render_png(part, plan, tmp_png)
+            export_glb(part, plan, tmp_glb)
     if args.json:
         print(json.dumps(doc, indent=1))
     else:
         if plan.grasps:
             print(format_plan_table(plan))
         print(plan.message)
-        if written and not args.quiet:
-            print("wrote " + ", ".join(written))
+        if paths is not None and not args.quiet:
+            print(f"wrote {', '.join(map(str, paths))} (run {plan.run_id})")
     return 0 if plan.grasps else 1

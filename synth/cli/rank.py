@@ -10,8 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from synth.cli.checks import check_finger_options, check_part_options, output_path, real
 from synth.errors import InputError
 from synth.files import write_atomic
+from synth.plan.params import MAX_LENGTH, MAX_MU
 
 __all__ = ["add_parser", "run", "rank_candidates", "RankedCandidate"]
 
@@ -58,18 +60,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "with the part model (given normals are ignored), check the fingers with FCL, score "
         "by d* and print the candidates ranked. CANDIDATES is JSON (a list of {points[, name]}"
         " or an object with a 'candidates' or 'grasps' list) or NPZ.",
-        epilog="exit status: 0 ranked; 2 bad input, or no candidate could be used (each "
-        "unusable candidate is listed with its reason); 3 internal error (a bug in synth).",
+        epilog="exit status: 0 ranked; 1 the --out file could not be written; 2 bad input, "
+        "or no candidate could be used (the line gives the first one's reason; nothing is "
+        "written); 3 internal error (a bug in synth).",
     )
     p.add_argument("mesh", help="mesh file")
     p.add_argument("candidates", help="candidate file (.json or .npz)")
-    p.add_argument("--mu", type=float, default=0.0, help="friction coefficient (default 0)")
+    p.add_argument("--mu", type=float, default=0.0,
+                   help=f"friction coefficient, in [0, {MAX_MU:g}] (default 0)")
     p.add_argument("--max-distance", type=float, default=None, metavar="D",
                    help="largest distance from a point to the surface that is snapped, in mesh "
-                   "units (default: 1%% of the part's bounding-box diagonal)")
+                   f"units, in [0, {MAX_LENGTH:g}] (default: 1%% of the part's bounding-box "
+                   "diagonal)")
     add_part_options(p)
     add_finger_options(p)
-    p.add_argument("--out", default=None, metavar="JSON", help="write the ranked candidates")
+    p.add_argument("--out", default=None, metavar="JSON",
+                   help="write the ranked candidates to this file, ending in .json")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--quiet", action="store_true", help="no summary line")
     p.set_defaults(run=run)
@@ -147,8 +153,11 @@ def run(args: argparse.Namespace) -> int:
     from synth.grasps import read_candidates
     from synth.cli.plan import load_part_from_args, report_part
 
-    if not np.isfinite(args.mu) or args.mu < 0:
-        raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
+    real("--mu", args.mu, 0, MAX_MU)
+    real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")
+    check_part_options(args)
+    check_finger_options(args)
+    out = None if args.out is None else output_path("--out", args.out, ".json")
     cands = read_candidates(args.candidates, require_normals=False)
     part = load_part_from_args(args)
     report_part(part, args.quiet or args.json)
@@ -160,12 +169,17 @@ def run(args: argparse.Namespace) -> int:
     fingers = default_fingers(part, **over)
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
     rows = rank_candidates(part, cands, args.mu, fingers, max_d)
+    unusable = [r for r in rows if r.status == "error"]
+    if len(unusable) == len(rows):
+        more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
+        raise InputError(f"{args.candidates}: no candidate could be used: "
+                         f"{unusable[0].reason}{more}")
     doc = {"format": "synth.ranked", "version": 1, "mesh": {"path": part.source,
            "sha256": part.sha256, "units": part.units, "length": part.length},
            "mu": args.mu, "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
-    if args.out:
-        write_atomic(args.out, json.dumps(doc, indent=1) + "\n")
+    if out is not None:
+        write_atomic(out, json.dumps(doc, indent=1) + "\n")
     if args.json:
         print(json.dumps(doc, indent=1))
     else:
@@ -178,5 +192,5 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         n_ok = sum(r.status == "ok" for r in rows)
         print(f"{len(rows)} candidates: {n_ok} collision free, "
-              f"{sum(r.status == 'error' for r in rows)} unusable", file=sys.stderr)
-    return 0 if any(r.status != "error" for r in rows) else 2
+              f"{len(unusable)} unusable", file=sys.stderr)
+    return 0

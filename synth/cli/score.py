@@ -17,8 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from synth.cli.checks import integer, output_path, real
 from synth.errors import InputError
 from synth.files import write_atomic
+from synth.plan.params import MAX_EDGES, MAX_MU, MIN_EDGES
 
 __all__ = ["add_parser", "run", "score_table", "explain", "Scores", "format_table"]
 
@@ -72,28 +74,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "object with a 'candidates' or 'grasps' list) or NPZ (arrays points, normals of "
         "shape (B, k, 3), optional names (B,) and mu). Normals point into the part.",
         epilog="A malformed candidate is reported on its own line and the others are still "
-        "scored; the exit status is then 2. Ranking: closure grasps first, then by d*.",
+        "scored; the exit status is then 2. When no candidate can be scored, one line says "
+        "why and nothing is written. Ranking: closure grasps first, then by d*.",
     )
     p.add_argument("file", help="candidate file (.json or .npz)")
     p.add_argument(
         "--mu",
         type=float,
         default=0.0,
-        help="Coulomb friction coefficient for candidates that do not give one (default 0: "
-        "frictionless form closure)",
+        help=f"Coulomb friction coefficient for candidates that do not give one, in [0, "
+        f"{MAX_MU:g}] (default 0: frictionless form closure)",
     )
     p.add_argument(
-        "--edges", type=int, default=8, help="edges of each linearised friction cone (default 8)"
+        "--edges", type=int, default=8,
+        help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} (default 8)",
     )
-    p.add_argument("--top", type=int, default=None,
-                   help=f"rows to print and explain (default {DEFAULT_TOP}; 0 for all)")
+    p.add_argument("--top", type=int, default=None, metavar="N",
+                   help=f"rows to print and explain, N >= 0 (default {DEFAULT_TOP}; 0 for all)")
     p.add_argument(
         "--json",
         nargs="?",
         const="-",
         default=None,
         metavar="PATH",
-        help="write every candidate's score as JSON to PATH (or to stdout without PATH)",
+        help="write every candidate's score as JSON to PATH, ending in .json (or to stdout "
+        "without PATH)",
     )
     p.set_defaults(run=run)
 
@@ -221,15 +226,17 @@ def run(args: argparse.Namespace) -> int:
     """Run ``synth score``."""
     from synth.grasps import read_candidate_table
 
-    if not np.isfinite(args.mu) or args.mu < 0:
-        raise InputError(f"--mu must be finite and >= 0, got {args.mu}")
-    if args.edges < 3:
-        raise InputError(f"--edges must be at least 3, got {args.edges}")
-    if args.top is not None and args.top < 0:
-        raise InputError(f"--top must be 0 (all) or a positive number of rows, got {args.top}")
+    real("--mu", args.mu, 0, MAX_MU)
+    integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
+    integer("--top", args.top, 0)
+    if args.json not in (None, "-"):
+        output_path("--json", args.json, ".json")
     table = read_candidate_table(args.file)
     scores = score_table(table, args.mu, args.edges)
     order = scores.order()
+    if not len(order):
+        more = f" (and {len(scores.errors) - 1} more malformed)" if len(scores.errors) > 1 else ""
+        raise InputError(f"no candidate could be scored: {scores.errors[0][1]}{more}")
     top = DEFAULT_TOP if args.top is None else args.top
     shown = order if top == 0 else order[:top]
     why = explain(table, scores, shown, args.edges)

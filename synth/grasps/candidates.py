@@ -11,6 +11,9 @@ NPZ
     Arrays ``points`` and ``normals`` of shape (B, k, 3) (or (B, k, 2)), optionally ``names``
     (B,) and ``mu`` (scalar or (B,)).
 
+Coordinates must be finite and at most ``MAX_COORDINATE`` (1e15) in magnitude, and ``mu``
+from 0 to ``MAX_MU`` (100): beyond them the closure LPs compute nothing meaningful.
+
 :func:`read_candidate_table` keeps going past malformed candidates (each is reported by
 position, name and field) and checks the others in vectorised batches;
 :func:`read_candidates` stops at the first malformed one.
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +31,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.errors import CandidateError, InputError
+from synth.part.load import MAX_COORDINATE
+from synth.plan.params import MAX_MU, shown
 from synth.scores.wrench import check_contacts
 from synth.tolerances import NORMAL_NORM_TOL
 
@@ -123,6 +129,8 @@ class CandidateTable:
 
 
 def _label(where: str, index: int, name: str | None) -> str:
+    if name is not None and len(name) > 40:
+        name = name[:37] + "..."
     return f"{where}: candidate {index}" + (f" ({name})" if name is not None else "")
 
 
@@ -131,7 +139,11 @@ def _check_one(points: object, normals: object, label: str) -> tuple[np.ndarray,
     try:
         P = np.asarray(points, dtype=np.float64)
         N = np.asarray(normals, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError) as e:
+    except OverflowError as e:
+        raise CandidateError(f"{label}: 'points' or 'normals' hold a number too large for a "
+                             f"float; coordinates must be at most {MAX_COORDINATE:g} in "
+                             "magnitude") from e
+    except (TypeError, ValueError) as e:
         raise CandidateError(f"{label}: 'points' and 'normals' must be numeric k x 3 lists") from e
     return check_contacts(P, N, name=label)
 
@@ -139,10 +151,13 @@ def _check_one(points: object, normals: object, label: str) -> tuple[np.ndarray,
 def _mu_value(value: object, label: str) -> float:
     try:
         mu = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError) as e:
-        raise CandidateError(f"{label}: field 'mu' must be a number, got {value!r}") from e
-    if not np.isfinite(mu) or mu < 0:
-        raise CandidateError(f"{label}: field 'mu' must be finite and >= 0, got {mu}")
+    except OverflowError:
+        mu = np.inf  # an integer of hundreds of digits: refused below as out of range
+    except (TypeError, ValueError) as e:
+        raise CandidateError(f"{label}: field 'mu' must be a number, got {shown(value)}") from e
+    if not 0 <= mu <= MAX_MU:
+        raise CandidateError(f"{label}: field 'mu' must be a number from 0 to {MAX_MU:g}, got "
+                             f"{shown(value)}")
     return mu
 
 
@@ -206,13 +221,21 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
             N = np.stack([arrays[i][1] for i in idx])
         placeholder = np.isnan(N).all(axis=(1, 2))
         length = np.linalg.norm(N, axis=2)
-        bad = ~(np.isfinite(P).all(axis=(1, 2)) & ((np.isfinite(N).all(axis=(1, 2)) &
-                                                    (length > NORMAL_NORM_TOL).all(axis=1))
-                                                   | placeholder))
+        finite = np.isfinite(P).all(axis=(1, 2))
+        huge = finite & (np.abs(np.where(np.isfinite(P), P, 0.0)) > MAX_COORDINATE).any(
+            axis=(1, 2))
+        bad = huge | ~(finite & ((np.isfinite(N).all(axis=(1, 2)) &
+                                  (length > NORMAL_NORM_TOL).all(axis=1)) | placeholder))
         for j in np.flatnonzero(bad):
             i = idx[j]
+            label = _label(where, i, names[i] if named[i] else None)
+            if huge[j]:
+                errors[i] = (f"{label}: field 'points' has a coordinate of magnitude "
+                             f"{np.abs(P[j]).max():.3g}, above the {MAX_COORDINATE:g} synth can "
+                             "score meaningfully")
+                continue
             try:
-                _check_one(P[j], N[j], _label(where, i, names[i] if named[i] else None))
+                _check_one(P[j], N[j], label)
             except CandidateError as e:
                 errors[i] = str(e)
         keep = ~bad
@@ -249,7 +272,9 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
         return _read_npz(p)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as e:
+    except (OSError, ValueError, RecursionError) as e:
+        # ValueError: malformed JSON, bytes that are not UTF-8, an integer of more digits
+        # than Python converts; RecursionError: arrays nested thousands deep
         raise InputError(f"{p}: not a readable JSON file ({type(e).__name__}: "
                          f"{str(e)[:200]})") from e
     if isinstance(data, dict):
@@ -317,11 +342,19 @@ def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[C
 
 
 def _read_npz(p: Path) -> CandidateTable:
+    arrays: dict[str, np.ndarray] | None = None
     try:
-        with np.load(p, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
-        raise InputError(f"{p}: not a readable NPZ file ({e})") from e
+        loaded = np.load(p, allow_pickle=False)
+        if isinstance(loaded, np.lib.npyio.NpzFile):
+            with loaded as z:
+                arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError, NotImplementedError, zipfile.BadZipFile,
+            zlib.error) as e:
+        raise InputError(f"{p}: not a readable NPZ file ({type(e).__name__}: "
+                         f"{str(e)[:200]})") from e
+    if arrays is None:
+        raise InputError(f"{p}: holds one bare array (a .npy file?), not an NPZ archive of "
+                         "named arrays 'points', 'normals'[, 'names', 'mu']")
     for key in ("points", "normals"):
         if key not in arrays:
             raise CandidateError(f"{p}: missing array '{key}'")
@@ -330,9 +363,8 @@ def _read_npz(p: Path) -> CandidateTable:
         raise CandidateError(f"{p}: array 'points' must be numbers of shape (B, k, 3), got "
                              f"{P.shape} {P.dtype}")
     if N.shape != P.shape or N.dtype.kind not in "iuf":
-        raise CandidateError(
-            f"{p}: array 'normals' has shape {N.shape} but 'points' has {P.shape}"
-        )
+        raise CandidateError(f"{p}: array 'normals' must be numbers of the shape of 'points' "
+                             f"{P.shape}, got {N.shape} {N.dtype}")
     B = P.shape[0]
     if B == 0:
         raise InputError(f"{p}: holds no candidates")

@@ -35,12 +35,16 @@ from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
 from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_edges, orient, weld
 
-__all__ = ["SUPPORTED_FORMATS", "load_part"]
+__all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
 SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 
-
+#: Largest magnitude of a vertex coordinate, in the file's units. Beyond it the squared
+#: lengths and moments the scores are built from overflow or swamp the LPs' tolerances, so a
+#: mesh there (a unit slip, a corrupt file) is refused rather than planned on meaningless
+#: numbers.
+MAX_COORDINATE = 1e15
 
 #: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
 UNIT_ALIASES: dict[str, str] = {
@@ -139,6 +143,11 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     if not np.isfinite(allv).all():
         bad = int((~np.isfinite(allv).all(axis=1)).sum())
         raise _fail(name, f"{bad} vertices have NaN or infinite coordinates")
+    biggest = float(np.abs(allv).max())
+    if biggest > MAX_COORDINATE:
+        raise _fail(name, f"a vertex coordinate has magnitude {biggest:.3g}, above the "
+                    f"{MAX_COORDINATE:g} synth can score meaningfully (wrong unit, or a corrupt "
+                    "file?); scale the mesh or move it near the origin")
     length = float(np.linalg.norm(np.ptp(allv, axis=0)))
     if length <= 0:
         raise _fail(name, "all vertices coincide")
@@ -296,7 +305,7 @@ def load_part(
         ``"all"``, an index, or the name of one of its bodies. Bodies that touch, nearly
         touch or overlap are always one object (one rigid part).
     sharp_angle : float
-        Dihedral threshold in radians for sharp edges.
+        Dihedral threshold in radians for sharp edges, in (0, pi).
 
     Returns
     -------
@@ -306,7 +315,8 @@ def load_part(
     ------
     MeshError
         Missing or unreadable file, no usable surface (empty, fewer than 4 triangles,
-        flat, NaN or infinite coordinates), an unknown unit or body.
+        flat, NaN or infinite coordinates or any of magnitude above ``MAX_COORDINATE``), an
+        unknown unit or body.
 
     Examples
     --------

@@ -1,15 +1,24 @@
-"""Planner parameters, with their documented defaults."""
+"""Planner parameters, with their documented defaults and limits.
+
+The limits bound what one plan may ask for, so that a typing slip (``--evals 1e12``,
+``--contacts 1000``) is refused at once instead of exhausting memory or running for hours,
+and so that every number reaching the linear programs is one they can solve meaningfully.
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
 from synth.errors import InputError
+from synth.part.load import MAX_COORDINATE
 
-__all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS"]
+__all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
+           "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
+           "MAX_LENGTH", "shown"]
 
 #: Orders the planner can rank its grasps by.
 RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon")
@@ -18,6 +27,46 @@ MAX_FINGERS = 12
 #: Most fingers ``fingers="auto"`` tries: seven single contacts hold any part that the
 #: contact planner can hold, so more fingers only help when tips cannot be placed apart.
 AUTO_MAX_FINGERS = 7
+#: Most point contacts per grasp.
+MAX_CONTACTS = 64
+#: Fewest and most edges of each linearised friction cone.
+MIN_EDGES, MAX_EDGES = 3, 64
+#: Smallest and largest budget of grasp evaluations.
+MIN_EVALS, MAX_EVALS = 100, 10_000_000
+#: Largest Coulomb friction coefficient (mu = 100 already makes the cone a half-space to
+#: within the LPs' accuracy; larger values only make the LPs ill-conditioned).
+MAX_MU = 100.0
+#: Most grasps one plan returns.
+MAX_TOP = 1000
+#: Largest random seed (seeds are 0 to 2**63 - 1, so they fit every integer column).
+MAX_SEED = 2**63 - 1
+#: Largest magnitude of a length or height in the mesh's units (finger sizes, the table):
+#: the same bound as the mesh's coordinates (:data:`synth.part.load.MAX_COORDINATE`).
+MAX_LENGTH = MAX_COORDINATE
+
+
+def shown(value: object, width: int = 40) -> str:
+    """``repr(value)`` cut to ``width`` characters, for error messages (a 400-digit number
+    must not make the line unreadable).
+
+    Examples
+    --------
+    >>> shown(10**50, width=12)
+    '100000000...'
+    """
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def _real(value: object) -> bool:
+    """A finite int or float (not a bool, not a string)."""
+    if _integer(value):
+        return True
+    return isinstance(value, (float, np.floating)) and math.isfinite(value)
 
 
 @dataclass(frozen=True)
@@ -28,37 +77,44 @@ class PlanParams:
     ----------
     contacts : int
         Point contacts per grasp (default 7, the fewest for frictionless form closure in
-        space; with friction, 3 or more). Ignored when ``fingers`` is given.
+        space; with friction, 3 or more; at most ``MAX_CONTACTS`` = 64). Ignored when
+        ``fingers`` is given.
     fingers : int, "auto" or None
         Plan grasps of this many fingertips instead, the contacts following from where they
         land (one on a face, edge or vertex; two in a groove; three in an inside corner):
         see :mod:`synth.plan.placements`. ``"auto"`` searches for the fewest fingers (2 to
-        ``AUTO_MAX_FINGERS``) that give (frictional) form closure. None (default): one fingertip per contact.
+        ``AUTO_MAX_FINGERS``) that give (frictional) form closure. None (default): one
+        fingertip per contact.
     mu : float
-        Coulomb friction coefficient; 0 ranks by frictionless d*, > 0 by the frictional d*.
+        Coulomb friction coefficient, 0 to ``MAX_MU`` = 100; 0 ranks by frictionless d*,
+        > 0 by the frictional d*.
     top : int
-        Grasps wanted.
+        Grasps wanted, 1 to ``MAX_TOP`` = 1000.
     time : float
-        Wall-clock cap in seconds. The search normally ends before it (see ``evals``); a run
-        cut by the cap is flagged in the plan and is no longer reproducible from the seed.
+        Wall-clock cap in seconds (positive, finite). The search normally ends before it
+        (see ``evals``); a run cut by the cap is flagged in the plan and is no longer
+        reproducible from the seed.
     evals : int
-        Budget of grasp evaluations (default 50,000): with the seed it fixes the search, so
+        Budget of grasp evaluations (default 50,000; from ``MIN_EVALS`` = 100 to
+        ``MAX_EVALS`` = 10,000,000): with the seed it fixes the search, so
         the same inputs give the same grasps on any machine. The search may stop short of it
         when every climber has converged, or pass it by less than one round.
     seed : int
-        Seed of every random choice.
+        Seed of every random choice, 0 to ``MAX_SEED`` = 2**63 - 1.
     finger_radius : float or None
-        Fingertip radius in the mesh's units; None picks a size from the part
-        (:func:`synth.fingers.default_fingers`).
+        Fingertip radius in the mesh's units, at most ``MAX_LENGTH`` = 1e15; None picks a
+        size from the part (:func:`synth.fingers.default_fingers`).
     body_length, body_radius : float or None
-        Finger body (capsule) size; None for the defaults of :func:`synth.default_fingers`.
+        Finger body (capsule) size, positive and at most ``MAX_LENGTH``; None for the
+        defaults of :func:`synth.default_fingers`.
     approach_cone : float
-        Half-angle in degrees of the cone of approach directions tried around the normal.
+        Half-angle in degrees, in [0, 90), of the cone of approach directions tried around
+        the normal.
     support_z : float or None
         Height of a table (the plane z = support_z, part above it) that fingers must not
-        cross; None for no table.
+        cross, |support_z| at most ``MAX_LENGTH``; None for no table.
     min_d_star : float
-        Grasps with a lower d* are not returned.
+        Grasps with a lower d* are not returned; in [0, 1], the range of d*.
     min_conditioning : float
         Grasps whose scaled wrench matrix has ``sigma_min / sigma_max`` below this are
         near-degenerate and not returned (default 1e-3).
@@ -66,7 +122,7 @@ class PlanParams:
         Returned grasps differ pairwise by at least this fraction of the part's length
         (Hausdorff distance between their contact sets; default 0.05).
     edges : int
-        Edges of each linearised friction cone.
+        Edges of each linearised friction cone, ``MIN_EDGES`` = 3 to ``MAX_EDGES`` = 64.
     rank_by : {"d_star", "conditioning", "epsilon"}
         Order of the returned grasps (default d*, ties within the LPs' accuracy broken by
         conditioning).
@@ -92,14 +148,23 @@ class PlanParams:
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> InputError:
-            return InputError(f"{name}: expected {expected}, got {getattr(self, name)!r}")
+            return InputError(f"{name}: expected {expected}, got {shown(getattr(self, name))}")
 
-        if not isinstance(self.contacts, (int, np.integer)) or self.contacts < 2:
-            raise bad("contacts", "an integer >= 2")
-        if not np.isfinite(self.mu) or self.mu < 0:
-            raise bad("mu", "a finite number >= 0")
+        def integer(name: str, lo: int, hi: int) -> None:
+            v = getattr(self, name)
+            if not (_integer(v) and lo <= v <= hi):
+                raise bad(name, f"an integer from {lo} to {hi:,}")
+
+        def length(name: str, what: str) -> None:
+            v = getattr(self, name)
+            if v is not None and not (_real(v) and 0 < v <= MAX_LENGTH):
+                raise bad(name, f"{what} in (0, {MAX_LENGTH:g}] in the mesh's units")
+
+        integer("contacts", 2, MAX_CONTACTS)
+        if not (_real(self.mu) and 0 <= self.mu <= MAX_MU):
+            raise bad("mu", f"a number from 0 to {MAX_MU:g}")
         if self.fingers is not None and self.fingers != "auto" and not (
-                isinstance(self.fingers, (int, np.integer)) and 2 <= self.fingers <= MAX_FINGERS):
+                _integer(self.fingers) and 2 <= self.fingers <= MAX_FINGERS):
             raise bad("fingers", f"an integer from 2 to {MAX_FINGERS}, 'auto' or None")
         if self.fingers is None and self.mu == 0 and self.contacts < 7:
             raise InputError(
@@ -108,26 +173,26 @@ class PlanParams:
             )
         if self.fingers is None and self.mu > 0 and self.contacts < 3:
             raise bad("contacts", "at least 3 with friction")
-        if self.top < 1:
-            raise bad("top", "an integer >= 1")
-        if not self.time > 0:
-            raise bad("time", "a positive number of seconds")
-        if self.evals < 100:
-            raise bad("evals", "at least 100")
-        for name in ("finger_radius", "body_length", "body_radius"):
-            v = getattr(self, name)
-            if v is not None and not (np.isfinite(v) and v > 0):
-                raise bad(name, "a positive length in the mesh's units")
-        if self.support_z is not None and not np.isfinite(self.support_z):
-            raise bad("support_z", "a finite height")
-        if not 0 <= self.approach_cone < 90:
+        integer("top", 1, MAX_TOP)
+        if not (_real(self.time) and self.time > 0):
+            raise bad("time", "a positive, finite number of seconds")
+        integer("evals", MIN_EVALS, MAX_EVALS)
+        integer("seed", 0, MAX_SEED)
+        length("finger_radius", "a radius")
+        length("body_length", "a length")
+        length("body_radius", "a radius")
+        if self.support_z is not None and not (_real(self.support_z)
+                                               and abs(self.support_z) <= MAX_LENGTH):
+            raise bad("support_z", f"a height from -{MAX_LENGTH:g} to {MAX_LENGTH:g}")
+        if not (_real(self.approach_cone) and 0 <= self.approach_cone < 90):
             raise bad("approach_cone", "degrees in [0, 90)")
-        if not 0 <= self.min_conditioning < 1:
+        if not (_real(self.min_d_star) and 0 <= self.min_d_star <= 1):
+            raise bad("min_d_star", "a number in [0, 1] (d* lies in [0, 1])")
+        if not (_real(self.min_conditioning) and 0 <= self.min_conditioning < 1):
             raise bad("min_conditioning", "a number in [0, 1)")
-        if not 0 <= self.diversity < 1:
+        if not (_real(self.diversity) and 0 <= self.diversity < 1):
             raise bad("diversity", "a fraction in [0, 1)")
-        if self.edges < 3:
-            raise bad("edges", "an integer >= 3")
+        integer("edges", MIN_EDGES, MAX_EDGES)
         if self.rank_by not in RANK_BY:
             raise bad("rank_by", f"one of {', '.join(RANK_BY)}")
 

@@ -1,7 +1,9 @@
 """Pictures of a plan: a PNG (matplotlib, headless) and a GLB scene (trimesh).
 
 Contacts are drawn as dots with their inward normals as short arrows, fingertips as spheres
-and finger bodies as capsules (lines in the PNG) along their approach directions.
+and finger bodies as capsules (lines in the PNG) along their approach directions. Both name
+the plan's run (``Plan.run_id``): the PNG in its title and in a ``synth.run_id`` text chunk,
+the GLB in its scene's extras (``scene.metadata["synth"]["run_id"]`` once loaded by trimesh).
 """
 
 from __future__ import annotations
@@ -85,12 +87,17 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
         ax.set_zlabel("z")
         ax.tick_params(labelsize=6)
     name = Path(plan.mesh.get("path") or "part").name
-    fig.suptitle(f"synth: {name}", fontsize=11)
+    fig.suptitle(f"synth: {name}   run {plan.run_id}", fontsize=11)
     fig.tight_layout()
     out = Path(path)
+    from synth import __version__
+
     try:
         with atomic_path(out) as tmp:
-            fig.savefig(tmp)
+            fig.savefig(tmp, format="png", metadata={
+                "Title": f"synth: {name}, run {plan.run_id}",
+                "Software": f"synth {__version__}",
+                "synth.run_id": plan.run_id})
     finally:
         plt.close(fig)
     return out
@@ -111,13 +118,17 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
     plan : Plan
     path : str or Path
     grasp : int
-        Which grasp to show (0 = best); with no grasps, the part alone.
+        Which grasp to show (0 = best); with no grasps, the part alone. The scene's extras
+        hold the plan's ``run_id``, this grasp's rank, the mesh's SHA-256 and the parameters.
 
     Returns
     -------
     Path
     """
     scene = trimesh.Scene()
+    scene.metadata["synth"] = {"run_id": plan.run_id, "grasp_rank": grasp + 1 if plan.grasps
+                               else None, "mesh_sha256": plan.mesh.get("sha256"),
+                               "params": plan.params}
     body = part.mesh.copy()
     body.visual.face_colors = [190, 195, 205, 255]
     scene.add_geometry(body, geom_name="part")

@@ -5,6 +5,7 @@ File format
 A JSON object::
 
     {"format": "synth.grasps", "version": 1, "synth_version": "0.1.0",
+     "run_id": "20250101T120000Z-1a2b3c4d",
      "mesh": {"path", "sha256", "units", "length", "precision", "center_mass", "volume",
               "bodies": [{"name", "faces", "closed", "convex", "volume", "area",
                           "exposed_area"}], "repairs": [str], "warnings": [str],
@@ -20,21 +21,36 @@ A JSON object::
                      the part), "body_length", "body_radius", "contact_finger": [int] * k}}],
      "message": str, "timing": {"total_s", "evaluations", "stopped_by_time"}}
 
-All coordinates are in the mesh file's coordinates and units.
+All coordinates are in the mesh file's coordinates and units. ``run_id`` names the run:
+the PNG (title and ``synth.run_id`` text chunk) and the GLB (scene extras ``synth.run_id``)
+drawn from the same plan carry it too, so the files of one run can be matched.
 """
 
 from __future__ import annotations
 
+import time
+import uuid
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part", "new_run_id"]
 
 FORMAT = "synth.grasps"
 FORMAT_VERSION = 1
+
+
+def new_run_id() -> str:
+    """A name for one planner run: UTC time to the second and 8 random hex digits.
+
+    Examples
+    --------
+    >>> len(new_run_id())  # e.g. '20250101T120000Z-1a2b3c4d'
+    25
+    """
+    return f"{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}-{uuid.uuid4().hex[:8]}"
 
 
 def describe_part(part: Any) -> dict[str, Any]:
@@ -133,6 +149,9 @@ class Plan:
         True when the time cap cut the search (the result then depends on machine speed).
     escape : str or None
         For a part with no closure grasp, the motion the best candidate leaves free.
+    run_id : str
+        Name of the run that made the plan (:func:`new_run_id`), written into its JSON, PNG
+        and GLB files.
     """
 
     grasps: tuple[PlannedGrasp, ...]
@@ -144,6 +163,7 @@ class Plan:
     total_s: float
     stopped_by_time: bool = False
     escape: str | None = None
+    run_id: str = field(default_factory=new_run_id)
 
     def to_json(self) -> dict[str, Any]:
         """The plan as a ``synth.grasps`` version-1 JSON document."""
@@ -153,6 +173,7 @@ class Plan:
             "format": FORMAT,
             "version": FORMAT_VERSION,
             "synth_version": __version__,
+            "run_id": self.run_id,
             "mesh": self.mesh,
             "params": self.params,
             "fingers": self.fingers,

@@ -1,0 +1,110 @@
+"""Checks of command-line values, made before any file is read or written.
+
+Every numeric option is checked against its documented range (the limits of
+:mod:`synth.plan.params`), and every output path for its suffix and its folder, so a bad
+command line fails at once with one line naming the option, instead of after a long search or
+with a file half written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+
+from synth.errors import InputError, OutputError
+from synth.plan.params import MAX_LENGTH, shown
+
+__all__ = ["integer", "real", "output_path", "check_part_options", "check_finger_options"]
+
+
+def integer(option: str, value: int | None, lo: int, hi: int | None = None,
+            hi_text: str | None = None) -> None:
+    """Refuse an integer option outside ``lo..hi`` (``hi`` None: no upper bound; a value of
+    None, an option not given, passes); ``hi_text`` writes ``hi`` in the message.
+
+    Examples
+    --------
+    >>> integer("--contacts", 1000, 2, 64)
+    Traceback (most recent call last):
+    synth.errors.InputError: --contacts: expected an integer from 2 to 64, got 1000
+    """
+    if value is None or (lo <= value and (hi is None or value <= hi)):
+        return
+    expected = f"an integer >= {lo}" if hi is None else \
+        f"an integer from {lo:,} to {hi_text or format(hi, ',')}"
+    raise InputError(f"{option}: expected {expected}, got {shown(value)}")
+
+
+def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: bool = False,
+         open_hi: bool = False, unit: str = "") -> None:
+    """Refuse a number option that is not finite or lies outside the interval from ``lo`` to
+    ``hi`` (closed unless ``open_lo`` / ``open_hi``); None, an option not given, passes.
+
+    Examples
+    --------
+    >>> real("--min-d-star", float("nan"), 0, 1)
+    Traceback (most recent call last):
+    synth.errors.InputError: --min-d-star: expected a number in [0, 1], got nan
+    """
+    if value is None:
+        return
+    above = value > lo if open_lo else value >= lo
+    below = value < hi if open_hi else value <= hi
+    if math.isfinite(value) and above and below:
+        return
+    interval = f"{'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}"
+    raise InputError(f"{option}: expected a number in {interval}{unit}, got {shown(value)}")
+
+
+def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
+    """An output file named on the command line, checked before any work is done.
+
+    Parameters
+    ----------
+    option : str
+        The option that named it, for the message.
+    path : str or path
+    suffix : str
+        The suffix its format needs, such as ``".png"`` (any letter case).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        The name has another suffix.
+    OutputError
+        Its folder does not exist or cannot be written, or the name is a folder.
+    """
+    out = Path(path)
+    if "\0" in str(out) or out.suffix.lower() != suffix:
+        raise InputError(f"{option}: expected a file name ending in {suffix}, got "
+                         f"{shown(str(out), 80)}")
+    folder = out.parent
+    if not folder.is_dir():
+        raise OutputError(f"{out}: cannot write here (no such folder {str(folder)!r})")
+    if out.is_dir():
+        raise OutputError(f"{out}: cannot write here (it is a folder)")
+    if not os.access(folder, os.W_OK):
+        raise OutputError(f"{out}: cannot write here (no permission to write in "
+                          f"{str(folder)!r})")
+    return out
+
+
+def check_part_options(args: argparse.Namespace) -> None:
+    """The mesh options of ``plan`` and ``rank`` (see ``synth.cli.plan.add_part_options``)."""
+    real("--sharp-angle", args.sharp_angle, 0, 180, open_lo=True, open_hi=True, unit=" degrees")
+
+
+def check_finger_options(args: argparse.Namespace) -> None:
+    """The finger options of ``plan`` and ``rank`` (see
+    ``synth.cli.plan.add_finger_options``)."""
+    for option, value in (("--finger-radius", args.finger_radius),
+                          ("--body-length", args.body_length),
+                          ("--body-radius", args.body_radius)):
+        real(option, value, 0, MAX_LENGTH, open_lo=True, unit=" (mesh units)")
+    real("--approach-cone", args.approach_cone, 0, 90, open_hi=True, unit=" degrees")

@@ -1,0 +1,312 @@
+"""``synth plan``, ``rank`` and ``score`` on hostile input: every failure one line with the
+right exit status, limits stated in --help, outputs kept together and named by their run."""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+from synth.cli import EXIT_FAILED, EXIT_INPUT, main
+from synth.part import load_part
+from synth.plan import params as lim
+
+CUBE_FC = {
+    "name": "good",
+    "points": [[.5, .1, .1], [-.5, -.1, -.1], [.1, .5, .1], [-.1, -.5, -.1],
+               [.2, .2, -.5], [-.2, .2, -.5], [.2, .4, .5]],
+    "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1],
+                [0, 0, -1]],
+}
+BIG = "9" * 400  # an integer of 400 digits
+
+
+@pytest.fixture()
+def box(tmp_path):
+    path = tmp_path / "box.stl"
+    trimesh.creation.box().export(path)
+    return path
+
+
+def _run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+def _refused(capsys, *argv, code=EXIT_INPUT):
+    """Run; the command must fail with ``code`` and exactly one line, no traceback."""
+    got, _, err = _run(capsys, *argv)
+    assert got == code, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("synth: error: "), err
+    return lines[0]
+
+
+def _files(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in Path(folder).rglob("*") if p.is_file()}
+
+
+# -- item 1 and 2: numeric options -------------------------------------------------------------
+
+PLAN_REFUSED = [
+    (["--seed", "-1"], "--seed: expected an integer from 0 to 2**63 - 1"),
+    (["--seed", BIG], "--seed"),
+    (["--evals", "1000000000000"], "--evals: expected an integer from 100 to 10,000,000"),
+    (["--evals", "99"], "--evals"),
+    (["--contacts", "1000"], "--contacts: expected an integer from 2 to 64"),
+    (["--mu", "1e308"], "--mu: expected a number in [0, 100]"),
+    (["--mu", "nan"], "--mu"),
+    (["--mu", "-0.5"], "--mu"),
+    (["--min-d-star", "nan"], "--min-d-star: expected a number in [0, 1]"),
+    (["--min-d-star", "2"], "--min-d-star: expected a number in [0, 1]"),
+    (["--top", "0"], "--top: expected an integer from 1 to 1,000"),
+    (["--top", BIG], "--top"),
+    (["--time", "0"], "--time"),
+    (["--time", "inf"], "--time"),
+    (["--table", "1e300"], "--table"),
+    (["--finger-radius", "-1"], "--finger-radius"),
+    (["--body-length", "inf"], "--body-length"),
+    (["--body-radius", "0"], "--body-radius"),
+    (["--approach-cone", "90"], "--approach-cone"),
+    (["--sharp-angle", "0"], "--sharp-angle"),
+    (["--fingers", "13"], "--fingers: expected an integer from 2 to 12"),
+    (["--fingers", "two"], "--fingers"),
+    (["--seed", "abc"], "argument --seed: invalid int value: 'abc'"),
+    (["--evals", "1e4"], "argument --evals: invalid int value"),
+    (["--no-such-option"], "unrecognized arguments"),
+]
+
+
+@pytest.mark.parametrize("extra, message", PLAN_REFUSED)
+def test_plan_refuses_bad_options_before_any_work(box, tmp_path, capsys, extra, message):
+    out = tmp_path / "o.json"
+    line = _refused(capsys, "plan", box, "--out", out, *extra)
+    assert message in line
+    assert len(line) < 250
+    assert not out.exists() and not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["score", "{c}", "--edges", "100000", "--mu", "0.5"],
+     "--edges: expected an integer from 3 to 64"),
+    (["score", "{c}", "--edges", "2"], "--edges"),
+    (["score", "{c}", "--top", "-3"], "--top: expected an integer >= 0"),
+    (["score", "{c}", "--mu", "inf"], "--mu"),
+    (["score", "{c}", "--mu", "1e308"], "--mu: expected a number in [0, 100]"),
+    (["score", "{c}", "--json", "{tmp}/scores.txt"],
+     "--json: expected a file name ending in .json"),
+    (["rank", "{box}", "{c}", "--max-distance", "-1"],
+     "--max-distance: expected a number in [0, 1e+15]"),
+    (["rank", "{box}", "{c}", "--max-distance", "nan"], "--max-distance"),
+    (["rank", "{box}", "{c}", "--mu", "1e308"], "--mu"),
+    (["rank", "{box}", "{c}", "--finger-radius", "0"], "--finger-radius"),
+    (["rank", "{box}", "{c}", "--out", "{tmp}/ranked.csv"],
+     "--out: expected a file name ending in .json"),
+])
+def test_rank_and_score_refuse_bad_options(box, tmp_path, capsys, argv, message):
+    c = tmp_path / "c.json"
+    c.write_text(json.dumps([CUBE_FC]))
+    argv = [a.format(c=c, box=box, tmp=tmp_path) for a in argv]
+    assert message in _refused(capsys, *argv)
+
+
+def test_zero_top_means_all_rows(tmp_path, capsys):
+    c = tmp_path / "c.json"
+    c.write_text(json.dumps([CUBE_FC] * 25))
+    code, out, _ = _run(capsys, "score", c, "--top", "0")
+    assert code == 0 and len(out.strip().splitlines()) == 26
+
+
+@pytest.mark.parametrize("command, limits", [
+    ("plan", ["7 to 64", "[0, 100]", "100 to 10,000,000", "in [0, 1]", "0 to 2**63 - 1",
+              "1 to 1000", "(0, 180)", "[0, 90)", ".json", ".png", ".glb", "run id"]),
+    ("rank", ["[0, 100]", "[0, 1e+15]", ".json"]),
+    ("score", ["3 to 64", "[0, 100]", "N >= 0", "0 for all", ".json"]),
+])
+def test_help_states_every_limit(capsys, command, limits):
+    with pytest.raises(SystemExit) as stop:
+        main([command, "--help"])
+    assert stop.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for limit in limits:
+        assert limit in text, limit
+
+
+def test_limits_are_module_constants():
+    assert (lim.MAX_CONTACTS, lim.MIN_EDGES, lim.MAX_EDGES) == (64, 3, 64)
+    assert (lim.MIN_EVALS, lim.MAX_EVALS, lim.MAX_MU, lim.MAX_TOP) == (100, 10_000_000, 100, 1000)
+    assert lim.MAX_SEED == 2**63 - 1 and lim.MAX_LENGTH == 1e15
+    lim.PlanParams(contacts=lim.MAX_CONTACTS, mu=lim.MAX_MU, evals=lim.MAX_EVALS,
+                   edges=lim.MAX_EDGES, seed=lim.MAX_SEED, top=lim.MAX_TOP, min_d_star=1.0)
+
+
+# -- item 1: candidate files -------------------------------------------------------------------
+
+def _npz(path, **arrays):
+    with open(path, "wb") as f:
+        np.savez(f, **arrays)
+    return path
+
+
+P3 = np.array([CUBE_FC["points"]] * 3, float)
+N3 = np.array([CUBE_FC["normals"]] * 3, float)
+
+
+def _bad_candidate_files(tmp_path):
+    """(file, words the one error line must hold) for every kind of broken candidate file."""
+    t = tmp_path
+    (t / "mu400.json").write_text(
+        json.dumps([dict(CUBE_FC, mu=0)]).replace('"mu": 0', f'"mu": {BIG}'))
+    (t / "pt400.json").write_text(
+        json.dumps([CUBE_FC]).replace("0.5, 0.1, 0.1", f"{BIG}, 0.1, 0.1", 1))
+    (t / "int5000.json").write_text('[{"points": [[' + "9" * 5000 + ', 0, 0]]}]')
+    (t / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    (t / "huge.json").write_text(json.dumps([dict(CUBE_FC, points=(np.array(
+        CUBE_FC["points"]) * 1e200).tolist())]))
+    (t / "random.json").write_bytes(np.random.default_rng(1).bytes(600))
+    (t / "random.npz").write_bytes(np.random.default_rng(2).bytes(600))
+    np.save(t / "array.npy", P3)
+    (t / "array.npy").rename(t / "array.npz")
+    return [
+        (t / "mu400.json", ["candidate 0", "'mu'", "from 0 to 100"]),
+        (t / "pt400.json", ["candidate 0", "too large"]),
+        (t / "int5000.json", ["int5000.json", "not a readable JSON file"]),
+        (t / "deep.json", ["deep.json", "not a readable JSON file", "RecursionError"]),
+        (t / "huge.json", ["candidate 0", "magnitude 5e+199", "1e+15"]),
+        (t / "random.json", ["random.json", "not a readable JSON file"]),
+        (t / "random.npz", ["random.npz", "not a readable NPZ file"]),
+        (t / "array.npz", ["array.npz", "one bare array"]),
+        (_npz(t / "names.npz", points=P3, normals=N3, names=np.array(["a"])),
+         ["names.npz", "'names' must have shape (3,)"]),
+        (_npz(t / "mu.npz", points=P3, normals=N3, mu=np.array([0.1, 0.2])),
+         ["mu.npz", "'mu' must be one number or shape (3,)"]),
+        (_npz(t / "mu_big.npz", points=P3[:1], normals=N3[:1], mu=np.array(1e308)),
+         ["candidate 0", "from 0 to 100"]),
+        (_npz(t / "strings.npz", points=P3, normals=np.array([["x"] * 7] * 3)),
+         ["strings.npz", "'normals' must be numbers"]),
+    ]
+
+
+def test_bad_candidate_files_one_line_each(box, tmp_path, capsys):
+    for path, words in _bad_candidate_files(tmp_path):
+        before = _files(tmp_path)
+        for argv in (["score", path, "--json", tmp_path / "s.json"],
+                     ["rank", box, path, "--out", tmp_path / "r.json", "--quiet"]):
+            line = _refused(capsys, *argv)
+            for w in words:
+                assert w in line, (argv, line)
+            assert len(line) < 450
+        assert _files(tmp_path) == before
+
+
+def test_rank_with_no_usable_candidate_writes_nothing(box, tmp_path, capsys):
+    far = tmp_path / "far.json"
+    far.write_text(json.dumps([{"name": "far", "points": [[9, 9, 9]] * 7}] * 2))
+    out = tmp_path / "r.json"
+    out.write_text("sentinel")
+    line = _refused(capsys, "rank", box, far, "--out", out, "--quiet")
+    assert "no candidate could be used" in line and "(and 1 more unusable)" in line
+    assert out.read_text() == "sentinel"
+
+
+# -- item 1: mesh files ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("ext", ["stl", "obj", "ply", "off", "glb", "gltf", "3mf"])
+def test_random_bytes_as_mesh(tmp_path, capsys, ext):
+    for seed in range(3):
+        mesh = tmp_path / f"junk{seed}.{ext}"
+        mesh.write_bytes(np.random.default_rng(seed).bytes(300 + 200 * seed))
+        assert mesh.name in _refused(capsys, "plan", mesh, "--no-files", "--quiet")
+
+
+def test_huge_coordinates_are_refused_naming_the_file(tmp_path, capsys):
+    mesh = trimesh.creation.box()
+    mesh.vertices *= 1e200
+    path = tmp_path / "huge.obj"
+    mesh.export(path)
+    line = _refused(capsys, "plan", path, "--no-files", "--evals", "200")
+    assert "huge.obj" in line and "magnitude" in line and "1e+15" in line
+    big = trimesh.creation.box()
+    big.vertices *= 1e14  # large, but within the limit
+    assert load_part(big).length == pytest.approx(np.sqrt(3) * 1e14)
+
+
+# -- item 3: output files ----------------------------------------------------------------------
+
+def test_png_suffix_is_refused_before_anything_is_written(box, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    before = _files(tmp_path)
+    line = _refused(capsys, "plan", box, "--png", "x.xyz", "--evals", "200")
+    assert "--png: expected a file name ending in .png, got 'x.xyz'" in line
+    assert _files(tmp_path) == before
+
+
+def test_missing_output_folder_fails_before_planning(box, tmp_path, capsys, monkeypatch):
+    import synth.plan
+
+    monkeypatch.setattr(synth.plan, "plan_part", lambda *a, **k: pytest.fail("planned"))
+    line = _refused(capsys, "plan", box, "--out", tmp_path / "nowhere" / "x.json",
+                    code=EXIT_FAILED)
+    assert "no such folder" in line
+
+
+def _png_run_id(path):
+    return Image.open(path).text["synth.run_id"]
+
+
+def _glb_extras(path):
+    data = Path(path).read_bytes()
+    n = struct.unpack("<I", data[12:16])[0]
+    return json.loads(data[20:20 + n])["scenes"][0]["extras"]
+
+
+def test_outputs_follow_out_and_share_the_run_id(box, tmp_path, capsys, monkeypatch):
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    (tmp_path / "sub").mkdir()
+    out = tmp_path / "sub" / "x.json"
+    code, stdout, err = _run(capsys, "plan", box, "--out", out, "--evals", "200", "--top", "2",
+                             "--units", "mm", "--seed", "3")
+    assert code == 0, err
+    assert list(cwd.iterdir()) == []
+    assert sorted(p.name for p in out.parent.iterdir()) == ["x.glb", "x.json", "x.png"]
+    doc = json.loads(out.read_text())
+    run_id = doc["run_id"]
+    assert len(run_id) == 25 and run_id in stdout
+    assert doc["params"]["seed"] == 3 and doc["params"]["evals"] == 200
+    assert _png_run_id(out.with_suffix(".png")) == run_id
+    scene = trimesh.load(out.with_suffix(".glb"))
+    assert scene.metadata["synth"]["run_id"] == run_id
+    assert scene.metadata["synth"]["params"] == doc["params"]
+    assert _glb_extras(out.with_suffix(".glb"))["synth"]["grasp_rank"] == 1
+    # a second run is another run
+    assert main(["plan", str(box), "--out", str(out), "--evals", "200", "--quiet"]) == 0
+    again = json.loads(out.read_text())["run_id"]
+    assert again != run_id and _png_run_id(out.with_suffix(".png")) == again
+
+
+def test_files_of_a_failed_run_are_left_as_they_were(box, tmp_path, capsys):
+    import synth.plan
+
+    paths = [tmp_path / n for n in ("g.json", "g.png", "g.glb")]
+    for p in paths:
+        p.write_bytes(b"sentinel")
+
+    def disk_full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(synth.plan, "export_glb", disk_full)
+        line = _refused(capsys, "plan", box, "--out", paths[0], "--evals", "200", "--units",
+                        "mm", code=EXIT_FAILED)
+    assert "No space left on device" in line
+    assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]

@@ -183,6 +183,9 @@ class GraspDatabase:
                 conn.execute("PRAGMA foreign_keys = ON")
             else:
                 _probe(conn, path)
+        except sqlite3.OperationalError as e:  # e.g. a reader kept a transaction open too long
+            self._close_connection(conn)
+            raise DatabaseError(f"{path}: cannot open grasp database for writing ({e})") from e
         except sqlite3.DatabaseError as e:
             self._close_connection(conn)
             raise DatabaseError(f"{path}: not a synth grasp database ({e})") from e

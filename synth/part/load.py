@@ -136,6 +136,12 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     ``soup``: the format stores every triangle's corners apart (STL), so welding them is not
     a repair worth reporting.
     """
+    for _, m in raw:
+        faces = np.asarray(m.faces)
+        if len(faces) and (faces.min() < 0 or faces.max() >= len(m.vertices)):
+            bad = int(faces.max() if faces.max() >= len(m.vertices) else faces.min())
+            raise _fail(name, f"a face refers to vertex {bad}, but there are "
+                        f"{len(m.vertices)} vertices (a corrupt file?)")
     verts = [np.asarray(m.vertices, float) for _, m in raw]
     allv = np.concatenate(verts) if verts else np.zeros((0, 3))
     if sum(len(m.faces) for _, m in raw) == 0 or len(allv) == 0:

@@ -238,6 +238,16 @@ def test_huge_coordinates_are_refused_naming_the_file(tmp_path, capsys):
     assert load_part(big).length == pytest.approx(np.sqrt(3) * 1e14)
 
 
+def test_face_naming_a_missing_vertex_is_refused(tmp_path, capsys):
+    data = bytearray(trimesh.creation.box().export(file_type="ply"))
+    first_face = data.index(b"end_header\n") + len(b"end_header\n") + 8 * 12
+    data[first_face + 2] = 1  # the face's first vertex index becomes 256 + index
+    path = tmp_path / "corrupt.ply"
+    path.write_bytes(bytes(data))
+    line = _refused(capsys, "plan", path, "--no-files", "--quiet")
+    assert "corrupt.ply" in line and "refers to vertex" in line and "8 vertices" in line
+
+
 # -- item 3: output files ----------------------------------------------------------------------
 
 def test_png_suffix_is_refused_before_anything_is_written(box, tmp_path, capsys, monkeypatch):

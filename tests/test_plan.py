@@ -154,15 +154,18 @@ def test_ranking_ties_by_conditioning_and_rank_by():
         PlanParams(rank_by="volume")
 
 
-@pytest.mark.parametrize("fingers", [None, 4])
-def test_time_caps_the_search_whatever_the_budget(fingers):
+@pytest.mark.parametrize("params", [
+    {"evals": 5_000_000}, {"evals": 5_000_000, "fingers": 4},
+    # one 64-contact frictional LP costs thousands of 7-contact ones: chunks shrink to match
+    {"evals": 2000, "contacts": 64, "mu": 0.5}], ids=["contacts", "fingers", "64-friction"])
+def test_time_caps_the_search_whatever_the_budget(params):
     """A budget far beyond the time cap (the seed stage alone would take minutes and gigabytes
     if it were drawn at once) stops at the cap, says so, and still returns what it found."""
     part = load_part(MESHES / "bracket.stl")
     t0 = time.perf_counter()
-    plan = plan_part(part, PlanParams(evals=5_000_000, time=1.0, fingers=fingers, top=3))
+    plan = plan_part(part, PlanParams(time=1.0, top=3, **params))
     elapsed = time.perf_counter() - t0
-    assert plan.stopped_by_time and plan.evaluations < 1_000_000
+    assert plan.stopped_by_time and plan.evaluations < params["evals"]
     assert "time limit" in plan.message
     # the contract, not a speed target: the cap holds to within one bounded chunk of work
     assert elapsed < 1.0 + 5.0, elapsed

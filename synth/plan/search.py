@@ -404,8 +404,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
 
     Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
     that ranking by conditioning or epsilon chooses among the best grasps, not among all.
-    Candidates are checked 64 at a time, and no new block is started after ``deadline``
-    (a ``time.perf_counter()`` value)."""
+    Candidates are checked 64 at a time; after ``deadline`` (a ``time.perf_counter()``
+    value) no further candidate is taken."""
     valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
     chosen: list[PlannedGrasp] = []
@@ -424,6 +424,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
         chk = check_fingers(part, archive.points[block], archive.normals[block], fingers,
                             archive.finger[block])
         for j, i in enumerate(block.tolist()):
+            if time.perf_counter() > deadline:
+                break
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(
                     ch.isdigit() for ch in w)).split("(")[0].strip()

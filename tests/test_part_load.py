@@ -241,3 +241,14 @@ def test_unit_abbreviations_are_accepted():
     assert load_part(cube, units="dm").units == "decimeters"
     with pytest.raises(MeshError, match="unknown length unit 'furlongs'"):
         load_part(cube, units="furlongs")
+
+
+def test_a_mesh_above_the_face_limit_is_refused_with_advice() -> None:
+    from synth.part.load import MAX_FACES
+
+    rng = np.random.default_rng(0)
+    n = MAX_FACES + 1
+    big = trimesh.Trimesh(rng.random((1000, 3)), rng.integers(0, 1000, (n, 3)), process=False,
+                          validate=False)
+    with pytest.raises(MeshError, match=f"{n:,} triangles.*decimate"):
+        load_part(big)

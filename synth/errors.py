@@ -19,6 +19,7 @@ __all__ = [
     "DatabaseError",
     "OutputError",
     "InternalError",
+    "shown",
 ]
 
 
@@ -53,3 +54,16 @@ class OutputError(SynthError):
 
 class InternalError(SynthError):
     """synth failed on input it accepted: a bug in synth, not a problem with the input."""
+
+
+def shown(value: object, width: int = 40) -> str:
+    """``repr(value)`` cut to ``width`` characters, for error messages (a 400-digit number
+    must not make the line unreadable).
+
+    Examples
+    --------
+    >>> shown(10**50, width=12)
+    '100000000...'
+    """
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."

@@ -13,8 +13,8 @@ import math
 import os
 from pathlib import Path
 
-from synth.errors import InputError, OutputError
-from synth.plan.params import MAX_LENGTH, shown
+from synth.errors import InputError, OutputError, shown
+from synth.limits import MAX_LENGTH
 
 __all__ = ["integer", "real", "output_path", "check_part_options", "check_finger_options"]
 

@@ -68,7 +68,7 @@ def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
 
 def add_finger_options(p: argparse.ArgumentParser) -> None:
     """Options of the finger model, shared by ``plan`` and ``rank``."""
-    from synth.plan.params import MAX_LENGTH
+    from synth.limits import MAX_LENGTH
 
     g = p.add_argument_group("fingers")
     g.add_argument("--finger-radius", type=float, default=None, metavar="R",
@@ -166,7 +166,7 @@ def format_plan_table(plan) -> str:
 
 def _fingers(text: str | None) -> int | str | None:
     """``--fingers``: None, 'auto' or a number of fingertips."""
-    from synth.plan.params import MAX_FINGERS
+    from synth.limits import MAX_FINGERS
 
     if text is None or text == "auto":
         return text

@@ -13,7 +13,7 @@ import numpy as np
 from synth.cli.checks import check_finger_options, check_part_options, output_path, real
 from synth.errors import InputError
 from synth.files import write_atomic
-from synth.plan.params import MAX_LENGTH, MAX_MU
+from synth.limits import MAX_LENGTH, MAX_MU
 
 __all__ = ["add_parser", "run", "rank_candidates", "RankedCandidate"]
 

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from synth.cli.checks import integer, output_path, real
 from synth.errors import InputError
 from synth.files import write_atomic
-from synth.plan.params import MAX_EDGES, MAX_MU, MIN_EDGES
+from synth.limits import MAX_EDGES, MAX_MU, MIN_EDGES
 
 __all__ = ["add_parser", "run", "score_table", "explain", "Scores", "format_table"]
 

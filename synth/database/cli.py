@@ -15,6 +15,9 @@ from collections.abc import Callable
 from typing import Any, NoReturn
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
+from synth.errors import shown
+from synth.limits import (MAX_CONTACTS, MAX_EVALS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP,
+                          MIN_EVALS)
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -55,11 +58,6 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"synth: error: {message} (see '{self.prog} --help')\n")
 
 
-def _shown(text: str) -> str:
-    """``text`` quoted, cut to 40 characters (a 5000-digit value must not fill the screen)."""
-    return repr(text if len(text) <= 40 else text[:37] + "...")
-
-
 def _int_in(low: int, high: int) -> Callable[[str], int]:
     """An argparse type: an integer from ``low`` to ``high``."""
 
@@ -70,7 +68,7 @@ def _int_in(low: int, high: int) -> Callable[[str], int]:
             value = None
         if value is None or not low <= value <= high:
             raise argparse.ArgumentTypeError(
-                f"expected an integer from {low} to {high:,}, got {_shown(text)}"
+                f"expected an integer from {low} to {high:,}, got {shown(text)}"
             )
         return value
 
@@ -89,7 +87,7 @@ def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str]
         except ValueError:
             value = math.nan
         if not (low < value if low_open else low <= value) or not value <= high:
-            raise argparse.ArgumentTypeError(f"expected a number {bounds}, got {_shown(text)}")
+            raise argparse.ArgumentTypeError(f"expected a number {bounds}, got {shown(text)}")
         return value
 
     return parse
@@ -97,12 +95,12 @@ def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str]
 
 # Ranges of the numeric options (shown in --help, checked before anything is read or written);
 # the planner's own limits (synth.plan.PlanParams) are checked again before the database opens.
-_CONTACTS = (2, 64)
-_MU = (0.0, 100.0)
-_TOP = (1, 1000)
-_SEED = (0, 2**63 - 1)
-_RADIUS = (0.0, 1e15)
-_EVALS = (100, 10_000_000)
+_CONTACTS = (2, MAX_CONTACTS)
+_MU = (0.0, MAX_MU)
+_TOP = (1, MAX_TOP)
+_SEED = (0, MAX_SEED)
+_RADIUS = (0.0, MAX_LENGTH)
+_EVALS = (MIN_EVALS, MAX_EVALS)
 _WORKERS = (0, 1024)
 _TIMEOUT = (0.0, 1e6)
 _K = (1, 10_000)

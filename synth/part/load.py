@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import MeshError
+from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
 from synth.part.bodies import body_labels
 from synth.part.compound import group_bodies, unite_overlapping
@@ -39,17 +40,6 @@ __all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
 SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
-
-#: Largest magnitude of a vertex coordinate, in the file's units. Beyond it the squared
-#: lengths and moments the scores are built from overflow or swamp the LPs' tolerances, so a
-#: mesh there (a unit slip, a corrupt file) is refused rather than planned on meaningless
-#: numbers.
-MAX_COORDINATE = 1e15
-
-#: Most triangles a part may have. Loading is the costly step on large meshes (measured on a
-#: 1.3M-face sphere: 28 s to load and 3.1 GB peak; on a 720k-face bracket 14 s and 1.9 GB), so
-#: a mesh above this would need several times that and is refused with advice to decimate.
-MAX_FACES = 2_000_000
 
 #: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
 UNIT_ALIASES: dict[str, str] = {

@@ -13,49 +13,16 @@ from typing import Any
 
 import numpy as np
 
-from synth.errors import InputError
-from synth.part.load import MAX_COORDINATE
+from synth.errors import InputError, shown
+from synth.limits import (AUTO_MAX_FINGERS, MAX_CONTACTS, MAX_EDGES, MAX_EVALS, MAX_FINGERS,
+                          MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES, MIN_EVALS)
 
 __all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
-           "MAX_LENGTH", "shown"]
+           "MAX_LENGTH"]
 
 #: Orders the planner can rank its grasps by.
 RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon")
-#: Most fingers a grasp may have.
-MAX_FINGERS = 12
-#: Most fingers ``fingers="auto"`` tries: seven single contacts hold any part that the
-#: contact planner can hold, so more fingers only help when tips cannot be placed apart.
-AUTO_MAX_FINGERS = 7
-#: Most point contacts per grasp.
-MAX_CONTACTS = 64
-#: Fewest and most edges of each linearised friction cone.
-MIN_EDGES, MAX_EDGES = 3, 64
-#: Smallest and largest budget of grasp evaluations.
-MIN_EVALS, MAX_EVALS = 100, 10_000_000
-#: Largest Coulomb friction coefficient (mu = 100 already makes the cone a half-space to
-#: within the LPs' accuracy; larger values only make the LPs ill-conditioned).
-MAX_MU = 100.0
-#: Most grasps one plan returns.
-MAX_TOP = 1000
-#: Largest random seed (seeds are 0 to 2**63 - 1, so they fit every integer column).
-MAX_SEED = 2**63 - 1
-#: Largest magnitude of a length or height in the mesh's units (finger sizes, the table):
-#: the same bound as the mesh's coordinates (:data:`synth.part.load.MAX_COORDINATE`).
-MAX_LENGTH = MAX_COORDINATE
-
-
-def shown(value: object, width: int = 40) -> str:
-    """``repr(value)`` cut to ``width`` characters, for error messages (a 400-digit number
-    must not make the line unreadable).
-
-    Examples
-    --------
-    >>> shown(10**50, width=12)
-    '100000000...'
-    """
-    text = repr(value)
-    return text if len(text) <= width else text[: width - 3] + "..."
 
 
 def _integer(value: object) -> bool:

@@ -8,9 +8,10 @@ fingertips overlap. Every candidate scored counts as one evaluation of the budge
 The scorer also keeps the search's clock: it scores in chunks and stops at the deadline
 between two chunks, so no stage of the search runs more than one chunk past
 ``PlanParams.time``, and the memory of one call is bounded by the chunk, not by the batch. A
-chunk holds at most ``_CHUNK`` grasps and is sized from the measured time per grasp to take
-about ``_CHUNK_SECONDS`` (a 64-contact frictional LP costs thousands of times a 7-contact
-frictionless one); chunking never changes a score, only where a cut falls.
+chunk holds ``_CHUNK`` seven-contact frictionless grasps, and proportionally fewer of larger
+LPs (a 64-contact frictional LP costs thousands of times a 7-contact frictionless one). The
+chunk size depends on the parameters only, never on timings: the last bits of a batch's
+results can depend on how it is split, and the same seed must give the same grasps.
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_w
 __all__ = ["GraspBatch", "Scorer", "distinct_top"]
 
 _CHUNK = 4096
-_CHUNK_SECONDS = 0.05
 _FIELDS = ("points", "normals", "faces", "regions", "d", "fit", "finger")
 
 
@@ -112,9 +112,9 @@ class Scorer:
         self.evaluations = 0
         self.deadline = np.inf if deadline is None else float(deadline)
         self.timed_out = False
-        # first chunk: about 4096 seven-contact frictionless grasps' worth of LP columns
-        cols = params.contacts * (params.edges if params.mu > 0 else 1)
-        self._rows = int(np.clip(_CHUNK * 7 // (cols * (4 if params.mu > 0 else 1)), 1, _CHUNK))
+        # LP columns per grasp, a frictional column weighted 4x (its LP is far more degenerate)
+        cols = params.contacts * (4 * params.edges if params.mu > 0 else 1)
+        self._rows = int(np.clip(_CHUNK * 7 // cols, 1, _CHUNK))
 
     def out_of_time(self) -> bool:
         """True (and ``timed_out`` set) once the deadline has passed."""
@@ -141,14 +141,11 @@ class Scorer:
         while s < B and not self.out_of_time():
             e = min(B, s + self._rows)
             p, n = P[s:e], N[s:e]
-            t0 = time.perf_counter()
             if prm.mu == 0:
                 res = form_closure_batch(scaled_wrenches(p, n, self.center, self.length))
             else:
                 res = frictional_form_closure_batch(p, n, prm.mu, center=self.center,
                                                     edges=prm.edges)
-            per_grasp = max(time.perf_counter() - t0, 1e-6) / (e - s)
-            self._rows = int(np.clip(_CHUNK_SECONDS / per_grasp, 1, _CHUNK))
             d[s:e], ok[s:e], scored[s:e] = res.d_star, res.closure, True
             self.evaluations += e - s
             s = e

@@ -280,9 +280,9 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
 
 def _cut_note(prm: PlanParams, score: Scorer) -> str:
     """The end of a message of a search the clock stopped."""
-    return (f"; stopped at the time limit (--time {prm.time:g} s) after {score.evaluations} of "
-            f"{prm.evals} evaluations, so this result depends on the machine's speed (a "
-            f"larger --time lets the search finish)")
+    return (f"; stopped at the time limit (--time {prm.time:g} s) after {score.evaluations:,} "
+            f"evaluations (budget {prm.evals:,}), so this result depends on the machine's "
+            f"speed (a larger --time lets the search finish)")
 
 
 def _placement_counts(pool: Placements) -> str:

@@ -108,6 +108,21 @@ def test_same_seed_same_grasps():
     assert all(np.array_equal(x.points, y.points) for x, y in zip(a.grasps, b.grasps))
 
 
+@pytest.mark.parametrize("mu,contacts", [(0.0, 7), (0.5, 4)])
+def test_the_machines_speed_never_changes_the_grasps(monkeypatch, mu, contacts):
+    """Nothing but the clock's deadline may read the clock: a machine 1000x slower (a clock
+    running 1000x fast, the deadline still far) gives bit-identical grasps."""
+    part = load_part(MESHES / "bracket.stl")
+    prm = PlanParams(evals=3000, seed=2, mu=mu, contacts=contacts, time=1e7)
+    a = plan_part(part, prm)
+    real = time.perf_counter
+    monkeypatch.setattr(time, "perf_counter", lambda: 1000.0 * real())
+    b = plan_part(part, prm)
+    assert a.grasps and not b.stopped_by_time
+    assert [g.d_star for g in a.grasps] == [g.d_star for g in b.grasps]
+    assert all(np.array_equal(x.points, y.points) for x, y in zip(a.grasps, b.grasps))
+
+
 def test_bad_parameters():
     with pytest.raises(InputError, match="at least 7"):
         PlanParams(contacts=5)

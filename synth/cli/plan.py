@@ -20,7 +20,9 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("mesh")
     g.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of the mesh when the file does not say (STL never does): "
-                   "mm, cm, dm, m, um, in, ft or a trimesh unit name")
+                   "mm, cm, dm, m, um, in, ft or a trimesh unit name (default: the file's own "
+                   "unit if it states one, else unknown, with a warning; results are then in "
+                   "the file's numbers)")
     g.add_argument("--body", default="largest", metavar="WHICH",
                    help="which object to plan when the file holds several far apart: "
                    "'largest' (default), an index, the name of one of its bodies, or 'all'. "
@@ -93,7 +95,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "(Trinkle 1992), check fingers for collisions with FCL, print a ranked table and "
         "write JSON, PNG and GLB files.",
         epilog="The JSON, PNG and GLB of one run carry the same run id (JSON 'run_id', the "
-        "PNG's title, the GLB scene's extras). exit status: 0 grasps found; 1 none found (the "
+        "PNG's title, the GLB scene's extras). Exit status: 0 grasps found; 1 none found (the "
         "message names the motion left free) or a file could not be written; 2 bad input (the "
         "line says what is wrong); 3 internal error (a bug in synth).",
     )
@@ -107,7 +109,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--fingers", default=None, metavar="N|auto",
                    help="plan grasps of N fingertips instead of --contacts: a tip in a groove "
                    "makes 2 contacts, in an inside corner 3; N from 2 to "
-                   f"{lim.MAX_FINGERS}; 'auto' finds the fewest fingers that hold the part")
+                   f"{lim.MAX_FINGERS}; 'auto' finds the fewest fingers, 2 to "
+                   f"{lim.AUTO_MAX_FINGERS}, that hold the part, each count with the whole "
+                   "budget (default: one fingertip per contact, see --contacts)")
     p.add_argument("--mu", type=float, default=0.0, metavar="MU",
                    help=f"Coulomb friction coefficient, in [0, {lim.MAX_MU:g}] (default 0: "
                    "frictionless form closure)")
@@ -118,14 +122,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "usually ends sooner)")
     p.add_argument("--evals", type=int, default=d.evals, metavar="N",
                    help=f"budget of grasp evaluations, {lim.MIN_EVALS} to {lim.MAX_EVALS:,} "
-                   f"(default {d.evals:,}): the search stops when it is spent; with --seed it "
-                   "fixes the result on any machine")
+                   f"(default {d.evals:,}); with --seed it fixes the result on any machine. "
+                   "The search ends early when every climber has converged (about half the "
+                   "default budget on simple parts), and each stage does a least amount of "
+                   "work, so small budgets evaluate about 2,500 grasps")
     p.add_argument("--min-d-star", type=float, default=0.0, metavar="D",
                    help="return no grasp with a lower d*; in [0, 1], the range of d* "
                    "(default 0)")
     p.add_argument("--rank-by", choices=lim.RANK_BY, default="d_star",
-                   help="order of the grasps returned (default d_star: d* values equal to the "
-                   "LPs' accuracy, 1e-6, are ordered by conditioning)")
+                   help="order of the grasps returned (default d_star; d* values within 1e-6 "
+                   "of each other, the LPs' accuracy, are ordered by conditioning)")
     p.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     p.add_argument("--table", type=float, default=None, metavar="Z",

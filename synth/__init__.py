@@ -7,6 +7,8 @@ Grasps", IROS 1992.
 
 from __future__ import annotations
 
+import importlib
+
 from synth.errors import (
     CandidateError,
     DatabaseError,
@@ -16,38 +18,39 @@ from synth.errors import (
     SolverError,
     SynthError,
 )
-from synth.contacts import Contacts, contacts_from_rays, sample_contacts
-from synth.database import GraspDatabase, build_database
-from synth.fingers import (
-    FingerCheck,
-    FingerChecker,
-    FingerPlacement,
-    Fingers,
-    check_fingers,
-    default_fingers,
-    finger_placement,
-)
-from synth.grasps import Candidate, read_candidates
-from synth.part import Part, Region, load_part
-from synth.plan import Plan, PlannedGrasp, PlanParams, plan_mesh_file, plan_part
-from synth.scores import (
-    BatchScores,
-    FormClosure,
-    FrictionalFormClosure,
-    FrictionalSqueeze,
-    StrongForceClosure,
-    describe_twist,
-    form_closure,
-    form_closure_batch,
-    friction_cone_wrenches,
-    frictional_form_closure,
-    frictional_form_closure_batch,
-    frictional_squeezable,
-    squeezable_contacts,
-    strong_force_closure,
-    wrench_matrix,
-)
-from synth.scores.quality import conditioning, epsilon_quality
+# Everything past the exception tree is imported on first use (PEP 562), so that a command
+# that needs no mesh (``synth score``, ``synth --help``) does not pay for trimesh and FCL.
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(["Contacts", "contacts_from_rays", "sample_contacts"], "synth.contacts"),
+    **dict.fromkeys(["GraspDatabase", "build_database"], "synth.database"),
+    **dict.fromkeys(["FingerCheck", "FingerChecker", "FingerPlacement", "Fingers",
+                     "check_fingers", "default_fingers", "finger_placement"], "synth.fingers"),
+    **dict.fromkeys(["Candidate", "read_candidates"], "synth.grasps"),
+    **dict.fromkeys(["Part", "Region", "load_part"], "synth.part"),
+    **dict.fromkeys(["Plan", "PlannedGrasp", "PlanParams", "plan_mesh_file", "plan_part"],
+                    "synth.plan"),
+    **dict.fromkeys(["BatchScores", "FormClosure", "FrictionalFormClosure",
+                     "FrictionalSqueeze", "StrongForceClosure", "describe_twist",
+                     "form_closure", "form_closure_batch", "friction_cone_wrenches",
+                     "frictional_form_closure", "frictional_form_closure_batch",
+                     "frictional_squeezable", "squeezable_contacts", "strong_force_closure",
+                     "wrench_matrix"], "synth.scores"),
+    **dict.fromkeys(["conditioning", "epsilon_quality"], "synth.scores.quality"),
+}
+
+
+def __getattr__(name: str) -> object:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'synth' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __version__ = "0.1.0"
 

@@ -222,6 +222,11 @@ def format_table(scores: Scores, rows: NDArray[np.int64],
     return "\n".join(lines)
 
 
+def _json_or_null(value: Any) -> str:
+    """``json.dumps(value)``, without its call for the ``None`` of every row not shown."""
+    return "null" if value is None else json.dumps(value)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``synth score``."""
     from synth.grasps import read_candidate_table
@@ -248,8 +253,8 @@ def run(args: argparse.Namespace) -> int:
             return (f'{{"rank": {rank_of[i]}, "index": {i}, "name": {json.dumps(scores.names[i])}, '
                     f'"contacts": {scores.contacts[i]}, "mu": {float(scores.mu[i])!r}, '
                     f'"d_star": {float(scores.d_star[i])!r}, "closure": "{scores.closure[i]}", '
-                    f'"matrix_rank": {scores.rank[i]}, "why_not": {json.dumps(words)}, '
-                    f'"squeezable": {json.dumps(squeeze)}}}')
+                    f'"matrix_rank": {scores.rank[i]}, "why_not": {_json_or_null(words)}, '
+                    f'"squeezable": {_json_or_null(squeeze)}}}')
 
         rows = [row(i) for i in order.tolist()]
         errs = [{"index": i, "name": scores.names[i], "error": e} for i, e in scores.errors]

@@ -133,22 +133,25 @@ class Scorer:
         """d* and fitness (B,) of grasps ``P, N`` (B, k, 3) whose contacts belong to fingertips
         ``finger`` (B, k) (default: one each)."""
         B = P.shape[0]
-        prm = self.params
         d = np.zeros(B)
-        ok = np.zeros(B, dtype=bool)
-        scored = np.zeros(B, dtype=bool)
+        fit = np.full(B, -2.0)  # what rows left unscored at the deadline keep
         s = 0
         while s < B and not self.out_of_time():
             e = min(B, s + self._rows)
-            p, n = P[s:e], N[s:e]
-            if prm.mu == 0:
-                res = form_closure_batch(scaled_wrenches(p, n, self.center, self.length))
-            else:
-                res = frictional_form_closure_batch(p, n, prm.mu, center=self.center,
-                                                    edges=prm.edges)
-            d[s:e], ok[s:e], scored[s:e] = res.d_star, res.closure, True
+            d[s:e], fit[s:e] = self._chunk(P[s:e], N[s:e], None if finger is None else finger[s:e])
             self.evaluations += e - s
             s = e
+        return d, fit
+
+    def _chunk(self, P: NDArray[np.float64], N: NDArray[np.float64],
+               finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
+        prm = self.params
+        if prm.mu == 0:
+            res = form_closure_batch(scaled_wrenches(P, N, self.center, self.length))
+        else:
+            res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges)
+        d, ok = res.d_star, res.closure.copy()
         if ok.any():  # conditioning matters only for closure grasps
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
         if finger is None:
@@ -159,8 +162,7 @@ class Scorer:
         gap = np.where(present[:, iu[0]] & present[:, iu[1]],
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
-        fit = np.where(tips_ok & scored, np.where(ok, d, d - 1.0), -2.0)
-        return d, fit
+        return d, np.where(tips_ok, np.where(ok, d, d - 1.0), -2.0)
 
     def score(self, b: GraspBatch) -> None:
         """Fill in ``b.d`` and ``b.fit``."""

@@ -264,11 +264,12 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     next_seed = len(members)
     stale = np.zeros(len(members), np.int64)  # tries without a gain in a row
     tries = np.zeros(len(members), np.int64)
-    cur_fit = score(pp[members], pn[members])[1]
+    cur_d, cur_fit = score(pp[members], pn[members])
+    out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
     screened = 0
     while len(members):
         if score.out_of_time():  # members still climbing keep where they got to
-            out[slot_of] = members
+            out[slot_of], out_d[slot_of], out_fit[slot_of] = members, cur_d, cur_fit
             break
         M = len(members)
         j = int(rng.integers(0, k))
@@ -289,33 +290,35 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
         if len(hope):
             cand = np.repeat(members[hope, None, :], _CHECKED, axis=1)
             cand[:, :, j] = best[hope]
-            cfit = score(pp[cand.reshape(-1, k)], pn[cand.reshape(-1, k)])[1].reshape(
-                len(hope), _CHECKED)
+            cd, cfit = (a.reshape(len(hope), _CHECKED) for a in score(
+                pp[cand.reshape(-1, k)], pn[cand.reshape(-1, k)]))
             gain = np.where(cfit > cur_fit[hope, None] + 1e-12, cfit, -np.inf)
             pick = np.argmax(gain, axis=1)
             ok = np.isfinite(gain[np.arange(len(hope)), pick])
             h = hope[ok]
             win[h] = True
             members[h, j] = best[h, pick[ok]]
-            cur_fit[h] = cfit[ok, pick[ok]]
+            cur_d[h], cur_fit[h] = cd[ok, pick[ok]], cfit[ok, pick[ok]]
         stale = np.where(win, 0, stale + 1)
         tries += 1
         conv = np.flatnonzero((stale >= 2 * k) | (tries >= sweeps * k))
         if len(conv):
-            out[slot_of[conv]] = members[conv]
+            out[slot_of[conv]], out_d[slot_of[conv]] = members[conv], cur_d[conv]
+            out_fit[slot_of[conv]] = cur_fit[conv]
             fresh = min(len(conv), len(seeds) - next_seed)
             slots = conv[:fresh]
             members[slots] = seeds[next_seed : next_seed + fresh]
             slot_of[slots] = np.arange(next_seed, next_seed + fresh)
-            cur_fit[slots] = score(pp[members[slots]], pn[members[slots]])[1]
+            cur_d[slots], cur_fit[slots] = score(pp[members[slots]], pn[members[slots]])
             stale[slots], tries[slots] = 0, 0
             next_seed += fresh
             keep = np.setdiff1d(np.arange(M), conv[fresh:])
-            members, slot_of, stale, tries, cur_fit = (members[keep], slot_of[keep],
-                                                       stale[keep], tries[keep], cur_fit[keep])
-    b = GraspBatch(pp[out], pn[out], pool.faces[out, 0], pool.regions[out, 0],
-                   np.zeros(len(out)), np.zeros(len(out)))
-    score.score(b)
+            members, slot_of, stale, tries, cur_d, cur_fit = (
+                members[keep], slot_of[keep], stale[keep], tries[keep], cur_d[keep],
+                cur_fit[keep])
+    b = GraspBatch(pp[out], pn[out], pool.faces[out, 0], pool.regions[out, 0], out_d, out_fit)
+    if not score.timed_out:  # else the scores kept above stand (seeds never climbed stay at -2)
+        score.score(b)
     return b, screened
 
 

@@ -167,6 +167,9 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif prm.min_d_star > 0 and (archive.fit > 0).any():
         message = (f"no grasp reached --min-d-star {prm.min_d_star:g}: the best closure grasp "
                    f"found has d* {archive.fit.max():.4f}")
+    elif stopped_by_time and (archive.fit > 0).any():
+        message = (f"{int((archive.fit > 0).sum())} closure grasps were found, but the time "
+                   f"limit passed before one of them passed the finger checks")
     elif rejected:
         reason, _ = max(rejected.items(), key=lambda kv: kv[1])
         message = (f"{sum(rejected.values())} closure grasps were found but the fingers could "
@@ -184,7 +187,7 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         if prm.evals < PlanParams().evals:
             message += f"; a budget above --evals {prm.evals} may find one"
     if stopped_by_time:
-        message += _cut_note(prm, score)
+        message += _cut_note(prm, score, budget)
     say(1.0, "done")
     return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, escape)
@@ -272,16 +275,16 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
             reason, _ = max(rejected.items(), key=lambda kv: kv[1])
             message += f"; grasps the fingers could not make were dropped (most often: {reason})"
     if stopped_by_time and tried:
-        message += _cut_note(prm, score)
+        message += _cut_note(prm, score, budget)
     say(1.0, "done")
     return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, None)
 
 
-def _cut_note(prm: PlanParams, score: Scorer) -> str:
+def _cut_note(prm: PlanParams, score: Scorer, budget: int) -> str:
     """The end of a message of a search the clock stopped."""
     return (f"; stopped at the time limit (--time {prm.time:g} s) after {score.evaluations:,} "
-            f"evaluations (budget {prm.evals:,}), so this result depends on the machine's "
+            f"evaluations (budget {budget:,}), so this result depends on the machine's "
             f"speed (a larger --time lets the search finish)")
 
 
@@ -405,7 +408,9 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
     that ranking by conditioning or epsilon chooses among the best grasps, not among all.
     Candidates are checked 64 at a time; after ``deadline`` (a ``time.perf_counter()``
-    value) no further candidate is taken."""
+    value) no further block is started, and no further candidate is taken once one grasp is
+    chosen, but the first block is always checked, so a search the clock cut still returns
+    the best grasp it found when one of the 64 best passes the finger checks."""
     valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
     chosen: list[PlannedGrasp] = []
@@ -414,7 +419,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     min_gap = prm.diversity * part.length
     want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
     for s in range(0, len(order), 64):
-        if time.perf_counter() > deadline:
+        if s > 0 and time.perf_counter() > deadline:  # the first block is always checked
             break
         block = order[s : s + 64]
         block = np.array([i for i in block if all(
@@ -424,7 +429,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
         chk = check_fingers(part, archive.points[block], archive.normals[block], fingers,
                             archive.finger[block])
         for j, i in enumerate(block.tolist()):
-            if time.perf_counter() > deadline:
+            if chosen and time.perf_counter() > deadline:
                 break
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(

@@ -1,8 +1,9 @@
 """Writing result files whole or not at all.
 
-Every file synth writes goes to a temporary file in the target's folder and is renamed over
-the target only once it is complete (``os.replace`` is atomic within one file system), so a
-full disk, a crash or a kill leaves either the old file or the new one, never half of one.
+Every file synth writes goes to a temporary file in the target's folder, is flushed to disk,
+and is renamed over the target only once it is complete (``os.replace`` is atomic within one
+file system), so a full disk, a crash or a kill leaves either the old file or the new one,
+never half of one.
 """
 
 from __future__ import annotations
@@ -10,48 +11,94 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from synth.errors import OutputError
 
-__all__ = ["atomic_path", "write_atomic"]
+__all__ = ["atomic_path", "atomic_paths", "writing", "write_atomic"]
+
+
+def _read_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Read once, at import: reading it means setting it, which races with other threads.
+_UMASK = _read_umask()
+
+
+@contextlib.contextmanager
+def writing(target: str | os.PathLike[str]) -> Iterator[None]:
+    """Turn an ``OSError`` raised in the block into :class:`OutputError` naming ``target``
+    (wrap the writing of each file in it, so that an error names the right file)."""
+    try:
+        yield
+    except OSError as e:
+        raise OutputError(f"{target}: could not be written ({e.strerror or e}); any file of "
+                          f"that name was left as it was") from e
+
+
+@contextlib.contextmanager
+def atomic_paths(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[Path]]:
+    """Temporary paths next to ``targets``, renamed over them together when the block succeeds.
+
+    Each temporary file keeps its target's suffix (writers that pick a format from it, such as
+    matplotlib and h5py, still work). If the block raises, every temporary file is removed and
+    no target is touched: a set of files is replaced only once all of them are written. The
+    renames come one after the other, so a failure of a rename itself (rare: the folder
+    vanished) can leave the earlier targets replaced. Errors raised in the block pass through
+    unchanged; wrap each file's writing in :func:`writing`.
+
+    Examples
+    --------
+    >>> with atomic_paths(["plan.json", "plan.png"]) as (tmp_json, tmp_png):  # doctest: +SKIP
+    ...     with writing("plan.json"):
+    ...         tmp_json.write_text(text)
+    ...     with writing("plan.png"):
+    ...         fig.savefig(tmp_png)
+    """
+    outs = [Path(t) for t in targets]
+    tmps: list[Path] = []
+    try:
+        for out in outs:
+            folder = out.parent if str(out.parent) else Path(".")
+            try:
+                fd, name = tempfile.mkstemp(prefix=f".{out.name}.",
+                                            suffix=f".part{out.suffix}", dir=folder)
+            except OSError as e:
+                raise OutputError(f"{out}: cannot write here ({e.strerror or e})") from e
+            os.close(fd)
+            tmps.append(Path(name))
+            os.chmod(name, 0o666 & ~_UMASK)  # mkstemp makes it private; give open()'s mode
+        yield list(tmps)
+        for tmp, out in zip(tmps, outs):
+            with writing(out):
+                with open(tmp, "rb+") as fh:  # on disk before the rename, not only in cache
+                    os.fsync(fh.fileno())
+        for tmp, out in zip(tmps, outs):
+            with writing(out):
+                os.replace(tmp, out)
+    finally:
+        for tmp in tmps:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
 
 
 @contextlib.contextmanager
 def atomic_path(target: str | os.PathLike[str]) -> Iterator[Path]:
-    """A temporary path next to ``target``, renamed to ``target`` when the block succeeds.
-
-    The temporary file keeps the target's suffix (writers that pick a format from it, such as
-    matplotlib and h5py, still work). If the block raises, the temporary file is removed and
-    ``target`` is untouched; an ``OSError`` becomes :class:`OutputError` naming the target.
+    """A temporary path next to ``target``, renamed to ``target`` when the block succeeds (see
+    :func:`atomic_paths`); an ``OSError`` in the block becomes :class:`OutputError` naming
+    the target.
 
     Examples
     --------
     >>> with atomic_path("plan.png") as tmp:  # doctest: +SKIP
     ...     fig.savefig(tmp)
     """
-    out = Path(target)
-    folder = out.parent if str(out.parent) else Path(".")
-    try:
-        fd, name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=f".part{out.suffix}",
-                                    dir=folder)
-    except OSError as e:
-        raise OutputError(f"{out}: cannot write here ({e.strerror or e})") from e
-    os.close(fd)
-    tmp = Path(name)
-    mask = os.umask(0)  # mkstemp makes the file private; give it the mode open() would
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    try:
+    with atomic_paths([target]) as (tmp,), writing(target):
         yield tmp
-        os.replace(tmp, out)
-    except OSError as e:
-        raise OutputError(f"{out}: could not be written ({e.strerror or e}); any file of that "
-                          f"name was left as it was") from e
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
 
 
 def write_atomic(target: str | os.PathLike[str], data: bytes | str | Callable[[Path], None],

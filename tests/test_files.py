@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from synth.errors import OutputError
-from synth.files import atomic_path, write_atomic
+from synth.files import atomic_path, atomic_paths, write_atomic, writing
 
 
 def test_write_atomic_writes_text_bytes_and_through_a_writer(tmp_path: Path) -> None:
@@ -63,3 +63,31 @@ def test_replacing_a_directory_is_an_output_error(tmp_path: Path) -> None:
         with atomic_path(tmp_path / "out.json") as tmp:
             tmp.write_text("{}")
     assert (tmp_path / "out.json").is_dir() and len(list(tmp_path.iterdir())) == 1
+
+
+def test_a_set_is_replaced_only_when_every_file_is_written(tmp_path: Path) -> None:
+    a, b = tmp_path / "x.json", tmp_path / "x.png"
+    a.write_text("old a")
+    b.write_text("old b")
+    with pytest.raises(OutputError, match="x.png"):  # the error names the file that failed
+        with atomic_paths([a, b]) as (ta, tb):
+            with writing(a):
+                ta.write_text("new a")
+            with writing(b):
+                raise OSError(28, "No space left on device")
+    assert (a.read_text(), b.read_text()) == ("old a", "old b")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.json", "x.png"]
+    with atomic_paths([a, b]) as (ta, tb):
+        ta.write_text("new a")
+        tb.write_text("new b")
+    assert (a.read_text(), b.read_text()) == ("new a", "new b")
+
+
+def test_an_error_writing_the_first_file_of_a_set_names_the_first(tmp_path: Path) -> None:
+    """With one context per file, the innermost (last) would have claimed every error."""
+    a, b, c = tmp_path / "x.json", tmp_path / "x.png", tmp_path / "x.glb"
+    with pytest.raises(OutputError, match="x.json"):
+        with atomic_paths([a, b, c]):
+            with writing(a):
+                raise OSError(28, "No space left on device")
+    assert not list(tmp_path.iterdir())

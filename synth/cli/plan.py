@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import sys
@@ -220,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     written together at the end (none is replaced when making any of them fails).
     """
     from synth.cli.progress import LineProgress
-    from synth.files import atomic_path
+    from synth.files import atomic_paths, writing
     from synth.plan import PlanParams, export_glb, plan_part, render_png
 
     _check_options(args)
@@ -241,11 +240,13 @@ def run(args: argparse.Namespace) -> int:
         bar.close()
     doc = plan.to_json()
     if paths is not None:
-        with contextlib.ExitStack() as stack:
-            tmp_out, tmp_png, tmp_glb = (stack.enter_context(atomic_path(p)) for p in paths)
-            tmp_out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-            render_png(part, plan, tmp_png)
-            export_glb(part, plan, tmp_glb)
+        with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none
+            with writing(paths[0]):
+                tmp_out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+            with writing(paths[1]):
+                render_png(part, plan, tmp_png)
+            with writing(paths[2]):
+                export_glb(part, plan, tmp_glb)
     if args.json:
         print(json.dumps(doc, indent=1))
     else:

@@ -372,6 +372,8 @@ def test_symlinked_folders_are_followed_and_cycles_searched_once(
     assert len(inputs.paths) == 8  # the 7 meshes of make_mesh_dir and tall.stl, once each
     assert inputs.revisited == (str(mesh_dir / "sub" / "loop"),)
     assert collect_mesh_files([mesh_dir, other]).paths == inputs.paths  # other searched once
+    nested = collect_mesh_files([mesh_dir, mesh_dir / "sub"])  # given twice, no link involved
+    assert nested.paths == inputs.paths and nested.revisited == inputs.revisited
     out = tmp_path / "links.sqlite"
     code, _, err = _cli(["db", "build", str(mesh_dir), "--out", str(out), "--workers", "0",
                          "--planner", PLANNER, *ARGS], capsys)  # fmt: skip
@@ -405,7 +407,8 @@ def test_numeric_options_are_checked_up_front(
     ]  # fmt: skip
     data = reference.read_bytes()
     for argv, message in cases:
-        code, out, err = _cli(["db", *argv], capsys)
+        code = main(["db", *argv])  # returns 2 like every other command: no SystemExit
+        out, err = capsys.readouterr()
         assert code == 2 and out == "", err
         _one_line(err)
         assert message in err and f"see 'synth db {argv[0]} --help'" in err
@@ -419,3 +422,25 @@ def test_numeric_options_are_checked_up_front(
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k
         assert len(db.top("box", 10**22)) == db.mesh("box").n_grasps
+
+
+def test_a_reader_in_the_writers_process_leaves_the_writers_locks(tmp_path: Path) -> None:
+    """Closing any descriptor of a file drops the POSIX locks SQLite holds on it in the
+    process: a reader opened and closed next to a writer must not let another process switch
+    the writer's database out of WAL mode under it."""
+    path = tmp_path / "g.sqlite"
+    probe = ("import sqlite3, sys\n"
+             f"c = sqlite3.connect({str(path)!r}, isolation_level=None, timeout=0)\n"
+             "try:\n"
+             "    c.execute('PRAGMA journal_mode=DELETE')\n"
+             "    print('switched')\n"
+             "except sqlite3.OperationalError:\n"
+             "    print('refused')\n")
+    with GraspDatabase(path, "w") as w:
+        w._conn.execute("SELECT count(*) FROM meshes").fetchone()
+        other = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+        assert other.stdout.strip() == "refused"
+        GraspDatabase(path).close()
+        other = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+        assert other.stdout.strip() == "refused", other.stderr
+        assert w._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"

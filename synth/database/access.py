@@ -12,6 +12,12 @@ Writing (:func:`open_writer`) takes an exclusive ``flock`` on the database file,
 before the file is created until the connection is closed: a second build of the same file,
 started at the same moment or later, is refused with a :class:`DatabaseError` saying the
 database is busy, instead of racing the first one.
+
+Closing any descriptor of a file drops every POSIX lock SQLite holds on that file in this
+process, so the descriptors opened here are kept open until the last connection this module
+opened on that file is released (:func:`release`), never closed while another one may be
+using the file. Connections to the same file opened elsewhere in the process, bypassing this
+module, are not protected.
 """
 
 from __future__ import annotations
@@ -19,11 +25,18 @@ from __future__ import annotations
 import fcntl
 import os
 import sqlite3
+import threading
 from urllib.parse import quote
 
 from synth.errors import DatabaseError
 
 __all__ = ["open_reader", "open_writer", "release", "rest"]
+
+#: Descriptors opened on each file, by (device, inode): closed together when the last is
+#: released, so that no close drops another connection's POSIX locks (see the module notes).
+_OPEN: dict[tuple[int, int], list[int]] = {}
+_RELEASED: dict[tuple[int, int], int] = {}
+_GUARD = threading.Lock()
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _WAL_HEADER = slice(18, 20)  # SQLite header bytes 18 and 19: 1 rollback journal, 2 WAL
@@ -40,14 +53,36 @@ def _read_header(path: str, fd: int) -> bytes:
     return head
 
 
-def release(fd: int | None) -> None:
-    """Release a lock returned by :func:`open_reader` or :func:`open_writer` (None: nothing).
+def _register(fd: int) -> int:
+    """Keep ``fd`` open until :func:`release`; returns it."""
+    st = os.fstat(fd)
+    with _GUARD:
+        _OPEN.setdefault((st.st_dev, st.st_ino), []).append(fd)
+    return fd
 
-    Call it after closing the connection: closing a descriptor of the file drops the POSIX
-    locks SQLite holds on it in this process.
+
+def release(fd: int | None) -> None:
+    """Release a handle returned by :func:`open_reader` or :func:`open_writer` (None:
+    nothing), after closing its connection.
+
+    Its lock ends now (an exclusive or shared ``flock`` is dropped); the descriptor itself is
+    closed when every handle on the same file in this process has been released, because
+    closing a descriptor of the file would drop the POSIX locks SQLite holds for the other
+    connections.
     """
-    if fd is not None:
-        os.close(fd)
+    if fd is None:
+        return
+    fcntl.flock(fd, fcntl.LOCK_UN)
+    st = os.fstat(fd)
+    key = (st.st_dev, st.st_ino)
+    with _GUARD:
+        fds = _OPEN.get(key, [])
+        _RELEASED[key] = _RELEASED.get(key, 0) + 1
+        if _RELEASED[key] < len(fds):
+            return
+        del _OPEN[key], _RELEASED[key]
+    for f in fds:
+        os.close(f)
 
 
 def open_reader(path: str) -> tuple[sqlite3.Connection, int | None]:
@@ -57,9 +92,9 @@ def open_reader(path: str) -> tuple[sqlite3.Connection, int | None]:
     -------
     conn : sqlite3.Connection
         A read-only connection (``isolation_level=None``).
-    lock : int or None
-        A file descriptor holding a shared lock while ``conn`` reads an immutable file; give it
-        to :func:`release` after closing ``conn``.
+    handle : int
+        A file descriptor of the file (holding a shared lock while ``conn`` reads an
+        immutable file); give it to :func:`release` after closing ``conn``.
 
     Raises
     ------
@@ -84,14 +119,12 @@ def open_reader(path: str) -> tuple[sqlite3.Connection, int | None]:
             f"file:{quote(os.path.abspath(path))}?{query}", uri=True, isolation_level=None
         )
     except sqlite3.Error as e:
-        os.close(fd)
+        release(_register(fd))  # closed at once unless other handles use the file
         raise DatabaseError(f"{path}: cannot open grasp database: {e}") from e
     except BaseException:
-        os.close(fd)
+        release(_register(fd))
         raise
-    if lock is None:
-        os.close(fd)
-    return conn, lock
+    return conn, _register(fd)
 
 
 def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
@@ -128,12 +161,12 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
         _read_header(path, fd)
         conn = sqlite3.connect(path, isolation_level=None)
     except sqlite3.Error as e:
-        os.close(fd)
+        release(_register(fd))
         raise DatabaseError(f"{path}: cannot open grasp database: {e}") from e
     except BaseException:
-        os.close(fd)
+        release(_register(fd))
         raise
-    return conn, fd
+    return conn, _register(fd)
 
 
 def rest(conn: sqlite3.Connection) -> None:

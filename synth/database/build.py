@@ -227,7 +227,8 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     A source that is a directory contributes every file under it with a mesh extension
     (``stl obj ply off glb gltf 3mf``, any case), following symbolic links to files and
     folders; a folder met again through a link (a link cycle, or a second link to the same
-    folder) is searched once and listed in ``revisited``. A file with a mesh extension is
+    folder) is searched once and listed in ``revisited``; a folder given twice (``meshes/`` and
+    ``meshes/corpus``) is searched once without a word. A file with a mesh extension is
     itself; any other file is read as a list of paths, one per line (blank lines and ``#``
     comments skipped; relative paths are relative to the list file's folder).
 
@@ -247,8 +248,8 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     for src in map(os.fspath, sources):
         if os.path.isdir(src):
             for root, files, first in _walk(src, seen):
-                if not first:
-                    revisited.append(os.path.abspath(root))
+                if not first and os.path.realpath(root) != os.path.abspath(root):
+                    revisited.append(os.path.abspath(root))  # met again through a link
                 for name in files:
                     full = os.path.abspath(os.path.join(root, name))
                     (paths.add(full) if _is_mesh(name) else ignored.append(full))

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from typing import Any, NoReturn
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
-from synth.errors import shown
+from synth.errors import InputError, shown
 from synth.limits import (MAX_CONTACTS, MAX_EVALS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP,
                           MIN_EVALS)
 
@@ -55,7 +55,7 @@ class _OneLineParser(argparse.ArgumentParser):
     """A parser whose errors are one ``synth: error: ...`` line (exit status 2)."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"synth: error: {message} (see '{self.prog} --help')\n")
+        raise InputError(f"{message} (see '{self.prog} --help')")
 
 
 def _int_in(low: int, high: int) -> Callable[[str], int]:

@@ -375,8 +375,9 @@ def run_one(
     if timing.get("stopped_by_time"):
         return _failure(
             path, "time_cap",
-            "the planner's time cap cut the search, so its result would depend on the "
-            "machine's speed; raise 'time' or lower 'evals' and run with --retry-failed", start,
+            "the planner's time cap ('time' in the database's parameters) cut the search, so "
+            "its result would depend on the machine's speed; plan this mesh alone with "
+            "'synth plan', or build another database with a smaller --evals", start,
             report,
         )
     if not rows:

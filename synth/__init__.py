@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 
+from synth import limits  # the documented input limits (no dependencies)
 from synth.errors import (
     CandidateError,
     DatabaseError,
@@ -18,6 +19,7 @@ from synth.errors import (
     SolverError,
     SynthError,
 )
+
 # Everything past the exception tree is imported on first use (PEP 562), so that a command
 # that needs no mesh (``synth score``, ``synth --help``) does not pay for trimesh and FCL.
 _LAZY: dict[str, str] = {
@@ -56,6 +58,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "__version__",
+    "limits",
     "SynthError",
     "InputError",
     "InternalError",

@@ -169,3 +169,14 @@ def plan_catching_everything(path: str, params: dict[str, Any]) -> dict[str, Any
         return plan_mesh_file(path, params)
     except Exception as e:  # noqa: BLE001 - the point of this planner
         raise MeshError(f"{path}: cannot be read as STL ({type(e).__name__}: {e})") from e
+
+
+def plan_losing_one_alarm(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, but the first interruption is lost, as when the alarm
+    fires inside a garbage-collector callback or a ``__del__`` (Python only reports an
+    exception raised there as unraisable)."""
+    try:
+        time.sleep(float(os.environ.get("SYNTH_FAKEPLANNER_DELAY", "0")))
+    except BaseException:  # noqa: BLE001 - the point of this planner: the first alarm is lost
+        pass
+    return plan_mesh_file(path, params)

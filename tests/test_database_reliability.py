@@ -347,6 +347,20 @@ def test_timeout_is_recorded_as_a_timeout_whatever_the_planner_catches(
     assert (m.error_kind, m.error) == ("timeout", "timed out: the mesh exceeded --timeout 0.2 s")
 
 
+def test_a_lost_alarm_is_raised_again(tmp_path: Path, mesh_dir: Path,
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """An alarm that fires where Python cannot pass an exception on (a gc callback) is lost:
+    the limit raises again until the planner stops, instead of letting it run unbounded."""
+    monkeypatch.setenv("SYNTH_FAKEPLANNER_DELAY", "5")
+    out = tmp_path / "t.sqlite"
+    report = build_database([mesh_dir / "box.stl"], out, PARAMS, workers=0, timeout=0.2,
+                            planner="tests.db_fakeplanner:plan_losing_one_alarm")  # fmt: skip
+    with GraspDatabase(out) as db:
+        m = db.mesh("box")
+    assert (m.error_kind, m.error) == ("timeout", "timed out: the mesh exceeded --timeout 0.2 s")
+    assert report.elapsed_s < 4  # the lost alarm was followed by another
+
+
 def test_tiny_timeout_with_the_synth_planner(tmp_path: Path, mesh_dir: Path) -> None:
     out = tmp_path / "t.sqlite"
     build_database([mesh_dir / "box.stl", mesh_dir / "ico.stl"], out, {"evals": 2000},

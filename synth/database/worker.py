@@ -180,11 +180,17 @@ def plan_one(path: str, params: dict[str, Any], planner: str | None = None) -> d
     return load_planner(resolve_planner(planner))(path, dict(params))
 
 
+#: Seconds between repeats of the per-mesh alarm once it has fired (see :class:`_TimeLimit`).
+_REPEAT = 0.1
+
+
 class _TimeLimit:
     """Raise :class:`_Timeout` in the block after ``seconds``, when run in a main thread (SIGALRM).
 
     ``expired`` tells afterwards whether the limit was reached, even if the planner caught the
-    exception and raised another one (or returned).
+    exception and raised another one (or returned). The alarm repeats every ``_REPEAT``
+    seconds until the block ends: an exception raised where Python cannot pass it on (a
+    garbage-collector callback, a ``__del__``) is lost, and the next one stops the planner.
     """
 
     def __init__(self, seconds: float | None) -> None:
@@ -199,13 +205,13 @@ class _TimeLimit:
 
     def _raise(self, signum: int, frame: object) -> None:
         self.expired = True
-        signal.signal(signal.SIGALRM, self._previous)  # one shot, even if raised in __exit__
-        raise _Timeout
+        raise _Timeout  # also from __exit__ before it disarms: run_one catches it there too
 
     def __enter__(self) -> _TimeLimit:
         if self._armed:
             self._previous = signal.signal(signal.SIGALRM, self._raise)
-            signal.setitimer(signal.ITIMER_REAL, float(self.seconds))  # type: ignore[arg-type]
+            signal.setitimer(signal.ITIMER_REAL, float(self.seconds),  # type: ignore[arg-type]
+                             _REPEAT)
         return self
 
     def __exit__(self, *exc: object) -> None:

@@ -317,6 +317,29 @@ def test_files_of_a_failed_run_are_left_as_they_were(box, tmp_path, capsys):
         mp.setattr(synth.plan, "export_glb", disk_full)
         line = _refused(capsys, "plan", box, "--out", paths[0], "--evals", "200", "--units",
                         "mm", code=EXIT_FAILED)
-    assert "No space left on device" in line
+    assert "No space left on device" in line and line.startswith(f"synth: error: {paths[2]}:")
+    assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]
+
+
+def test_a_disk_full_while_writing_the_glb_names_the_glb(box, tmp_path, capsys):
+    """The error of the real write (not a stand-in for the exporter) names the target, not a
+    hidden temporary file, and nothing is replaced."""
+    paths = [tmp_path / n for n in ("g.json", "g.png", "g.glb")]
+    for p in paths:
+        p.write_bytes(b"sentinel")
+    real = Path.write_bytes
+
+    def full_for_glb(self, data):
+        if self.suffix == ".glb":
+            raise OSError(28, "No space left on device")
+        return real(self, data)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Path, "write_bytes", full_for_glb)
+        line = _refused(capsys, "plan", box, "--out", paths[0], "--evals", "200", "--units",
+                        "mm", code=EXIT_FAILED)
+    assert line.startswith(f"synth: error: {paths[2]}: could not be written"), line
+    assert ".part" not in line
     assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]

@@ -9,13 +9,15 @@ Every command returns an exit status instead of raising:
 2      the input is bad (a missing or malformed file, a bad option); the line says what is wrong
 3      an internal error: synth failed on input it accepted. This is a bug in synth; the line
        says so and how to report it (``SYNTH_TRACEBACK=1`` prints the traceback)
-130    interrupted
+130    interrupted (Ctrl-C)
+143    stopped by SIGTERM (``synth db build``: the workers are stopped, finished meshes kept)
 =====  ======================================================================================
 
 Errors print one readable line, ``synth: error: ...``, never a traceback; a bad command line
 (an unknown option, a value that is not a number) is bad input too: one line, status 2.
-Numeric options are checked against their documented ranges before any file is read or
-written (:mod:`synth.cli.checks`).
+Numeric options are checked against their documented ranges (:mod:`synth.limits`) before any
+file is read or written (:mod:`synth.cli.checks`; ``synth db`` checks its own as they are
+parsed).
 """
 
 from __future__ import annotations

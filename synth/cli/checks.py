@@ -1,7 +1,7 @@
 """Checks of command-line values, made before any file is read or written.
 
 Every numeric option is checked against its documented range (the limits of
-:mod:`synth.plan.params`), and every output path for its suffix and its folder, so a bad
+:mod:`synth.limits`), and every output path for its suffix and its folder, so a bad
 command line fails at once with one line naming the option, instead of after a long search or
 with a file half written.
 """

@@ -34,8 +34,6 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
 
 def load_part_from_args(args: argparse.Namespace):
     """``load_part`` with the mesh options of the command line."""
-    import math
-
     from synth.part import load_part
 
     try:
@@ -238,17 +236,17 @@ def run(args: argparse.Namespace) -> int:
         plan = plan_part(part, params, progress=bar)
     finally:
         bar.close()
-    doc = plan.to_json()
+    text = json.dumps(plan.to_json(), indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none
             with writing(paths[0]):
-                tmp_out.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+                tmp_out.write_text(text, encoding="utf-8")
             with writing(paths[1]):
-                render_png(part, plan, tmp_png)
+                render_png(part, plan, tmp_png, atomic=False)
             with writing(paths[2]):
-                export_glb(part, plan, tmp_glb)
+                export_glb(part, plan, tmp_glb, atomic=False)
     if args.json:
-        print(json.dumps(doc, indent=1))
+        print(text, end="")
     else:
         if plan.grasps:
             print(format_plan_table(plan))

@@ -178,10 +178,11 @@ def run(args: argparse.Namespace) -> int:
            "sha256": part.sha256, "units": part.units, "length": part.length},
            "mu": args.mu, "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
+    text = json.dumps(doc, indent=1) + "\n"
     if out is not None:
-        write_atomic(out, json.dumps(doc, indent=1) + "\n")
+        write_atomic(out, text)
     if args.json:
-        print(json.dumps(doc, indent=1))
+        print(text, end="")
     else:
         w = max([4] + [len(r.name) for r in rows])
         print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  status")

@@ -85,7 +85,7 @@ def release(fd: int | None) -> None:
         os.close(f)
 
 
-def open_reader(path: str) -> tuple[sqlite3.Connection, int | None]:
+def open_reader(path: str) -> tuple[sqlite3.Connection, int]:
     """Open the existing SQLite file ``path`` read-only, without creating any file.
 
     Returns

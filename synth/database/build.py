@@ -30,7 +30,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from synth.database.local import run_local
+from synth.database.local import _Task, run_local
 from synth.database.progress import ProgressBar, format_duration
 from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
@@ -61,7 +61,6 @@ DEFAULT_PARAMS: dict[str, Any] = {
     # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
     "time": 600.0,
 }
-_Task = tuple[int, str]  # (mesh id, path)
 
 
 @dataclass(frozen=True)

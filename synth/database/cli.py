@@ -12,10 +12,10 @@ import math
 import signal
 import sys
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import Any
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
-from synth.errors import InputError, shown
+from synth.errors import shown
 from synth.limits import (MAX_CONTACTS, MAX_EVALS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP,
                           MIN_EVALS)
 
@@ -49,13 +49,6 @@ finishes the database. One build at a time writes a database: another build of t
 planner hook: set SYNTH_DB_PLANNER=module:function (or --planner) to plan with any function
 plan_mesh_file(path, params) -> dict returning synth's grasp document.
 """
-
-
-class _OneLineParser(argparse.ArgumentParser):
-    """A parser whose errors are one ``synth: error: ...`` line (exit status 2)."""
-
-    def error(self, message: str) -> NoReturn:
-        raise InputError(f"{message} (see '{self.prog} --help')")
 
 
 def _int_in(low: int, high: int) -> Callable[[str], int]:
@@ -111,8 +104,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     db = subparsers.add_parser(
         "db", help="build and query offline grasp databases", description=_DESCRIPTION
     )
-    sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}",
-                            parser_class=_OneLineParser)  # fmt: skip
+    sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}")
     sub.required = True
     db.set_defaults(run=run_db)
 

@@ -349,7 +349,7 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
         Ties between faces at the same distance go to the face with the nearer centroid.
     """
     points = np.asarray(points, dtype=np.float64)
-    tri, tree, radius = index.triangles, index.tree, index.radius
+    tree, radius = index.tree, index.radius
     n = len(points)
     closest, face, dist = np.zeros((n, 3)), np.zeros(n, np.int64), np.zeros(n)
     n_proxy = len(index.proxy_face)

@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
 
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError

@@ -323,9 +323,10 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
 
 
 def surface_climb(part: Any, seeds: GraspBatch, score: Scorer, fingers: Fingers,
-                  rng: np.random.Generator, evals: int, out_of_time: Callable[[], bool],
-                  say: Callable[[float], None]) -> tuple[GraspBatch, bool]:
-    """Climb seeds on the surface (see the module notes).
+                  rng: np.random.Generator, evals: int, say: Callable[[float], None]
+                  ) -> GraspBatch:
+    """Climb seeds on the surface (see the module notes), until ``evals`` are spent, every
+    member has converged or the scorer's deadline passes.
 
     Parameters
     ----------
@@ -337,25 +338,20 @@ def surface_climb(part: Any, seeds: GraspBatch, score: Scorer, fingers: Fingers,
     rng : numpy.random.Generator
     evals : int
         Evaluations to spend.
-    out_of_time : callable() -> bool
-        True once the wall-clock cap has passed.
     say : callable(float)
         Told the best fitness after every round.
 
     Returns
     -------
-    grasps : GraspBatch
+    GraspBatch
         The members at the end, converged ones included.
-    stopped_by_time : bool
     """
     L = score.length
     k = seeds.points.shape[1]
     gradient = score.params.mu == 0 and k == 7
     pop = Population(seeds, _SURFACE_MEMBERS, FIRST_STEP * L, _MIN_STEP * L)
     used = 0
-    while used < evals and len(pop):
-        if out_of_time():
-            return pop.result(), True
+    while used < evals and len(pop) and not score.out_of_time():
         who, P, moved = _proposals(pop, rng, gradient, score)
         cand, ok = _settle(part, pop.members, who, P, moved)
         sel = np.flatnonzero(ok)
@@ -369,7 +365,7 @@ def surface_climb(part: Any, seeds: GraspBatch, score: Scorer, fingers: Fingers,
         pop.advance(who[rows], cand, rows)
         if len(pop):
             say(float(pop.members.fit.max()))
-    return pop.result(), False
+    return pop.result()
 
 
 def _proposals(pop: Population, rng: np.random.Generator, gradient: bool, score: Scorer

@@ -17,7 +17,6 @@ get the mean normal of their cone (see :mod:`synth.part.resolve`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -187,10 +186,11 @@ def placement_grasps(pool: Placements, chosen: NDArray[np.int64], score: Scorer
 
 
 def finger_climb(pool: Placements, seeds: NDArray[np.int64], seed_fit: NDArray[np.float64],
-                 score: Scorer, rng: np.random.Generator, evals: int, length: float,
-                 out_of_time: Callable[[], bool]) -> tuple[dict[int, GraspBatch], bool]:
+                 score: Scorer, rng: np.random.Generator, evals: int, length: float
+                 ) -> dict[int, GraspBatch]:
     """Climb sets of placements by swapping one for the placement nearest a Gaussian step
-    away; the grasps met on the way, grouped by number of contacts.
+    away, until ``evals`` are spent, every member has converged or the scorer's deadline
+    passes; the grasps met on the way, grouped by number of contacts.
 
     Parameters
     ----------
@@ -203,13 +203,10 @@ def finger_climb(pool: Placements, seeds: NDArray[np.int64], seed_fit: NDArray[n
     evals : int
     length : float
         The part's length.
-    out_of_time : callable
-        Checked once per round; True stops the climb.
 
     Returns
     -------
-    found : dict of int to GraspBatch
-    stopped_by_time : bool
+    dict of int to GraspBatch
     """
     tree = cKDTree(pool.center)
     members = seeds[:_MEMBERS].copy()
@@ -220,9 +217,7 @@ def finger_climb(pool: Placements, seeds: NDArray[np.int64], seed_fit: NDArray[n
     found: dict[int, list[GraspBatch]] = {}
     used = 0
     F = seeds.shape[1]
-    while used < evals and len(members):
-        if out_of_time():
-            return {k: GraspBatch.concat(v) for k, v in found.items()}, True
+    while used < evals and len(members) and not score.out_of_time():
         M = len(members)
         who = np.repeat(np.arange(M), _MOVES)
         j = rng.integers(0, F, len(who))
@@ -252,4 +247,4 @@ def finger_climb(pool: Placements, seeds: NDArray[np.int64], seed_fit: NDArray[n
                 members[slot], fit[slot], step[slot] = seeds[i], seed_fit[i], FIRST_STEP * length
             keep = np.setdiff1d(np.arange(M), conv[fresh_n:])
             members, fit, step = members[keep], fit[keep], step[keep]
-    return {k: GraspBatch.concat(v) for k, v in found.items()}, False
+    return {k: GraspBatch.concat(v) for k, v in found.items()}

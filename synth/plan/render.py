@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from synth.files import atomic_path, write_atomic
+from synth.files import write_atomic
 from synth.plan.result import Plan
 
 __all__ = ["render_png", "export_glb"]
@@ -22,7 +22,8 @@ _COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
                      [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
 
 
-def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
+def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool = True
+               ) -> Path:
     """Draw the part and up to ``panels`` of the best grasps, one panel each.
 
     Parameters
@@ -31,6 +32,9 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
     plan : Plan
     path : str or Path
     panels : int
+    atomic : bool
+        Write whole or not at all (:mod:`synth.files`); False for a caller that already
+        writes into a temporary file of its own, as ``synth plan`` does for its three files.
 
     Returns
     -------
@@ -92,12 +96,16 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4) -> Path:
     out = Path(path)
     from synth import __version__
 
+    def save(target: Path) -> None:
+        fig.savefig(target, format="png", metadata={
+            "Title": f"synth: {name}, run {plan.run_id}", "Software": f"synth {__version__}",
+            "synth.run_id": plan.run_id})
+
     try:
-        with atomic_path(out) as tmp:
-            fig.savefig(tmp, format="png", metadata={
-                "Title": f"synth: {name}, run {plan.run_id}",
-                "Software": f"synth {__version__}",
-                "synth.run_id": plan.run_id})
+        if atomic:
+            write_atomic(out, save)
+        else:
+            save(out)
     finally:
         plt.close(fig)
     return out
@@ -109,7 +117,8 @@ def _wrap(text: str, width: int = 70) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
+def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool = True
+               ) -> Path:
     """Write a GLB scene: the part, and grasp ``grasp``'s fingertips, bodies and normals.
 
     Parameters
@@ -118,6 +127,8 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
     plan : Plan
     path : str or Path
     grasp : int
+    atomic : bool
+        As for :func:`render_png`.
         Which grasp to show (0 = best); with no grasps, the part alone. The scene's extras
         hold the plan's ``run_id``, this grasp's rank, the mesh's SHA-256 and the parameters.
 
@@ -155,5 +166,8 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0) -> Path:
                                               segment=[p, p + 0.1 * part.length * n])
             arrow.visual.face_colors = [20, 20, 20, 255]
             scene.add_geometry(arrow, geom_name=f"normal_{i}")
-    out = write_atomic(path, scene.export(file_type="glb"))
-    return out
+    data = scene.export(file_type="glb")
+    if atomic:
+        return write_atomic(path, data)
+    Path(path).write_bytes(data)
+    return Path(path)

@@ -148,9 +148,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         say(0.5, f"pool climb: best d* {archive.fit.max(initial=0.0):.4f}")
     archive = GraspBatch.concat([archive, lp])
     starts = archive.take(distinct_top(archive, _KEEP, 1e-6 * L))
-    climbed, _ = surface_climb(
+    climbed = surface_climb(
         part, starts, score, fingers, rng, max(_MIN_SURFACE, int(SURFACE_SHARE * budget)),
-        score.out_of_time,
         lambda best: say(0.5 + 0.4 * min(1.0, score.evaluations / budget),
                          f"climbing: best d* {max(0.0, best):.4f}"))
     archive = GraspBatch.concat([archive, climbed])
@@ -201,7 +200,6 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     gives a grasp; counts whose tips cannot make enough contacts are skipped."""
     L = float(part.length)
     deadline = t0 + prm.time
-    out_of_time = score.out_of_time
     say(0.0, "sampling finger placements")
     pool = placement_pool(part, fingers, rng, _POOL, _POOL // 3, _POOL // 10)
     need = 7 if prm.mu == 0 else 3
@@ -213,14 +211,14 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     rejected: dict[str, int] = {}
     tried: list[int] = []
     for n, F in enumerate(counts):
-        if out_of_time():
+        if score.out_of_time():
             break
         tried.append(F)
         n_seed = max(_MIN_SEEDS, int(SEED_SHARE * budget))
         archives: dict[int, list[GraspBatch]] = {}
         chosen, fit = np.zeros((0, F), np.int64), np.zeros(0)
         for s in range(0, n_seed, _SEED_CHUNK):  # the best _KEEP seeds, a chunk at a time
-            if out_of_time():
+            if score.out_of_time():
                 break
             more = placement_seeds(pool, min(_SEED_CHUNK, n_seed - s), F, rng)
             more_fit = np.full(len(more), -np.inf)
@@ -230,8 +228,8 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
             chosen, fit = np.concatenate([chosen, more]), np.concatenate([fit, more_fit])
             order = np.argsort(-fit, kind="stable")[:_KEEP]
             chosen, fit = chosen[order], fit[order]
-        climbed, _ = finger_climb(pool, chosen, fit, score, rng,
-                                  int((POOL_SHARE + SURFACE_SHARE) * budget), L, out_of_time)
+        climbed = finger_climb(pool, chosen, fit, score, rng,
+                               int((POOL_SHARE + SURFACE_SHARE) * budget), L)
         for kk, g in climbed.items():
             archives.setdefault(kk, []).append(g)
         say((n + 1) / (len(counts) + 1), f"{F} fingers searched")
@@ -401,7 +399,7 @@ def _hausdorff(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
 
 
 def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
-            deadline: float = np.inf) -> tuple[list[PlannedGrasp], dict[str, int]]:
+            deadline: float) -> tuple[list[PlannedGrasp], dict[str, int]]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
     ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
 

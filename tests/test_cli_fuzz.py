@@ -18,15 +18,8 @@ from hypothesis import strategies as st
 
 from synth.cli import EXIT_INPUT, main
 from synth.plan import params as lim
+from tests.cli_support import BIG, CUBE_FC
 
-BIG = "9" * 400
-CUBE_FC = {
-    "name": "good",
-    "points": [[.5, .1, .1], [-.5, -.1, -.1], [.1, .5, .1], [-.1, -.5, -.1],
-               [.2, .2, -.5], [-.2, .2, -.5], [.2, .4, .5]],
-    "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1],
-                [0, 0, -1]],
-}
 FUZZ = settings(max_examples=100, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.too_slow])
 

@@ -15,15 +15,8 @@ from PIL import Image
 from synth.cli import EXIT_FAILED, EXIT_INPUT, main
 from synth.part import load_part
 from synth.plan import params as lim
+from tests.cli_support import BIG, CUBE_FC
 
-CUBE_FC = {
-    "name": "good",
-    "points": [[.5, .1, .1], [-.5, -.1, -.1], [.1, .5, .1], [-.1, -.5, -.1],
-               [.2, .2, -.5], [-.2, .2, -.5], [.2, .4, .5]],
-    "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1],
-                [0, 0, -1]],
-}
-BIG = "9" * 400  # an integer of 400 digits
 
 
 @pytest.fixture()

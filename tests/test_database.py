@@ -25,19 +25,6 @@ from synth.database import GraspDatabase, build_database
 from synth.errors import DatabaseError, InputError
 
 
-@pytest.fixture
-def mesh_dir(tmp_path: Path) -> Path:
-    return make_mesh_dir(tmp_path)
-
-
-@pytest.fixture
-def reference(tmp_path: Path, mesh_dir: Path) -> Path:
-    """An uninterrupted build planned in this process."""
-    out = tmp_path / "reference.sqlite"
-    build_database([mesh_dir], out, PARAMS, workers=0, planner=PLANNER)
-    return out
-
-
 def test_build_counts_and_failures(tmp_path: Path, mesh_dir: Path) -> None:
     out = tmp_path / "g.sqlite"
     report = build_database([mesh_dir], out, PARAMS, workers=2, planner=PLANNER, quiet=True)

@@ -20,7 +20,6 @@ from tests.db_support import (
     alive,
     descendants,
     folder_state,
-    make_mesh_dir,
     planner_env,
     snapshot,
 )
@@ -30,19 +29,6 @@ from synth.database import GraspDatabase, build_database, collect_mesh_files, ex
 from synth.errors import DatabaseError, InputError
 
 ARGS = [f"--{k}={v}" for k, v in PARAMS.items()]
-
-
-@pytest.fixture
-def mesh_dir(tmp_path: Path) -> Path:
-    return make_mesh_dir(tmp_path)
-
-
-@pytest.fixture
-def reference(tmp_path: Path, mesh_dir: Path) -> Path:
-    """An uninterrupted build planned in this process."""
-    out = tmp_path / "reference.sqlite"
-    build_database([mesh_dir], out, PARAMS, workers=0, planner=PLANNER, quiet=True)
-    return out
 
 
 def _build_cmd(mesh_dir: Path, out: Path, *extra: str) -> list[str]:
@@ -150,16 +136,23 @@ def _read_everything(db_path: Path, export_dir: Path, capsys: pytest.CaptureFixt
         assert db.info().done == 4 and len(db.top("ico", 3)) == 3
 
 
-def test_reading_leaves_the_folder_as_it_was(
-    tmp_path: Path, mesh_dir: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def _two_databases(tmp_path: Path, mesh_dir: Path, workers: int) -> tuple[Path, Path]:
+    """A folder with a finished build (g.sqlite) and a copy still in WAL mode (wal.sqlite),
+    and an empty folder for exports."""
     folder, exports = tmp_path / "dbs", tmp_path / "exports"
     folder.mkdir()
     exports.mkdir()
-    build_database([mesh_dir], folder / "g.sqlite", PARAMS, workers=2, planner=PLANNER,
+    build_database([mesh_dir], folder / "g.sqlite", PARAMS, workers=workers, planner=PLANNER,
                    quiet=True)  # fmt: skip
     assert sorted(os.listdir(folder)) == ["g.sqlite"]  # a finished build leaves no -wal, -shm
     _wal_copy(folder / "g.sqlite", folder / "wal.sqlite")
+    return folder, exports
+
+
+def test_reading_leaves_the_folder_as_it_was(
+    tmp_path: Path, mesh_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder, exports = _two_databases(tmp_path, mesh_dir, workers=2)
     before = folder_state(folder)
     data = {name: (folder / name).read_bytes() for name in os.listdir(folder)}
     time.sleep(0.01)  # so that a write would change an mtime
@@ -173,11 +166,7 @@ def test_reading_leaves_the_folder_as_it_was(
 def test_reading_in_a_read_only_folder(
     tmp_path: Path, mesh_dir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    folder, exports = tmp_path / "dbs", tmp_path / "exports"
-    folder.mkdir()
-    exports.mkdir()
-    build_database([mesh_dir], folder / "g.sqlite", PARAMS, workers=0, planner=PLANNER)
-    _wal_copy(folder / "g.sqlite", folder / "wal.sqlite")
+    folder, exports = _two_databases(tmp_path, mesh_dir, workers=0)
     before = folder_state(folder)
     folder.chmod(0o555)
     try:
@@ -201,11 +190,7 @@ def _private_mounts() -> bool:
 def test_reading_on_a_read_only_mount(tmp_path: Path, mesh_dir: Path) -> None:
     """As root, a read-only bind mount (in a private mount namespace) makes the folder truly
     unwritable."""
-    folder, exports = tmp_path / "dbs", tmp_path / "exports"
-    folder.mkdir()
-    exports.mkdir()
-    build_database([mesh_dir], folder / "g.sqlite", PARAMS, workers=0, planner=PLANNER)
-    _wal_copy(folder / "g.sqlite", folder / "wal.sqlite")
+    folder, exports = _two_databases(tmp_path, mesh_dir, workers=0)
     before = folder_state(folder)
     reads = "; ".join(
         f"codes.append(main(['db', {cmd!r}, {str(folder / name)!r}, *{extra!r}]))"

@@ -38,6 +38,7 @@ _LAZY: dict[str, str] = {
                      "frictional_squeezable", "squeezable_contacts", "strong_force_closure",
                      "wrench_matrix"], "synth.scores"),
     **dict.fromkeys(["conditioning", "epsilon_quality"], "synth.scores.quality"),
+    **dict.fromkeys(["ContactRegions", "contact_regions", "certify_regions"], "synth.robust"),
 }
 
 
@@ -95,6 +96,10 @@ __all__ = [
     "wrench_matrix",
     "conditioning",
     "epsilon_quality",
+    # scores -> robust (contact regions, placement tolerance)
+    "ContactRegions",
+    "contact_regions",
+    "certify_regions",
     # scores -> fingers
     "Fingers",
     "FingerPlacement",

@@ -128,7 +128,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "(default 0)")
     p.add_argument("--rank-by", choices=lim.RANK_BY, default="d_star",
                    help="order of the grasps returned (default d_star; d* values within 1e-6 "
-                   "of each other, the LPs' accuracy, are ordered by conditioning)")
+                   "of each other, the LPs' accuracy, are ordered by conditioning; tolerance: "
+                   "the placement tolerance, largest first)")
+    p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
+                   help="return no grasp whose placement tolerance (how far every contact may "
+                   "slide on its face or edge and the grasp stays form closure) is below R, "
+                   "in the mesh's units (default 0)")
+    p.add_argument("--regions", action="store_true",
+                   help="compute each grasp's contact regions and placement tolerance (about "
+                   "0.1 s per grasp; on with --rank-by tolerance or --min-tolerance)")
     p.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     p.add_argument("--table", type=float, default=None, metavar="Z",
@@ -155,15 +163,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def format_plan_table(plan) -> str:
-    """Ranked table of a plan's grasps."""
+    """Ranked table of a plan's grasps (a tolerance column when regions were computed)."""
+    show = any(g.contact_regions is not None for g in plan.grasps)
     lines = [f"{'#':>3}  {'d*':>8}  {'closure':<15}  {'cond':>7}  {'epsilon':>8}  "
-             f"{'features':<18}  regions"]
+             + (f"{'tolerance':>10}  " if show else "") + f"{'features':<18}  regions"]
     for i, g in enumerate(plan.grasps, 1):
         feats = ", ".join(f"{g.features.count(k)} {k}" for k in ("face", "edge", "vertex")
                           if g.features.count(k))
         regs = " ".join(str(int(r)) for r in g.regions)
+        r = g.contact_regions
+        tol = "-" if r is None else f"{r.tolerance:.3g}" + ("" if r.certified else "~")
         lines.append(f"{i:>3}  {g.d_star:>8.5f}  {g.closure:<15}  {g.conditioning:>7.4f}  "
-                     f"{g.epsilon:>8.5f}  {feats:<18}  {regs}")
+                     f"{g.epsilon:>8.5f}  " + (f"{tol:>10}  " if show else "")
+                     + f"{feats:<18}  {regs}")
     return "\n".join(lines)
 
 
@@ -194,6 +206,7 @@ def _check_options(args: argparse.Namespace) -> None:
     real("--time", args.time, 0, math.inf, open_lo=True, open_hi=True, unit=" seconds")
     integer("--evals", args.evals, lim.MIN_EVALS, lim.MAX_EVALS)
     real("--min-d-star", args.min_d_star, 0, 1)
+    real("--min-tolerance", args.min_tolerance, 0, lim.MAX_LENGTH)
     integer("--seed", args.seed, 0, lim.MAX_SEED, "2**63 - 1")
     real("--table", args.table, -lim.MAX_LENGTH, lim.MAX_LENGTH)
     check_part_options(args)
@@ -227,6 +240,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed, finger_radius=args.finger_radius, body_length=args.body_length,
         body_radius=args.body_radius, approach_cone=args.approach_cone,
         min_d_star=args.min_d_star, support_z=args.table, rank_by=args.rank_by,
+        regions=args.regions, min_tolerance=args.min_tolerance,
     )
     paths = None if args.no_files else _output_paths(args)
     part = load_part_from_args(args)

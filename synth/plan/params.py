@@ -22,7 +22,7 @@ __all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONT
            "MAX_LENGTH"]
 
 #: Orders the planner can rank its grasps by.
-RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon")
+RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon", "tolerance")
 
 
 def _integer(value: object) -> bool:
@@ -90,9 +90,16 @@ class PlanParams:
         (Hausdorff distance between their contact sets; default 0.05).
     edges : int
         Edges of each linearised friction cone, ``MIN_EDGES`` = 3 to ``MAX_EDGES`` = 64.
-    rank_by : {"d_star", "conditioning", "epsilon"}
+    rank_by : {"d_star", "conditioning", "epsilon", "tolerance"}
         Order of the returned grasps (default d*, ties within the LPs' accuracy broken by
-        conditioning).
+        conditioning; "tolerance" is the placement tolerance of :mod:`synth.robust`).
+    regions : bool
+        Compute contact regions and the placement tolerance of each returned grasp
+        (:func:`synth.contact_regions`; default False: it costs about 0.1 s per grasp).
+        ``rank_by="tolerance"`` and a positive ``min_tolerance`` turn it on.
+    min_tolerance : float
+        Grasps whose placement tolerance is below this length (the mesh's units) are not
+        returned (default 0).
     """
 
     contacts: int = 7
@@ -112,6 +119,8 @@ class PlanParams:
     diversity: float = 0.05
     edges: int = 8
     rank_by: str = "d_star"
+    regions: bool = False
+    min_tolerance: float = 0.0
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> InputError:
@@ -162,6 +171,15 @@ class PlanParams:
         integer("edges", MIN_EDGES, MAX_EDGES)
         if self.rank_by not in RANK_BY:
             raise bad("rank_by", f"one of {', '.join(RANK_BY)}")
+        if not isinstance(self.regions, bool):
+            raise bad("regions", "True or False")
+        if not (_real(self.min_tolerance) and 0 <= self.min_tolerance <= MAX_LENGTH):
+            raise bad("min_tolerance", f"a length in [0, {MAX_LENGTH:g}] in the mesh's units")
+
+    @property
+    def wants_regions(self) -> bool:
+        """Whether the returned grasps get contact regions and tolerances."""
+        return self.regions or self.rank_by == "tolerance" or self.min_tolerance > 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary of every parameter."""

@@ -16,7 +16,9 @@ A JSON object::
         {"rank": 1-based, "points": k x 3, "normals": k x 3 (unit, into the part),
          "features": [str] * k,
          "regions": [int] * k, "d_star": float, "closure": str, "conditioning": float,
-         "epsilon": float,
+         "epsilon": float, "tolerance": float or null, "tolerance_ratio": float or null,
+         "contact_regions": {"polygons", "kinds", "tolerance", "limited_by", "d_star_min",
+                             "certified"} or null,
          "fingers": {"tip_centers": f x 3, "tip_radius", "approach": f x 3 (unit, away from
                      the part), "body_length", "body_radius", "contact_finger": [int] * k}}],
      "message": str, "timing": {"total_s", "evaluations", "stopped_by_time"}}
@@ -99,6 +101,8 @@ class PlannedGrasp:
     fingers : dict
         Finger geometry: ``tip_centers``, ``tip_radius``, ``approach``, ``body_length``,
         ``body_radius`` (see :class:`synth.FingerPlacement`).
+    contact_regions : synth.robust.ContactRegions or None
+        Independent contact regions and placement tolerance (None when not computed).
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -110,9 +114,18 @@ class PlannedGrasp:
     conditioning: float
     epsilon: float
     fingers: dict[str, Any] = field(repr=False)
+    contact_regions: Any = field(default=None, repr=False)
+
+    @property
+    def tolerance(self) -> float:
+        """Placement tolerance in the part's units (NaN when regions were not computed)."""
+        r = self.contact_regions
+        return float("nan") if r is None else float(r.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
-        """The grasp's JSON object."""
+        """The grasp's JSON object (``tolerance_ratio``: tolerance over the fingertip radius)."""
+        r = self.contact_regions
+        tip = float(self.fingers.get("tip_radius", float("nan")))
         return {
             "points": np.asarray(self.points).tolist(),
             "normals": np.asarray(self.normals).tolist(),
@@ -122,6 +135,9 @@ class PlannedGrasp:
             "closure": self.closure,
             "conditioning": float(self.conditioning),
             "epsilon": float(self.epsilon),
+            "tolerance": None if r is None else float(r.tolerance),
+            "tolerance_ratio": None if r is None else float(r.tolerance / tip),
+            "contact_regions": None if r is None else r.to_dict(),
             "fingers": self.fingers,
         }
 

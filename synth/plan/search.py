@@ -41,6 +41,7 @@ from synth.plan.pieces import best_positions, convex_piece
 from synth.plan.placements import (Placements, finger_climb, placement_grasps, placement_pool,
                                    placement_seeds)
 from synth.plan.result import Plan, PlannedGrasp, describe_part
+from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
 from synth.scores.quality import conditioning, epsilon_quality
 
@@ -444,9 +445,15 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
             cond = float(conditioning(score.matrix(P, N)))
             closure = "form" if prm.mu == 0 else "frictional form"
             eps = epsilon_quality(P, N, score.center, score.length, prm.mu, prm.edges)
+            robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
+                                     d_star=float(archive.d[i])) if prm.wants_regions else None
+            if robust is not None and robust.tolerance < prm.min_tolerance:
+                rejected["placement tolerance below --min-tolerance"] = rejected.get(
+                    "placement tolerance below --min-tolerance", 0) + 1
+                continue
             chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,
-                                       cond, eps, placement))
+                                       cond, eps, placement, robust))
             picked.append(P)
             if len(chosen) == want:
                 return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
@@ -469,13 +476,15 @@ def rank_grasps(grasps: list[PlannedGrasp], rank_by: str = "d_star") -> list[Pla
     """Order grasps (anything with ``d_star``, ``conditioning`` and ``epsilon``) best first.
 
     ``"d_star"``: by d*, where d* values within ``D_STAR_TIE`` of each other (the LPs'
-    accuracy) count as equal and the better-conditioned grasp comes first; ``"conditioning"``
-    or ``"epsilon"``: by that measure, then by d*.
+    accuracy) count as equal and the better-conditioned grasp comes first; ``"conditioning"``,
+    ``"epsilon"`` or ``"tolerance"`` (placement tolerance): by that measure, then by d*.
     """
     if rank_by == "conditioning":
         return sorted(grasps, key=lambda g: (-g.conditioning, -g.d_star))
     if rank_by == "epsilon":
         return sorted(grasps, key=lambda g: (-g.epsilon, -g.d_star))
+    if rank_by == "tolerance":
+        return sorted(grasps, key=lambda g: (-np.nan_to_num(g.tolerance, nan=-1.0), -g.d_star))
     out = sorted(grasps, key=lambda g: -g.d_star)
     # ties: a run of d* within D_STAR_TIE of the run's best is ordered by conditioning
     i = 0

@@ -1,0 +1,399 @@
+"""Certified form closure over contact regions: the null vector as a multi-affine polynomial.
+
+With ``k = m + 1`` frictionless contacts (7 in space, 4 in the plane) the normal wrench matrix
+``W`` (``m x k``) has a one-dimensional null space spanned by the signed cofactors
+``c_j = (-1)^j det W_{-j}`` (``W`` without column ``j``). The grasp is form closure exactly
+when every ``c_j`` is non-zero and all have one sign, and then Trinkle's d* is
+``min_j |c_j| / max_j |c_j|``.
+
+A contact that slides on a plane (or along a straight edge) by ``x_i`` in its feature's frame
+changes only the moment rows of its column, linearly: ``w_i(x_i) = w_i + D_i x_i``. A
+determinant is linear in each column, so every ``c_j`` is a polynomial that is affine in each
+``x_i`` separately; and since the changed columns all lie in the 3-dimensional moment subspace
+(1-dimensional in the plane), products of more than three (one) of them vanish::
+
+    c_j(x) = c0_j + sum_i g_ji . x_i + sum_{i<l} x_i' B_jil x_l
+                  + sum_{i<l<n} T_jiln(x_i, x_l, x_n)
+
+Over a product of convex regions the linear part's minimum is the sum of per-region minima
+(exact: at a vertex of each polygon, or ``-r |g_ji|`` on a disc); the higher terms are bounded
+by their largest absolute value (exact over polygon vertex pairs for ``B``; by the Frobenius
+norm times the regions' radii for ``T``). This gives certified lower and upper bounds of
+every ``c_j`` over the regions, hence a certificate of form closure for every choice of one
+point per region and a certified lower bound of d* over all those choices.
+
+The bound is exact to first order in the regions' size, so it is tight for small regions
+(see ``tests/test_robust_certificate.py`` for comparisons with an independent search).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from itertools import combinations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Expansion", "expand", "polygon_bounds", "disc_bounds", "certified"]
+
+#: A bound ``c_j`` must exceed this fraction of ``max |c0|`` to count as non-zero (the
+#: cofactors are computed to about 1e-15 relative; 1e-9 leaves room for the bound's sums).
+CERT_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """The signed cofactors of a ``m x (m + 1)`` wrench matrix as polynomials of the
+    contacts' in-feature displacements, oriented so that ``c0.sum() >= 0``.
+
+    Attributes
+    ----------
+    c0 : (k,) float
+        Cofactors at the planned contacts.
+    g : (k, k, 2) float
+        Linear coefficients: ``g[j, i]`` acts on contact ``i``'s displacement (zero for
+        ``i == j``).
+    pairs : (P, 2) int
+        Contact pairs ``i < l`` of the second-order terms.
+    B : (k, P, 2, 2) float
+    triples : (Q, 3) int
+        Contact triples ``i < l < n`` of the third-order terms.
+    T : (k, Q, 2, 2, 2) float
+    """
+
+    c0: NDArray[np.float64]
+    g: NDArray[np.float64]
+    pairs: NDArray[np.int64]
+    B: NDArray[np.float64]
+    triples: NDArray[np.int64]
+    T: NDArray[np.float64]
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The cofactors at displacements ``x`` ``(..., k, 2)``, shape ``(..., k)``."""
+        out = self.c0 + np.einsum("jia,...ia->...j", self.g, x)
+        if len(self.pairs):
+            xi, xl = x[..., self.pairs[:, 0], :], x[..., self.pairs[:, 1], :]
+            out = out + np.einsum("jpab,...pa,...pb->...j", self.B, xi, xl)
+        if len(self.triples):
+            t = self.triples
+            out = out + np.einsum("jqabc,...qa,...qb,...qc->...j", self.T, x[..., t[:, 0], :],
+                                  x[..., t[:, 1], :], x[..., t[:, 2], :])
+        return out
+
+
+@lru_cache(maxsize=8)
+def _layout(k: int, order: int) -> tuple[NDArray[np.int64], list[tuple[int, int, tuple]]]:
+    """Column selections of every determinant the expansion needs.
+
+    Columns ``0..k-1`` of the extended matrix are ``W``'s, ``k + 2 i + a`` is contact ``i``'s
+    derivative along its frame axis ``a``. Returns the selections ``(E, k - 1)`` and, per
+    row, ``(j, order, (contacts, axes))``.
+    """
+    rows, meta = [], []
+    for j in range(k):
+        cols = [i for i in range(k) if i != j]
+        rows.append(cols)
+        meta.append((j, 0, ()))
+        for o in range(1, order + 1):
+            for S in combinations(cols, o):
+                for axes in np.ndindex(*(2,) * o):
+                    sel = list(cols)
+                    for i, a in zip(S, axes):
+                        sel[cols.index(i)] = k + 2 * i + a
+                    rows.append(sel)
+                    meta.append((j, o, (S, axes)))
+    return np.array(rows, dtype=np.int64), meta
+
+
+def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
+    """Expand the signed cofactors of ``W`` in the contacts' displacements.
+
+    Parameters
+    ----------
+    W : (m, m + 1) float
+        Wrench matrix of the planned grasp (``m`` = 6 in space, 3 in the plane).
+    D : (m + 1, 2, m) float
+        ``D[i, a]``: change of contact ``i``'s wrench per unit displacement along its frame
+        axis ``a`` (zero for axes the contact cannot move along). Only the moment rows may
+        be non-zero.
+
+    Returns
+    -------
+    Expansion
+    """
+    m, k = W.shape
+    if k != m + 1 or D.shape != (k, 2, m):
+        raise ValueError(f"expand: W must be m x (m + 1) and D (m + 1, 2, m); got {W.shape} "
+                         f"and {D.shape}")
+    order = 3 if m == 6 else 1
+    sel, meta = _layout(k, order)
+    ext = np.concatenate([W.T, D.reshape(2 * k, m)])  # rows are columns
+    dets = np.linalg.det(ext[sel])
+    c0 = np.zeros(k)
+    g = np.zeros((k, k, 2))
+    pairs = np.array(list(combinations(range(k), 2)), dtype=np.int64) if order >= 2 else \
+        np.zeros((0, 2), np.int64)
+    triples = np.array(list(combinations(range(k), 3)), dtype=np.int64) if order >= 3 else \
+        np.zeros((0, 3), np.int64)
+    pidx = {tuple(p): n for n, p in enumerate(pairs.tolist())}
+    tidx = {tuple(t): n for n, t in enumerate(triples.tolist())}
+    B = np.zeros((k, len(pairs), 2, 2))
+    T = np.zeros((k, len(triples), 2, 2, 2))
+    for value, (j, o, key) in zip(dets * (-1.0) ** np.array([mm[0] for mm in meta]), meta):
+        if o == 0:
+            c0[j] = value
+        elif o == 1:
+            g[j, key[0][0], key[1][0]] = value
+        elif o == 2:
+            B[(j, pidx[key[0]]) + tuple(key[1])] = value
+        else:
+            T[(j, tidx[key[0]]) + tuple(key[1])] = value
+    s = -1.0 if c0.sum() < 0 else 1.0
+    return Expansion(s * c0, s * g, pairs, s * B, triples, s * T)
+
+
+def _higher(e: Expansion, radius: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Bound of the third-order terms' absolute value for regions of these radii, (k,)."""
+    if not len(e.triples):
+        return np.zeros(len(e.c0))
+    t = e.triples
+    r3 = radius[t[:, 0]] * radius[t[:, 1]] * radius[t[:, 2]]
+    return np.sqrt((e.T ** 2).sum(axis=(2, 3, 4))) @ r3
+
+
+def polygon_bounds(e: Expansion, vertices: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper bounds of every cofactor over convex regions given by vertices.
+
+    Parameters
+    ----------
+    e : Expansion
+    vertices : (k, v, 2) float
+        Vertices of each contact's region in its frame, the planned point at the origin
+        (pad a region with repeats of one of its vertices; a fixed contact is all zeros).
+
+    Returns
+    -------
+    lower, upper : (k,) float
+        ``lower[j] <= c_j(x) <= upper[j]`` for every ``x`` in the regions.
+    """
+    lin = np.einsum("jia,iva->jiv", e.g, vertices)
+    lo = e.c0 + lin.min(axis=2).sum(axis=1)
+    hi = e.c0 + lin.max(axis=2).sum(axis=1)
+    radius = np.linalg.norm(vertices, axis=2).max(axis=1)
+    extra = _higher(e, radius)
+    if len(e.pairs):
+        Vi, Vl = vertices[e.pairs[:, 0]], vertices[e.pairs[:, 1]]
+        q = np.einsum("jpab,pva,pwb->jpvw", e.B, Vi, Vl)
+        extra = extra + np.abs(q).max(axis=(2, 3)).sum(axis=1)
+    return lo - extra, hi + extra
+
+
+def disc_bounds(e: Expansion, radius: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lower and upper bounds of every cofactor when contact ``i`` moves anywhere within
+    ``radius[i]`` in its frame (a disc; a segment for a contact with one free axis).
+
+    Parameters
+    ----------
+    e : Expansion
+    radius : (k,) float
+
+    Returns
+    -------
+    lower, upper : (k,) float
+    """
+    lin = (np.linalg.norm(e.g, axis=2) * radius).sum(axis=1)
+    extra = _higher(e, radius)
+    if len(e.pairs):
+        spec = np.linalg.norm(e.B, ord=2, axis=(2, 3))
+        extra = extra + spec @ (radius[e.pairs[:, 0]] * radius[e.pairs[:, 1]])
+    return e.c0 - lin - extra, e.c0 + lin + extra
+
+
+def certified(e: Expansion, lower: NDArray[np.float64], upper: NDArray[np.float64]
+              ) -> tuple[bool, float]:
+    """Whether bounds certify form closure over the regions, and the certified lower bound
+    of d* (0 when not certified).
+
+    Returns
+    -------
+    ok : bool
+        Every cofactor keeps its planned sign everywhere in the regions.
+    d_star_min : float
+        ``min(lower) / max(upper)``: no choice of points in the regions has a smaller d*.
+    """
+    scale = float(np.abs(e.c0).max())
+    lo = float(lower.min())
+    if not scale > 0 or lo <= CERT_RTOL * scale or e.c0.min() <= 0:
+        return False, 0.0
+    return True, min(lo / float(upper.max()), float(e.c0.min() / e.c0.max()))
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """The outcome of :func:`certify`.
+
+    Attributes
+    ----------
+    closure : bool or None
+        True: every choice of one point per region is form closure (certified). False: a
+        choice that is not was found (``counterexample``). None: undecided within the work
+        limit (treat as not certified).
+    lower, upper : (k,) float
+        Certified bounds of every oriented cofactor over the regions.
+    d_star_min : float
+        Certified lower bound of d* over the regions (0 unless ``closure``).
+    counterexample : (k, 2) float or None
+        Displacements (frame coordinates) at which some cofactor is not positive.
+    boxes : int
+        Sub-problems examined.
+    """
+
+    closure: bool | None
+    lower: NDArray[np.float64]
+    upper: NDArray[np.float64]
+    d_star_min: float
+    counterexample: NDArray[np.float64] | None
+    boxes: int
+
+
+def _full(e: Expansion) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Symmetric full tensors ``B[j, i, l]`` (k, k, k, 2, 2) and ``T[j, i, l, n]``."""
+    k = len(e.c0)
+    B = np.zeros((k, k, k, 2, 2))
+    for p, (i, l) in enumerate(e.pairs.tolist()):
+        B[:, i, l] = e.B[:, p]
+        B[:, l, i] = np.swapaxes(e.B[:, p], 1, 2)
+    T = np.zeros((k, k, k, k, 2, 2, 2))
+    for q, (i, l, n) in enumerate(e.triples.tolist()):
+        t = e.T[:, q]  # axes (a_i, a_l, a_n)
+        for perm in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):
+            idx = (i, l, n)
+            T[(slice(None),) + tuple(idx[p] for p in perm)] = np.transpose(t, (0,) + tuple(
+                1 + p for p in perm))
+    return B, T
+
+
+def _pad(polys: list[NDArray[np.float64]]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Polygons as one ``(k, M, 2)`` array (padded with the first vertex) and their counts."""
+    M = max(len(p) for p in polys)
+    out = np.empty((len(polys), M, 2))
+    for i, p in enumerate(polys):
+        out[i, : len(p)] = p
+        out[i, len(p):] = p[0]
+    return out, np.array([len(p) for p in polys], dtype=np.int64)
+
+
+def _box_bounds(j: int, e: Expansion, B: NDArray[np.float64], T: NDArray[np.float64],
+                V: NDArray[np.float64], member: NDArray[np.bool_]) -> tuple[NDArray[np.float64], ...]:
+    """Bounds of cofactor ``j`` over boxes: box ``z`` lets contact ``i`` take the vertices
+    ``V[i, member[z, i]]`` (and, the cofactor being affine in each contact, so their convex
+    hull). Each box is expanded about the mean of its vertices. Returns lower and upper
+    bounds, the linear term's worst vertex of each contact (vertex indices; a real choice),
+    and each contact's share of the higher-order error."""
+    k = len(e.c0)
+    w = member / member.sum(axis=2, keepdims=True)
+    xc = np.einsum("zim,ima->zia", w, V)  # (nb, k, 2)
+    Bj, Tj, gj = B[j], T[j], e.g[j]
+    Tx = np.einsum("ilnabc,znc->zilab", Tj, xc)  # (nb, k, k, 2, 2)
+    Bc = Bj[None] + Tx
+    gc = gj[None] + np.einsum("ilab,zlb->zia", Bj, xc) + 0.5 * np.einsum(
+        "zilab,zlb->zia", Tx, xc)
+    val = (e.c0[j] + np.einsum("ia,zia->z", gj, xc) + 0.5 * np.einsum(
+        "zia,ilab,zlb->z", xc, Bj, xc) + np.einsum("zilab,zia,zlb->z", Tx, xc, xc) / 6.0)
+    Y = V[None] - xc[:, :, None]  # (nb, k, M, 2)
+    lin = np.einsum("zia,ziva->ziv", gc, Y)
+    lmin = np.where(member, lin, np.inf)
+    worst = lmin.argmin(axis=2)
+    lo = val + lmin.min(axis=2).sum(axis=1)
+    hi = val + np.where(member, lin, -np.inf).max(axis=2).sum(axis=1)
+    R = np.where(member, np.linalg.norm(Y, axis=3), 0.0).max(axis=2)  # (nb, k)
+    iu, lu = np.triu_indices(k, 1)
+    spec = np.linalg.norm(Bc[:, iu, lu], ord=2, axis=(2, 3))  # (nb, P)
+    q = spec * R[:, iu] * R[:, lu]
+    tn = np.sqrt((Tj ** 2).sum(axis=(3, 4, 5)))  # (k, k, k), symmetric
+    cub = np.einsum("iln,zi,zl,zn->z", tn, R, R, R) / 6.0
+    err = q.sum(axis=1) + cub
+    share = np.zeros((len(member), k))
+    np.add.at(share.T, iu, q.T)
+    np.add.at(share.T, lu, q.T)
+    share += np.einsum("iln,zi,zl,zn->zi", tn, R, R, R) / 2.0
+    return lo - err, hi + err, worst, share
+
+
+def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int = 2000
+            ) -> Certificate:
+    """Decide whether every choice of one point per region keeps all cofactors positive,
+    by branch and bound over the regions' vertices.
+
+    A cofactor is affine in each contact's position, so over a product of convex polygons its
+    extremes are at vertex choices: each contact's domain is its polygon's vertex cycle. A
+    box gives each contact a run of consecutive vertices (whose convex hull it covers) and is
+    bounded with the expansion recentred in it: the linear part exactly (its worst vertex),
+    the rest by the spectral and Frobenius norms of the recentred coefficients times the
+    runs' radii. A box that is not certified has the run with the largest share of the error
+    cut in two. The value at each box's worst-vertex choice is a real value, so a
+    non-positive one is a counterexample.
+
+    Parameters
+    ----------
+    e : Expansion
+    polygons : list of (v_i, 2) float
+        Each contact's convex region in its frame, vertices in order around it, the planned
+        point inside (a segment's two ends for a contact with one free axis; one vertex for
+        a fixed contact).
+    max_boxes : int
+        Work limit per cofactor; past it the answer is None (undecided).
+
+    Returns
+    -------
+    Certificate
+    """
+    k = len(e.c0)
+    scale = float(np.abs(e.c0).max())
+    tol = CERT_RTOL * scale
+    lower, upper = np.full(k, np.inf), np.full(k, -np.inf)
+    if not scale > 0 or e.c0.min() <= tol:
+        return Certificate(False, e.c0.copy(), e.c0.copy(), 0.0, np.zeros((k, 2)), 0)
+    B, T = _full(e)
+    V, count = _pad(polygons)
+    M = V.shape[1]
+    idx = np.arange(M)
+    boxes = 0
+    for j in range(k):
+        start = np.zeros((1, k), np.int64)
+        size = count[None].copy()
+        seen = 0
+        while len(start):
+            member = ((idx[None, None] - start[:, :, None]) % count[None, :, None]
+                      < size[:, :, None]) & (idx[None, None] < count[None, :, None])
+            lo, hi, worst, share = _box_bounds(j, e, B, T, V, member)
+            boxes += len(start)
+            seen += len(start)
+            upper[j] = max(upper[j], float(hi.max()))
+            pick = V[np.arange(k), worst]  # (nb, k, 2)
+            actual = e(pick)[:, j]
+            if actual.min() <= tol:
+                z = int(actual.argmin())
+                return Certificate(False, np.minimum(lower, lo.min()), upper, 0.0, pick[z], boxes)
+            bad = np.flatnonzero(lo <= tol)
+            if seen > max_boxes and bad.size:
+                return Certificate(None, np.minimum(lower, lo.min()), upper, 0.0, None, boxes)
+            lower[j] = min(lower[j], float(lo[lo > tol].min(initial=np.inf)))
+            # cut the run with the largest error share (runs of one vertex are exact)
+            sh = np.where(size[bad] > 1, share[bad], -1.0)
+            i = sh.argmax(axis=1)
+            s0, n0 = start[bad], size[bad]
+            r = np.arange(len(bad))
+            half = n0[r, i] // 2
+            a_start, a_size = s0.copy(), n0.copy()
+            a_size[r, i] = half + 1  # runs share their cut vertex: the hulls cover the polygon
+            b_start, b_size = s0.copy(), n0.copy()
+            b_start[r, i] = (s0[r, i] + half) % count[i]
+            b_size[r, i] = n0[r, i] - half + (n0[r, i] == count[i])
+            start = np.concatenate([a_start, b_start])
+            size = np.concatenate([a_size, b_size])
+    d_min = min(float(lower.min() / upper.max()), float(e.c0.min() / e.c0.max()))
+    return Certificate(True, lower, upper, d_min, None, boxes)

@@ -1,0 +1,415 @@
+"""Independent contact regions and the placement tolerance of a grasp.
+
+For each contact, a region of the exposed surface around it such that every choice of one
+point per region is frictionless form closure (Nguyen's independent contact regions), and
+the *placement tolerance*: the largest radius ``rho`` such that moving every contact anywhere
+within ``rho`` of its planned point, along the feature it lies on, keeps form closure.
+
+A contact *slides* on its feature: on a planar piece (:mod:`synth.part.pieces`) it moves in
+the plane with its normal fixed; on a convex edge it moves along the edge with its normal
+fixed; at a vertex it cannot move. On planar pieces and straight edges each contact's wrench
+is affine in its position, and with 7 contacts (the minimum in space) the certificate of
+:mod:`synth.robust.certificate` decides closure over the regions. Everything else (friction,
+more than 7 contacts, contacts on curved patches) is *sampled*: random placements within the
+radius, re-projected onto the surface with their normals, scored, and the radius bisected;
+such results say ``certified = False``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from synth.errors import InputError
+from synth.part.model import Part
+from synth.part.pieces import convex_piece
+from synth.robust.certificate import certify, expand
+from synth.scores.batch import form_closure_batch
+from synth.scores.friction_batch import frictional_form_closure_batch
+
+__all__ = ["ContactRegions", "contact_regions", "certify_regions"]
+
+#: Vertices of a region grown around a contact on a planar piece (before clipping).
+REGION_VERTICES = 16
+#: Vertices of the polygon circumscribing a tolerance disc in the certificate.
+DISC_VERTICES = 32
+#: Relative precision of the tolerance and of the regions' size (bisection stops when the
+#: smallest size known to fail is within this factor of the largest certified one).
+SIZE_PRECISION = 1.08
+#: Branch-and-bound work limit per cofactor while growing (an undecided size counts as lost).
+MAX_BOXES = 300
+#: Placements per radius when the tolerance is sampled.
+SAMPLES = 512
+
+
+@dataclass(frozen=True)
+class ContactRegions:
+    """Contact regions and placement tolerance of one grasp.
+
+    Attributes
+    ----------
+    polygons : tuple of (v_i, 3) float
+        Each contact's region as the corners of a convex polygon on its feature, in order
+        (two ends of a segment for a contact on an edge; the point itself for a contact that
+        cannot move).
+    kinds : tuple of str
+        How each contact moves: ``"plane"``, ``"edge"``, ``"fixed"`` or ``"curved"``.
+    tolerance : float
+        Placement tolerance in the part's units.
+    limited_by : str
+        ``"closure"`` (a larger radius loses form closure), ``"feature"`` (a contact's disc
+        would leave its planar piece or edge) or ``"none"`` when the grasp has no closure.
+    d_star : float
+        The grasp's own d*.
+    d_star_min : float
+        Smallest d* over every choice of one point per region: a certified lower bound when
+        ``certified``, else the smallest sampled.
+    certified : bool
+        True when the regions and tolerance are proven (frictionless, 7 contacts on planar
+        pieces, edges or vertices); False when sampled.
+    """
+
+    polygons: tuple[NDArray[np.float64], ...]
+    kinds: tuple[str, ...]
+    tolerance: float
+    limited_by: str
+    d_star: float
+    d_star_min: float
+    certified: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form: ``polygons``, ``kinds``, ``tolerance``, ``limited_by``, ``d_star_min``,
+        ``certified``."""
+        return {
+            "polygons": [np.asarray(p).tolist() for p in self.polygons],
+            "kinds": list(self.kinds),
+            "tolerance": float(self.tolerance),
+            "limited_by": self.limited_by,
+            "d_star_min": float(self.d_star_min),
+            "certified": bool(self.certified),
+        }
+
+
+@dataclass(frozen=True)
+class _Contact:
+    """How one contact can move: frame axes (2, 3) (zero rows for locked axes), its feature
+    as a convex polygon in frame coordinates (the contact at the origin), and the distance
+    to the feature's boundary."""
+
+    kind: str
+    axes: NDArray[np.float64]
+    feature: NDArray[np.float64]
+    reach: float
+
+
+def _ngon(r: float, m: int, outer: bool) -> NDArray[np.float64]:
+    """Regular ``m``-gon about the origin: inscribed in (or, ``outer``, around) radius r."""
+    a = (np.arange(m) + 0.5) * 2 * np.pi / m
+    s = r / np.cos(np.pi / m) if outer else r
+    return np.stack([np.cos(a), np.sin(a)], axis=1) * s
+
+
+def _clip(poly: NDArray[np.float64], feature: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Intersection of two convex polygons, both counter-clockwise (Sutherland-Hodgman)."""
+    out = poly
+    n = len(feature)
+    for a in range(n):
+        p, q = feature[a], feature[(a + 1) % n]
+        edge = q - p
+        s = edge[0] * (out[:, 1] - p[1]) - edge[1] * (out[:, 0] - p[0])  # >= 0 inside
+        res = []
+        for i in range(len(out)):
+            j = (i + 1) % len(out)
+            if s[i] >= 0:
+                res.append(out[i])
+            if (s[i] > 0 > s[j]) or (s[i] < 0 < s[j]):
+                res.append(out[i] + (out[j] - out[i]) * (s[i] / (s[i] - s[j])))
+        if not res:
+            return np.zeros((1, 2))
+        out = np.array(res)
+    return out
+
+
+def _shape(c: _Contact, r: float, m: int, outer: bool) -> NDArray[np.float64]:
+    """The contact's region of size ``r`` in frame coordinates."""
+    if c.kind == "plane":
+        return _clip(_ngon(r, m, outer), c.feature)
+    if c.kind == "edge":
+        lo, hi = float(c.feature[0, 0]), float(c.feature[1, 0])
+        return np.array([[max(lo, -r), 0.0], [min(hi, r), 0.0]])
+    return np.zeros((1, 2))
+
+
+def _clamp(reach: float, part: Part) -> float:
+    """A distance to a feature's boundary, 0 when within the part's feature tolerance."""
+    return reach if reach > part.feature_tolerance else 0.0
+
+
+def _contacts(part: Part, P: NDArray[np.float64], N: NDArray[np.float64]) -> list[_Contact]:
+    """How each contact of a grasp can move on the part's surface."""
+    res = part.resolve(P, snap=True)
+    out = []
+    tol = 1e-9
+    for j in range(len(P)):
+        rows = np.flatnonzero(res.finger == j)
+        row = rows[np.argmax(res.normals[rows] @ N[j])]
+        kind, face = str(res.features[row]), int(res.faces[row])
+        reg = part.regions[int(part.face_region[face])] if part.face_region[face] >= 0 else None
+        if kind == "face" and reg is not None and reg.planar and np.dot(reg.normal, N[j]) > 1 - tol:
+            piece = convex_piece(part, face, 0.0)
+            if piece is not None:
+                xy = np.array([(P[j] - piece.origin) @ piece.u, (P[j] - piece.origin) @ piece.v])
+                corners = piece.corners - xy
+                reach = float(np.min(piece.b - piece.A @ xy))
+                out.append(_Contact("plane", np.stack([piece.u, piece.v]), corners,
+                                    _clamp(reach, part)))
+                continue
+        if kind == "edge":
+            a, b = part.mesh.vertices[part.mesh.edges_unique[int(res.feature_index[row])]]
+            e = (b - a) / np.linalg.norm(b - a)
+            if abs(np.dot(e, N[j])) < 1e-6:
+                t = np.sort([(a - P[j]) @ e, (b - P[j]) @ e])
+                out.append(_Contact("edge", np.stack([e, np.zeros(3)]),
+                                    np.array([[t[0], 0.0], [t[1], 0.0]]),
+                                    _clamp(float(min(-t[0], t[1])), part)))
+                continue
+        smooth = kind == "face" and reg is not None and not reg.planar
+        out.append(_Contact("curved" if smooth else "fixed", np.zeros((2, 3)),
+                            np.zeros((1, 2)), 0.0))
+    return out
+
+
+def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], center: NDArray[np.float64],
+              length: float, axes: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Wrench matrix (6, k) with moments about ``center`` over ``length``, and each contact's
+    wrench change per unit move along its axes (k, 2, 6)."""
+    W = np.concatenate([N.T, np.cross(P - center, N).T / length])
+    D = np.zeros((len(P), 2, 6))
+    D[:, :, 3:] = np.cross(axes, N[:, None, :]) / length
+    return W, D
+
+
+def _grow(test, lo: float, hi: float, top: float) -> float:
+    """Largest size in [lo, top] that ``test`` accepts, to SIZE_PRECISION: ``lo`` is known
+    to pass; ``hi`` is a first guess of a failing size (it is enlarged until one fails)."""
+    if lo >= top or test(top):
+        return top
+    hi = min(max(hi, lo * 1.5, 1e-300), top)
+    while hi < top and test(hi):
+        lo, hi = hi, min(hi * 1.5, top)
+    while hi > lo * SIZE_PRECISION:
+        mid = np.sqrt(lo * hi) if lo > 0 else hi / 8
+        if mid <= 1e-12 * top:
+            return lo
+        if test(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: float = 0.0,
+                    edges: int = 8, d_star: float | None = None, seed: int = 0
+                    ) -> ContactRegions:
+    """Independent contact regions and the placement tolerance of one grasp.
+
+    Parameters
+    ----------
+    part : synth.Part
+    points, normals : (k, 3) float
+        The grasp's contacts (on the part's surface) and inward unit normals.
+    mu : float
+        Coulomb friction coefficient; with friction the result is sampled.
+    edges : int
+        Friction cone edges (with ``mu > 0``).
+    d_star : float, optional
+        The grasp's d*, if already known.
+    seed : int
+        Seed of the sampling (the certified path uses no randomness).
+
+    Returns
+    -------
+    ContactRegions
+
+    Examples
+    --------
+    >>> r = contact_regions(part, grasp.points, grasp.normals)  # doctest: +SKIP
+    >>> r.tolerance, r.certified  # doctest: +SKIP
+    (2.1, True)
+    """
+    if not isinstance(part, Part):
+        raise InputError(f"part: expected a synth.Part, got {type(part).__name__}")
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or N.shape != P.shape or not len(P):
+        raise InputError(f"points and normals: expected two (k, 3) arrays, got {P.shape} and "
+                         f"{N.shape}")
+    N = N / np.linalg.norm(N, axis=1, keepdims=True)
+    cs = _contacts(part, P, N)
+    center, L = np.asarray(part.center_mass, float), float(part.length)
+    if mu == 0 and len(P) == 7 and all(c.kind != "curved" for c in cs):
+        return _certified(P, N, cs, center, L)
+    return _sampled(part, P, N, cs, center, L, mu, edges, d_star, seed)
+
+
+def _to3(P: NDArray[np.float64], cs: list[_Contact], shapes: list[NDArray[np.float64]]
+         ) -> tuple[NDArray[np.float64], ...]:
+    return tuple(P[i] + s @ c.axes for i, (c, s) in enumerate(zip(cs, shapes)))
+
+
+def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
+               center: NDArray[np.float64], L: float) -> ContactRegions:
+    """Regions and tolerance proven by the cofactor certificate (7 frictionless contacts)."""
+    axes = np.stack([c.axes for c in cs])
+    W, D = _wrenches(P, N, center, L, axes)
+    e = expand(W, D)
+    kinds = tuple(c.kind for c in cs)
+    d0 = float(e.c0.min() / e.c0.max()) if e.c0.max() > 0 else 0.0
+    points_only = tuple(P[i][None].copy() for i in range(len(P)))
+    if not certify(e, [np.zeros((1, 2))] * len(P)).closure:
+        return ContactRegions(points_only, kinds, 0.0, "none", max(d0, 0.0), 0.0, True)
+    free = [c for c in cs if c.kind != "fixed"]
+    if not free:
+        return ContactRegions(points_only, kinds, 0.0, "feature", d0, d0, True)
+    reach = min(c.reach for c in cs)  # a contact at a vertex has nowhere to slide
+    # first-order guesses: the disc radius at which the linear part alone reaches zero
+    gn = np.linalg.norm(e.g, axis=2).sum(axis=1)
+    guess = float(np.min(e.c0 / np.where(gn > 0, gn, np.inf))) if gn.max() > 0 else L
+
+    def discs_hold(r: float) -> bool:
+        return bool(certify(e, [_shape(c, r, DISC_VERTICES, True) if c.kind == "plane" else
+                                _shape(c, r, 2, True) for c in cs], max_boxes=MAX_BOXES).closure)
+
+    tolerance = _grow(discs_hold, 0.0, guess, reach)
+    limited = "feature" if tolerance >= reach else "closure"
+    top = max(float(np.linalg.norm(c.feature, axis=1).max()) for c in free)
+
+    def regions_hold(r: float) -> bool:
+        return bool(certify(e, [_shape(c, r, REGION_VERTICES, False) for c in cs],
+                            max_boxes=MAX_BOXES).closure)
+
+    size = _grow(regions_hold, tolerance, max(guess, tolerance * 1.5), top)
+    shapes = [_shape(c, size, REGION_VERTICES, False) for c in cs]
+    cert = certify(e, shapes)
+    return ContactRegions(_to3(P, cs, shapes), kinds, float(tolerance), limited, d0,
+                          cert.d_star_min, True)
+
+
+def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayLike],
+                    center: ArrayLike, length: float) -> tuple[bool | None, float]:
+    """Re-check stored regions (for example a grasp file's) with the certificate.
+
+    Parameters
+    ----------
+    points, normals : (7, 3) float
+    polygons : list of (v_i, 3) float
+        Each contact's region: corners in order, in the plane through the contact normal to
+        its normal (a segment, or the point itself, for contacts on edges or vertices).
+    center : (3,) float
+        Any moment reference; length : float, any moment scale (the answer is the same).
+
+    Returns
+    -------
+    closure : bool or None
+        True when every choice of one point per region is form closure, False when a choice
+        is not, None when undecided within the work limit.
+    d_star_min : float
+        Certified lower bound of d* over the regions.
+    """
+    P = np.asarray(points, float)
+    N = np.asarray(normals, float)
+    N = N / np.linalg.norm(N, axis=1, keepdims=True)
+    if P.shape != (7, 3) or N.shape != (7, 3) or len(polygons) != 7:
+        raise InputError("certify_regions: the certificate needs 7 contacts and 7 regions")
+    axes = np.zeros((7, 2, 3))
+    shapes = []
+    for i, poly in enumerate(polygons):
+        Q = np.asarray(poly, float).reshape(-1, 3) - P[i]
+        if np.abs(Q @ N[i]).max(initial=0.0) > 1e-9 * length:
+            raise InputError(f"certify_regions: region {i} does not lie in its contact's "
+                             f"tangent plane")
+        span = np.linalg.svd(Q, full_matrices=True)[2] if len(Q) > 1 else np.zeros((3, 3))
+        u = span[0] - np.dot(span[0], N[i]) * N[i]
+        if np.linalg.norm(u) > 0:
+            u /= np.linalg.norm(u)
+            v = np.cross(N[i], u)
+            axes[i] = [u, v]
+        shapes.append(Q @ axes[i].T)
+    W, D = _wrenches(P, N, np.asarray(center, float), float(length), axes)
+    cert = certify(expand(W, D), shapes)
+    return cert.closure, cert.d_star_min
+
+
+def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
+             center: NDArray[np.float64], L: float, mu: float, edges: int,
+             d_star: float | None, seed: int) -> ContactRegions:
+    """Tolerance by bisection on sampled placements; regions are the tolerance discs."""
+    rng = np.random.default_rng(seed)
+    k = len(P)
+    kinds = tuple(c.kind for c in cs)
+    tangent = np.zeros((k, 2, 3))
+    for i, c in enumerate(cs):
+        if c.kind in ("plane", "edge"):
+            tangent[i] = c.axes
+        elif c.kind == "curved":
+            a = np.eye(3)[np.argmin(np.abs(N[i]))]
+            u = np.cross(N[i], a)
+            u /= np.linalg.norm(u)
+            tangent[i] = [u, np.cross(N[i], u)]
+
+    def score(PP: NDArray[np.float64], NN: NDArray[np.float64]) -> NDArray[np.float64]:
+        if mu > 0:
+            res = frictional_form_closure_batch(PP, NN, mu, center, edges)
+        else:
+            W = np.concatenate([np.swapaxes(NN, 1, 2),
+                                np.swapaxes(np.cross(PP - center, NN), 1, 2) / L], axis=1)
+            res = form_closure_batch(W)
+        return np.where(res.closure, res.d_star, -1.0)
+
+    d0 = float(score(P[None], N[None])[0]) if d_star is None else float(d_star)
+    if d0 <= 0:
+        return ContactRegions(tuple(P[i][None].copy() for i in range(k)), kinds, 0.0, "none",
+                              max(d0, 0.0), 0.0, False)
+    free = [i for i, c in enumerate(cs) if c.kind != "fixed"]
+    reach = min(c.reach if c.kind != "curved" else L for c in cs)
+    worst = {0.0: d0}
+
+    def placements(r: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        rad = r * np.sqrt(rng.uniform(size=(SAMPLES, k)))
+        rad[: SAMPLES // 2] = r  # half on the rim, where the extremes are
+        ang = rng.uniform(0, 2 * np.pi, size=(SAMPLES, k))
+        xy = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=2)
+        PP = P + np.einsum("ska,kad->skd", xy, tangent)
+        NN = np.repeat(N[None], SAMPLES, axis=0)
+        curved = [i for i in free if cs[i].kind == "curved"]
+        if curved:
+            c = part.resolve(PP[:, curved].reshape(-1, 3), snap=True)
+            first = np.unique(c.finger, return_index=True)[1]
+            PP[:, curved] = c.points[first].reshape(SAMPLES, len(curved), 3)
+            NN[:, curved] = c.normals[first].reshape(SAMPLES, len(curved), 3)
+        return PP, NN
+
+    def holds(r: float) -> bool:
+        d = score(*placements(r))
+        worst[r] = float(d.min())
+        return bool(d.min() > 0)
+
+    if not free:
+        return ContactRegions(tuple(P[i][None].copy() for i in range(k)), kinds, 0.0,
+                              "feature", d0, d0, False)
+    tolerance = _grow(holds, 0.0, 0.01 * L, reach)
+    shapes = [_shape(c, tolerance, REGION_VERTICES, False) if c.kind != "curved" else
+              _ngon(tolerance, REGION_VERTICES, False) for c in cs]
+    polys = list(_to3(P, cs, shapes))
+    for i, c in enumerate(cs):
+        if c.kind == "curved":
+            ring = P[i] + shapes[i] @ tangent[i]
+            polys[i] = part.resolve(ring, snap=True).points[
+                np.unique(part.resolve(ring, snap=True).finger, return_index=True)[1]]
+    d_min = worst.get(tolerance, d0)
+    return ContactRegions(tuple(polys), kinds, float(tolerance),
+                          "feature" if tolerance >= reach else "closure", d0,
+                          max(min(d_min, d0), 0.0), False)

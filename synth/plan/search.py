@@ -448,8 +448,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
                                      d_star=float(archive.d[i])) if prm.wants_regions else None
             if robust is not None and robust.tolerance < prm.min_tolerance:
-                rejected["placement tolerance below --min-tolerance"] = rejected.get(
-                    "placement tolerance below --min-tolerance", 0) + 1
+                key = "placement tolerance below --min-tolerance"
+                rejected[key] = rejected.get(key, 0) + 1
                 continue
             chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,

@@ -16,14 +16,12 @@ determinant is linear in each column, so every ``c_j`` is a polynomial that is a
                   + sum_{i<l<n} T_jiln(x_i, x_l, x_n)
 
 Over a product of convex regions the linear part's minimum is the sum of per-region minima
-(exact: at a vertex of each polygon, or ``-r |g_ji|`` on a disc); the higher terms are bounded
-by their largest absolute value (exact over polygon vertex pairs for ``B``; by the Frobenius
-norm times the regions' radii for ``T``). This gives certified lower and upper bounds of
-every ``c_j`` over the regions, hence a certificate of form closure for every choice of one
-point per region and a certified lower bound of d* over all those choices.
-
-The bound is exact to first order in the regions' size, so it is tight for small regions
-(see ``tests/test_robust_certificate.py`` for comparisons with an independent search).
+(exact: at a vertex of each polygon); the higher terms are bounded by the spectral and
+Frobenius norms of their coefficients times the regions' radii. This bound is exact to first
+order in the regions' size; :func:`certify` tightens it by branch and bound until it proves
+every ``c_j`` positive over the regions (form closure for every choice of one point per
+region, with a certified lower bound of d*) or finds a choice where one is not (see
+``tests/test_robust.py`` for comparisons with an independent search).
 """
 
 from __future__ import annotations
@@ -35,7 +33,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Expansion", "expand", "polygon_bounds", "disc_bounds", "certified"]
+__all__ = ["Certificate", "Expansion", "certify", "expand"]
 
 #: A bound ``c_j`` must exceed this fraction of ``max |c0|`` to count as non-zero (the
 #: cofactors are computed to about 1e-15 relative; 1e-9 leaves room for the bound's sums).
@@ -151,84 +149,6 @@ def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
             T[(j, tidx[key[0]]) + tuple(key[1])] = value
     s = -1.0 if c0.sum() < 0 else 1.0
     return Expansion(s * c0, s * g, pairs, s * B, triples, s * T)
-
-
-def _higher(e: Expansion, radius: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Bound of the third-order terms' absolute value for regions of these radii, (k,)."""
-    if not len(e.triples):
-        return np.zeros(len(e.c0))
-    t = e.triples
-    r3 = radius[t[:, 0]] * radius[t[:, 1]] * radius[t[:, 2]]
-    return np.sqrt((e.T ** 2).sum(axis=(2, 3, 4))) @ r3
-
-
-def polygon_bounds(e: Expansion, vertices: NDArray[np.float64]
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lower and upper bounds of every cofactor over convex regions given by vertices.
-
-    Parameters
-    ----------
-    e : Expansion
-    vertices : (k, v, 2) float
-        Vertices of each contact's region in its frame, the planned point at the origin
-        (pad a region with repeats of one of its vertices; a fixed contact is all zeros).
-
-    Returns
-    -------
-    lower, upper : (k,) float
-        ``lower[j] <= c_j(x) <= upper[j]`` for every ``x`` in the regions.
-    """
-    lin = np.einsum("jia,iva->jiv", e.g, vertices)
-    lo = e.c0 + lin.min(axis=2).sum(axis=1)
-    hi = e.c0 + lin.max(axis=2).sum(axis=1)
-    radius = np.linalg.norm(vertices, axis=2).max(axis=1)
-    extra = _higher(e, radius)
-    if len(e.pairs):
-        Vi, Vl = vertices[e.pairs[:, 0]], vertices[e.pairs[:, 1]]
-        q = np.einsum("jpab,pva,pwb->jpvw", e.B, Vi, Vl)
-        extra = extra + np.abs(q).max(axis=(2, 3)).sum(axis=1)
-    return lo - extra, hi + extra
-
-
-def disc_bounds(e: Expansion, radius: NDArray[np.float64]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lower and upper bounds of every cofactor when contact ``i`` moves anywhere within
-    ``radius[i]`` in its frame (a disc; a segment for a contact with one free axis).
-
-    Parameters
-    ----------
-    e : Expansion
-    radius : (k,) float
-
-    Returns
-    -------
-    lower, upper : (k,) float
-    """
-    lin = (np.linalg.norm(e.g, axis=2) * radius).sum(axis=1)
-    extra = _higher(e, radius)
-    if len(e.pairs):
-        spec = np.linalg.norm(e.B, ord=2, axis=(2, 3))
-        extra = extra + spec @ (radius[e.pairs[:, 0]] * radius[e.pairs[:, 1]])
-    return e.c0 - lin - extra, e.c0 + lin + extra
-
-
-def certified(e: Expansion, lower: NDArray[np.float64], upper: NDArray[np.float64]
-              ) -> tuple[bool, float]:
-    """Whether bounds certify form closure over the regions, and the certified lower bound
-    of d* (0 when not certified).
-
-    Returns
-    -------
-    ok : bool
-        Every cofactor keeps its planned sign everywhere in the regions.
-    d_star_min : float
-        ``min(lower) / max(upper)``: no choice of points in the regions has a smaller d*.
-    """
-    scale = float(np.abs(e.c0).max())
-    lo = float(lower.min())
-    if not scale > 0 or lo <= CERT_RTOL * scale or e.c0.min() <= 0:
-        return False, 0.0
-    return True, min(lo / float(upper.max()), float(e.c0.min() / e.c0.max()))
 
 
 @dataclass(frozen=True)

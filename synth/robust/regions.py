@@ -26,9 +26,11 @@ from numpy.typing import ArrayLike, NDArray
 from synth.errors import InputError
 from synth.part.model import Part
 from synth.part.pieces import convex_piece
-from synth.robust.certificate import certify, expand
+from synth.robust.certificate import CERT_RTOL, certify, expand
 from synth.scores.batch import form_closure_batch
+from synth.scores.friction import tangent_basis
 from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.scores.quality import scaled_wrenches
 
 __all__ = ["ContactRegions", "contact_regions", "certify_regions"]
 
@@ -186,10 +188,9 @@ def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], center: NDArray[np
               length: float, axes: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
     """Wrench matrix (6, k) with moments about ``center`` over ``length``, and each contact's
     wrench change per unit move along its axes (k, 2, 6)."""
-    W = np.concatenate([N.T, np.cross(P - center, N).T / length])
     D = np.zeros((len(P), 2, 6))
     D[:, :, 3:] = np.cross(axes, N[:, None, :]) / length
-    return W, D
+    return scaled_wrenches(P, N, center, length), D
 
 
 def _grow(test, lo: float, hi: float, top: float) -> float:
@@ -255,6 +256,11 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     return _sampled(part, P, N, cs, center, L, mu, edges, d_star, seed)
 
 
+def _points(P: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """Regions that are the contacts themselves."""
+    return tuple(p[None].copy() for p in P)
+
+
 def _to3(P: NDArray[np.float64], cs: list[_Contact], shapes: list[NDArray[np.float64]]
          ) -> tuple[NDArray[np.float64], ...]:
     return tuple(P[i] + s @ c.axes for i, (c, s) in enumerate(zip(cs, shapes)))
@@ -268,12 +274,11 @@ def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact
     e = expand(W, D)
     kinds = tuple(c.kind for c in cs)
     d0 = float(e.c0.min() / e.c0.max()) if e.c0.max() > 0 else 0.0
-    points_only = tuple(P[i][None].copy() for i in range(len(P)))
-    if not certify(e, [np.zeros((1, 2))] * len(P)).closure:
-        return ContactRegions(points_only, kinds, 0.0, "none", max(d0, 0.0), 0.0, True)
+    if not e.c0.min() > CERT_RTOL * np.abs(e.c0).max():
+        return ContactRegions(_points(P), kinds, 0.0, "none", max(d0, 0.0), 0.0, True)
     free = [c for c in cs if c.kind != "fixed"]
     if not free:
-        return ContactRegions(points_only, kinds, 0.0, "feature", d0, d0, True)
+        return ContactRegions(_points(P), kinds, 0.0, "feature", d0, d0, True)
     reach = min(c.reach for c in cs)  # a contact at a vertex has nowhere to slide
     # first-order guesses: the disc radius at which the linear part alone reaches zero
     gn = np.linalg.norm(e.g, axis=2).sum(axis=1)
@@ -287,15 +292,21 @@ def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact
     limited = "feature" if tolerance >= reach else "closure"
     top = max(float(np.linalg.norm(c.feature, axis=1).max()) for c in free)
 
+    proven: dict[float, float] = {}  # size -> certified d* lower bound
+
     def regions_hold(r: float) -> bool:
-        return bool(certify(e, [_shape(c, r, REGION_VERTICES, False) for c in cs],
-                            max_boxes=MAX_BOXES).closure)
+        cert = certify(e, [_shape(c, r, REGION_VERTICES, False) for c in cs],
+                       max_boxes=MAX_BOXES)
+        if cert.closure:
+            proven[r] = cert.d_star_min
+        return bool(cert.closure)
 
     size = _grow(regions_hold, tolerance, max(guess, tolerance * 1.5), top)
+    if size not in proven:  # the tolerance discs' size, proven as discs
+        regions_hold(size)
     shapes = [_shape(c, size, REGION_VERTICES, False) for c in cs]
-    cert = certify(e, shapes)
     return ContactRegions(_to3(P, cs, shapes), kinds, float(tolerance), limited, d0,
-                          cert.d_star_min, True)
+                          proven.get(size, 0.0), True)
 
 
 def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayLike],
@@ -343,6 +354,15 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
     return cert.closure, cert.d_star_min
 
 
+def _on_surface(part: Part, points: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Closest surface points and their inward normals (the first contact where a point
+    lands in a groove)."""
+    c = part.resolve(points, snap=True)
+    first = np.unique(c.finger, return_index=True)[1]
+    return c.points[first], c.normals[first]
+
+
 def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
              center: NDArray[np.float64], L: float, mu: float, edges: int,
              d_star: float | None, seed: int) -> ContactRegions:
@@ -350,30 +370,22 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
     rng = np.random.default_rng(seed)
     k = len(P)
     kinds = tuple(c.kind for c in cs)
-    tangent = np.zeros((k, 2, 3))
-    for i, c in enumerate(cs):
-        if c.kind in ("plane", "edge"):
-            tangent[i] = c.axes
-        elif c.kind == "curved":
-            a = np.eye(3)[np.argmin(np.abs(N[i]))]
-            u = np.cross(N[i], a)
-            u /= np.linalg.norm(u)
-            tangent[i] = [u, np.cross(N[i], u)]
+    tangent = np.stack([c.axes for c in cs])
+    curved = np.array([c.kind == "curved" for c in cs])
+    tangent[curved] = np.stack(tangent_basis(N[curved]), axis=1)
 
     def score(PP: NDArray[np.float64], NN: NDArray[np.float64]) -> NDArray[np.float64]:
         if mu > 0:
             res = frictional_form_closure_batch(PP, NN, mu, center, edges)
         else:
-            W = np.concatenate([np.swapaxes(NN, 1, 2),
-                                np.swapaxes(np.cross(PP - center, NN), 1, 2) / L], axis=1)
-            res = form_closure_batch(W)
+            res = form_closure_batch(scaled_wrenches(PP, NN, center, L))
         return np.where(res.closure, res.d_star, -1.0)
 
     d0 = float(score(P[None], N[None])[0]) if d_star is None else float(d_star)
     if d0 <= 0:
-        return ContactRegions(tuple(P[i][None].copy() for i in range(k)), kinds, 0.0, "none",
-                              max(d0, 0.0), 0.0, False)
-    free = [i for i, c in enumerate(cs) if c.kind != "fixed"]
+        return ContactRegions(_points(P), kinds, 0.0, "none", max(d0, 0.0), 0.0, False)
+    if all(c.kind == "fixed" for c in cs):
+        return ContactRegions(_points(P), kinds, 0.0, "feature", d0, d0, False)
     reach = min(c.reach if c.kind != "curved" else L for c in cs)
     worst = {0.0: d0}
 
@@ -384,12 +396,10 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
         xy = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=2)
         PP = P + np.einsum("ska,kad->skd", xy, tangent)
         NN = np.repeat(N[None], SAMPLES, axis=0)
-        curved = [i for i in free if cs[i].kind == "curved"]
-        if curved:
-            c = part.resolve(PP[:, curved].reshape(-1, 3), snap=True)
-            first = np.unique(c.finger, return_index=True)[1]
-            PP[:, curved] = c.points[first].reshape(SAMPLES, len(curved), 3)
-            NN[:, curved] = c.normals[first].reshape(SAMPLES, len(curved), 3)
+        if curved.any():
+            q, n = _on_surface(part, PP[:, curved].reshape(-1, 3))
+            PP[:, curved] = q.reshape(SAMPLES, -1, 3)
+            NN[:, curved] = n.reshape(SAMPLES, -1, 3)
         return PP, NN
 
     def holds(r: float) -> bool:
@@ -397,18 +407,12 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
         worst[r] = float(d.min())
         return bool(d.min() > 0)
 
-    if not free:
-        return ContactRegions(tuple(P[i][None].copy() for i in range(k)), kinds, 0.0,
-                              "feature", d0, d0, False)
     tolerance = _grow(holds, 0.0, 0.01 * L, reach)
     shapes = [_shape(c, tolerance, REGION_VERTICES, False) if c.kind != "curved" else
               _ngon(tolerance, REGION_VERTICES, False) for c in cs]
     polys = list(_to3(P, cs, shapes))
-    for i, c in enumerate(cs):
-        if c.kind == "curved":
-            ring = P[i] + shapes[i] @ tangent[i]
-            polys[i] = part.resolve(ring, snap=True).points[
-                np.unique(part.resolve(ring, snap=True).finger, return_index=True)[1]]
+    for i in np.flatnonzero(curved):
+        polys[i] = _on_surface(part, P[i] + shapes[i] @ tangent[i])[0]
     d_min = worst.get(tolerance, d0)
     return ContactRegions(tuple(polys), kinds, float(tolerance),
                           "feature" if tolerance >= reach else "closure", d0,

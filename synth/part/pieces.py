@@ -62,8 +62,16 @@ def convex_piece(part, face: int, margin: float) -> PlanarPiece | None:
     Neighbouring faces of the same region are added while the union stays convex (its convex
     hull has the union's area); the polygon is then shrunk by ``margin``. Only faces sampled
     as wholly exposed (``part.face_exposure == 2``) are used; positions found on a piece are
-    still checked point by point.
+    still checked point by point. Pieces are kept on the part, one per face and margin.
     """
+    cache = part.__dict__.setdefault("_synth_pieces", {})
+    key = (int(face), float(margin))
+    if key not in cache:
+        cache[key] = _grow_piece(part, int(face), float(margin))
+    return cache[key]
+
+
+def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
     region = int(part.face_region[face])
     reg = part.regions[region]
     if not reg.planar or part.face_exposure[face] != 2:

@@ -338,7 +338,6 @@ def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
                ) -> GraspBatch:
     """Grasps from the planar-piece LP on the faces of the best seeds on planar facets."""
     k = archive.points.shape[1]
-    pieces: dict[int, object] = {}
     found = []
     tuples_seen: set[tuple[int, ...]] = set()
     for i in range(min(_LP_SEEDS, len(archive))):
@@ -347,11 +346,7 @@ def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
         faces = archive.faces[i]
         if not all(part.regions[int(part.face_region[f])].planar for f in faces):
             continue
-        pcs = []
-        for f in faces.tolist():
-            if f not in pieces:
-                pieces[f] = convex_piece(part, f, fingers.tip_radius)
-            pcs.append(pieces[f])
+        pcs = [convex_piece(part, f, fingers.tip_radius) for f in faces.tolist()]
         if any(p is None for p in pcs):
             continue
         key = tuple(sorted(id(p) for p in pcs))

@@ -27,7 +27,7 @@ region, with a certified lower bound of d*) or finds a choice where one is not (
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from itertools import combinations
 
 import numpy as np
@@ -66,6 +66,11 @@ class Expansion:
     B: NDArray[np.float64]
     triples: NDArray[np.int64]
     T: NDArray[np.float64]
+
+    @cached_property
+    def dense(self) -> tuple[NDArray[np.float64], ...]:
+        """The expansion as dense tensors (see :func:`_full`), computed once."""
+        return _full(self)
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The cofactors at displacements ``x`` ``(..., k, 2)``, shape ``(..., k)``."""
@@ -179,21 +184,25 @@ class Certificate:
     boxes: int
 
 
-def _full(e: Expansion) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Symmetric full tensors ``B[j, i, l]`` (k, k, k, 2, 2) and ``T[j, i, l, n]``."""
+def _full(e: Expansion) -> tuple[NDArray[np.float64], ...]:
+    """The expansion as dense symmetric tensors over the flattened displacement
+    ``x = (x_0, ..., x_{k-1})`` (length ``2 k``), one per cofactor: ``c_j(x) = c0_j + g_j . x
+    + x' B_j x / 2 + T_j(x, x, x) / 6``. Returns ``g`` (k, 2k), ``B`` (k, 2k, 2k), ``T``
+    (k, 2k, 2k, 2k) and the Frobenius norms of ``T``'s contact blocks (k, k, k, k)."""
     k = len(e.c0)
     B = np.zeros((k, k, k, 2, 2))
     for p, (i, l) in enumerate(e.pairs.tolist()):
         B[:, i, l] = e.B[:, p]
         B[:, l, i] = np.swapaxes(e.B[:, p], 1, 2)
     T = np.zeros((k, k, k, k, 2, 2, 2))
-    for q, (i, l, n) in enumerate(e.triples.tolist()):
-        t = e.T[:, q]  # axes (a_i, a_l, a_n)
+    for q, idx in enumerate(e.triples.tolist()):
         for perm in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):
-            idx = (i, l, n)
-            T[(slice(None),) + tuple(idx[p] for p in perm)] = np.transpose(t, (0,) + tuple(
-                1 + p for p in perm))
-    return B, T
+            T[(slice(None),) + tuple(idx[p] for p in perm)] = np.transpose(
+                e.T[:, q], (0,) + tuple(1 + p for p in perm))
+    tn = np.sqrt((T ** 2).sum(axis=(4, 5, 6)))
+    Bf = B.transpose(0, 1, 3, 2, 4).reshape(k, 2 * k, 2 * k)
+    Tf = T.transpose(0, 1, 4, 2, 5, 3, 6).reshape(k, 2 * k, 2 * k, 2 * k)
+    return e.g.reshape(k, 2 * k), Bf, Tf, tn
 
 
 def _pad(polys: list[NDArray[np.float64]]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -206,40 +215,50 @@ def _pad(polys: list[NDArray[np.float64]]) -> tuple[NDArray[np.float64], NDArray
     return out, np.array([len(p) for p in polys], dtype=np.int64)
 
 
-def _box_bounds(j: int, e: Expansion, B: NDArray[np.float64], T: NDArray[np.float64],
-                V: NDArray[np.float64], member: NDArray[np.bool_]) -> tuple[NDArray[np.float64], ...]:
-    """Bounds of cofactor ``j`` over boxes: box ``z`` lets contact ``i`` take the vertices
+def _at(c0: NDArray, g: NDArray, B: NDArray, T: NDArray, x: NDArray) -> tuple[NDArray, ...]:
+    """Value (z,), gradient (z, 2k) and Hessian (z, 2k, 2k) of cofactors given per box
+    (``c0`` (z,), ``g`` (z, 2k), ``B`` (z, 2k, 2k), ``T`` (z, 2k, 2k, 2k)) at ``x`` (z, 2k)."""
+    n = x.shape[1]
+    Tx = (T.reshape(len(x), n * n, n) @ x[:, :, None]).reshape(len(x), n, n)
+    Bx = (B @ x[:, :, None])[:, :, 0]
+    Txx = (Tx @ x[:, :, None])[:, :, 0]
+    grad = g + Bx + 0.5 * Txx
+    val = c0 + (x * (g + 0.5 * Bx + Txx / 6.0)).sum(axis=1)
+    return val, grad, B + Tx
+
+
+def _spectral2(M: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Largest singular value of 2 x 2 matrices (..., 2, 2), in closed form."""
+    f2 = (M ** 2).sum(axis=(-2, -1))
+    det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
+    return np.sqrt(np.maximum(0.5 * (f2 + np.sqrt(np.maximum(f2 * f2 - 4 * det * det, 0))), 0))
+
+
+def _box_bounds(poly: tuple[NDArray, ...], tn: NDArray, V: NDArray[np.float64],
+                member: NDArray[np.bool_]) -> tuple[NDArray[np.float64], ...]:
+    """Bounds of each box's cofactor (``poly``: its ``c0, g, B, T`` per box, as :func:`_at`
+    takes them; ``tn`` its :func:`_full` block norms) over box ``z``, which lets contact
+    ``i`` take the vertices
     ``V[i, member[z, i]]`` (and, the cofactor being affine in each contact, so their convex
     hull). Each box is expanded about the mean of its vertices. Returns lower and upper
     bounds, the linear term's worst vertex of each contact (vertex indices; a real choice),
     and each contact's share of the higher-order error."""
-    k = len(e.c0)
+    nb, k = member.shape[:2]
     w = member / member.sum(axis=2, keepdims=True)
     xc = np.einsum("zim,ima->zia", w, V)  # (nb, k, 2)
-    Bj, Tj, gj = B[j], T[j], e.g[j]
-    Tx = np.einsum("ilnabc,znc->zilab", Tj, xc)  # (nb, k, k, 2, 2)
-    Bc = Bj[None] + Tx
-    gc = gj[None] + np.einsum("ilab,zlb->zia", Bj, xc) + 0.5 * np.einsum(
-        "zilab,zlb->zia", Tx, xc)
-    val = (e.c0[j] + np.einsum("ia,zia->z", gj, xc) + 0.5 * np.einsum(
-        "zia,ilab,zlb->z", xc, Bj, xc) + np.einsum("zilab,zia,zlb->z", Tx, xc, xc) / 6.0)
+    val, gc, H = _at(*poly, xc.reshape(nb, 2 * k))
     Y = V[None] - xc[:, :, None]  # (nb, k, M, 2)
-    lin = np.einsum("zia,ziva->ziv", gc, Y)
+    lin = (Y * gc.reshape(nb, k, 1, 2)).sum(axis=3)
     lmin = np.where(member, lin, np.inf)
     worst = lmin.argmin(axis=2)
     lo = val + lmin.min(axis=2).sum(axis=1)
     hi = val + np.where(member, lin, -np.inf).max(axis=2).sum(axis=1)
-    R = np.where(member, np.linalg.norm(Y, axis=3), 0.0).max(axis=2)  # (nb, k)
-    iu, lu = np.triu_indices(k, 1)
-    spec = np.linalg.norm(Bc[:, iu, lu], ord=2, axis=(2, 3))  # (nb, P)
-    q = spec * R[:, iu] * R[:, lu]
-    tn = np.sqrt((Tj ** 2).sum(axis=(3, 4, 5)))  # (k, k, k), symmetric
-    cub = np.einsum("iln,zi,zl,zn->z", tn, R, R, R) / 6.0
-    err = q.sum(axis=1) + cub
-    share = np.zeros((len(member), k))
-    np.add.at(share.T, iu, q.T)
-    np.add.at(share.T, lu, q.T)
-    share += np.einsum("iln,zi,zl,zn->zi", tn, R, R, R) / 2.0
+    R = np.where(member, np.sqrt((Y ** 2).sum(axis=3)), 0.0).max(axis=2)  # (nb, k)
+    q = _spectral2(H.reshape(nb, k, 2, k, 2).transpose(0, 1, 3, 2, 4)) * R[:, :, None] \
+        * R[:, None, :]  # (nb, k, k), symmetric, zero diagonal
+    t3 = ((tn * R[:, None, None, :]).sum(axis=3) * R[:, None, :]).sum(axis=2)  # (nb, k)
+    err = 0.5 * q.sum(axis=(1, 2)) + (t3 * R).sum(axis=1) / 6.0
+    share = q.sum(axis=2) + 0.5 * t3 * R
     return lo - err, hi + err, worst, share
 
 
@@ -277,43 +296,46 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
     lower, upper = np.full(k, np.inf), np.full(k, -np.inf)
     if not scale > 0 or e.c0.min() <= tol:
         return Certificate(False, e.c0.copy(), e.c0.copy(), 0.0, np.zeros((k, 2)), 0)
-    B, T = _full(e)
+    g, B, T, tn = e.dense
     V, count = _pad(polygons)
     M = V.shape[1]
     idx = np.arange(M)
     boxes = 0
-    for j in range(k):
-        start = np.zeros((1, k), np.int64)
-        size = count[None].copy()
-        seen = 0
-        while len(start):
-            member = ((idx[None, None] - start[:, :, None]) % count[None, :, None]
-                      < size[:, :, None]) & (idx[None, None] < count[None, :, None])
-            lo, hi, worst, share = _box_bounds(j, e, B, T, V, member)
-            boxes += len(start)
-            seen += len(start)
-            upper[j] = max(upper[j], float(hi.max()))
-            pick = V[np.arange(k), worst]  # (nb, k, 2)
-            actual = e(pick)[:, j]
-            if actual.min() <= tol:
-                z = int(actual.argmin())
-                return Certificate(False, np.minimum(lower, lo.min()), upper, 0.0, pick[z], boxes)
-            bad = np.flatnonzero(lo <= tol)
-            if seen > max_boxes and bad.size:
-                return Certificate(None, np.minimum(lower, lo.min()), upper, 0.0, None, boxes)
-            lower[j] = min(lower[j], float(lo[lo > tol].min(initial=np.inf)))
-            # cut the run with the largest error share (runs of one vertex are exact)
-            sh = np.where(size[bad] > 1, share[bad], -1.0)
-            i = sh.argmax(axis=1)
-            s0, n0 = start[bad], size[bad]
-            r = np.arange(len(bad))
-            half = n0[r, i] // 2
-            a_start, a_size = s0.copy(), n0.copy()
-            a_size[r, i] = half + 1  # runs share their cut vertex: the hulls cover the polygon
-            b_start, b_size = s0.copy(), n0.copy()
-            b_start[r, i] = (s0[r, i] + half) % count[i]
-            b_size[r, i] = n0[r, i] - half + (n0[r, i] == count[i])
-            start = np.concatenate([a_start, b_start])
-            size = np.concatenate([a_size, b_size])
+    # every cofactor's boxes advance together: box z bounds cofactor jz[z]
+    jz = np.arange(k)
+    start = np.zeros((k, k), np.int64)
+    size = np.repeat(count[None], k, axis=0)
+    while len(jz):
+        member = ((idx[None, None] - start[:, :, None]) % count[None, :, None]
+                  < size[:, :, None]) & (idx[None, None] < count[None, :, None])
+        poly = (e.c0[jz], g[jz], B[jz], T[jz])
+        lo, hi, worst, share = _box_bounds(poly, tn[jz], V, member)
+        boxes += len(jz)
+        np.maximum.at(upper, jz, hi)
+        pick = V[np.arange(k), worst]  # (nb, k, 2)
+        actual = _at(*poly, pick.reshape(len(jz), 2 * k))[0]
+        if actual.min() <= tol:
+            z = int(actual.argmin())
+            return Certificate(False, np.minimum(lower, lo.min()), upper, 0.0, pick[z], boxes)
+        bad = np.flatnonzero(lo <= tol)
+        if boxes > max_boxes * k and bad.size:
+            np.minimum.at(lower, jz, lo)
+            return Certificate(None, lower, upper, 0.0, None, boxes)
+        good = lo > tol
+        np.minimum.at(lower, jz[good], lo[good])
+        # cut the run with the largest error share (runs of one vertex are exact)
+        sh = np.where(size[bad] > 1, share[bad], -1.0)
+        i = sh.argmax(axis=1)
+        s0, n0 = start[bad], size[bad]
+        r = np.arange(len(bad))
+        half = n0[r, i] // 2
+        a_start, a_size = s0.copy(), n0.copy()
+        a_size[r, i] = half + 1  # runs share their cut vertex: the hulls cover the polygon
+        b_start, b_size = s0.copy(), n0.copy()
+        b_start[r, i] = (s0[r, i] + half) % count[i]
+        b_size[r, i] = n0[r, i] - half + (n0[r, i] == count[i])
+        jz = np.concatenate([jz[bad], jz[bad]])
+        start = np.concatenate([a_start, b_start])
+        size = np.concatenate([a_size, b_size])
     d_min = min(float(lower.min() / upper.max()), float(e.c0.min() / e.c0.max()))
     return Certificate(True, lower, upper, d_min, None, boxes)

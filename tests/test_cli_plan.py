@@ -122,3 +122,29 @@ def test_plan_json_reports_bodies_and_repairs(tmp_path):
     assert mesh["repairs"] == [] and mesh["dropped"] == [] and len(mesh["bodies"]) == 1
     assert mesh["bodies"][0]["closed"] and mesh["precision"] > 0
     assert len(mesh["center_mass"]) == 3 and mesh["volume"] > 0
+
+
+def test_plan_and_rank_report_tolerance(tmp_path):
+    out = tmp_path / "g.json"
+    proc = synth("plan", MESHES / "cube.stl", "--units", "dm", "--evals", "3000", "--top", "3",
+                 "--regions", "--quiet", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    assert "tolerance" in proc.stdout.splitlines()[0]
+    doc = json.loads(out.read_text())
+    tol = [g["tolerance"] for g in doc["grasps"]]
+    assert all(t is not None and t >= 0 for t in tol)
+    cands = [{"name": f"g{i}", "points": g["points"]} for i, g in enumerate(doc["grasps"])]
+    f = tmp_path / "c.json"
+    f.write_text(json.dumps(cands))
+    ranked_file = tmp_path / "ranked.json"
+    proc = synth("rank", MESHES / "cube.stl", f, "--units", "dm", "--rank-by", "tolerance",
+                 "--out", ranked_file, "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    assert "tolerance" in proc.stdout.splitlines()[0]
+    ranked = json.loads(ranked_file.read_text())["candidates"]
+    got = [c["tolerance"] for c in ranked]
+    assert got == sorted(got, reverse=True)
+    assert sorted(got) == pytest.approx(sorted(tol))  # the same grasps, the same tolerances
+    plain = synth("plan", MESHES / "cube.stl", "--evals", "3000", "--top", "1", "--quiet",
+                  "--no-files")
+    assert "tolerance" not in plain.stdout

@@ -32,6 +32,13 @@ class RankedCandidate:
     normals: np.ndarray | None = field(default=None, repr=False)
     features: tuple[str, ...] = ()
     fingers: dict[str, Any] | None = field(default=None, repr=False)
+    contact_regions: Any = field(default=None, repr=False)
+
+    @property
+    def tolerance(self) -> float:
+        """Placement tolerance (NaN when regions were not computed)."""
+        r = self.contact_regions
+        return float("nan") if r is None else float(r.tolerance)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary."""
@@ -46,6 +53,9 @@ class RankedCandidate:
             "normals": None if self.normals is None else self.normals.tolist(),
             "features": list(self.features),
             "fingers": self.fingers,
+            "tolerance": None if self.contact_regions is None else self.tolerance,
+            "contact_regions": None if self.contact_regions is None
+            else self.contact_regions.to_dict(),
         }
 
 
@@ -72,6 +82,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    help="largest distance from a point to the surface that is snapped, in mesh "
                    f"units, in [0, {MAX_LENGTH:g}] (default: 1%% of the part's bounding-box "
                    "diagonal)")
+    p.add_argument("--regions", action="store_true",
+                   help="compute each closure candidate's contact regions and placement "
+                   "tolerance (as synth plan --regions)")
+    p.add_argument("--rank-by", choices=("d_star", "tolerance"), default="d_star",
+                   help="order of the candidates (default d_star; tolerance computes the "
+                   "regions)")
     add_part_options(p)
     add_finger_options(p)
     p.add_argument("--out", default=None, metavar="JSON",
@@ -81,15 +97,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.set_defaults(run=run)
 
 
-def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> list[RankedCandidate]:
+def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
+                    regions: bool = False, rank_by: str = "d_star") -> list[RankedCandidate]:
     """Snap, resolve, check and score candidates on a part; best first (errors last).
 
-    A point is snapped to the closest point of the part's surface when it lies within
+    With ``regions`` (implied by ``rank_by="tolerance"``) every closure candidate gets its
+    contact regions and placement tolerance (:func:`synth.contact_regions`). A point is snapped to the closest point of the part's surface when it lies within
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (it
     lies against or inside another body of the part) makes its candidate unusable.
     """
     from synth.fingers import check_fingers
     from synth.part.resolve import closest_points
+    from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.quality import conditioning, scaled_wrenches
 
@@ -136,15 +155,19 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float) -> lis
         ids = np.unique(con.finger, return_inverse=True)[1]
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
         fing = chk.placement(0).to_dict() if chk.mask[0] else None
+        holds = closure in ("form", "frictional form")
+        robust = contact_regions(part, P, N, mu=m, d_star=d) if holds and (
+            regions or rank_by == "tolerance") else None
         rows.append(RankedCandidate(
             c.name, "ok" if chk.mask[0] else "fingers", None if chk.mask[0] else chk.reasons[0],
-            d, closure, cond, P, N, tuple(con.features), fing))
+            d, closure, cond, P, N, tuple(con.features), fing, robust))
     from synth.plan.search import rank_grasps
 
     # usable first, then those the fingers cannot make, then errors; each best first (d*
     # equal within the LPs' accuracy ordered by conditioning, as synth plan does)
     return [r for status in ("ok", "fingers", "error")
-            for r in rank_grasps([r for r in rows if r.status == status])]  # type: ignore[arg-type]
+            for r in rank_grasps([r for r in rows if r.status == status],  # type: ignore[arg-type]
+                                 rank_by)]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -168,7 +191,8 @@ def run(args: argparse.Namespace) -> int:
         over["approach_cone"] = float(np.radians(args.approach_cone))
     fingers = default_fingers(part, **over)
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
-    rows = rank_candidates(part, cands, args.mu, fingers, max_d)
+    rows = rank_candidates(part, cands, args.mu, fingers, max_d, regions=args.regions,
+                           rank_by=args.rank_by)
     unusable = [r for r in rows if r.status == "error"]
     if len(unusable) == len(rows):
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
@@ -185,11 +209,15 @@ def run(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         w = max([4] + [len(r.name) for r in rows])
-        print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  status")
+        show = args.regions or args.rank_by == "tolerance"
+        print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  "
+              + (f"{'tolerance':>10}  " if show else "") + "status")
         for i, r in enumerate(rows, 1):
             status = r.status if r.reason is None else f"{r.status}: {r.reason}"
+            reg = r.contact_regions
+            tol = "-" if reg is None else f"{reg.tolerance:.3g}" + ("" if reg.certified else "~")
             print(f"{i:>3}  {r.name:<{w}}  {r.d_star:>8.5f}  {r.closure:<15}  "
-                  f"{r.conditioning:>7.4f}  {status}")
+                  f"{r.conditioning:>7.4f}  " + (f"{tol:>10}  " if show else "") + status)
     if not args.quiet:
         n_ok = sum(r.status == "ok" for r in rows)
         print(f"{len(rows)} candidates: {n_ok} collision free, "

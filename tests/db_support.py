@@ -131,6 +131,12 @@ _V1_MESH_COLUMNS = (
 )
 
 
+_V1_GRASP_COLUMNS = (
+    "mesh_id, rank, d_star, closure, conditioning, epsilon, n_contacts, points, normals, "
+    "features, regions, n_fingers, tip_centers, tip_radius, approach, body_length, body_radius"
+)
+
+
 def write_v1_copy(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> None:
     """Write at ``dst`` the content of the database ``src`` as a schema-1 file (as old synth did).
 
@@ -149,7 +155,8 @@ def write_v1_copy(src: str | os.PathLike[str], dst: str | os.PathLike[str]) -> N
         conn.execute(
             f"INSERT INTO meshes({_V1_MESH_COLUMNS}) SELECT {_V1_MESH_COLUMNS} FROM src.meshes"
         )
-        conn.execute("INSERT INTO grasps SELECT * FROM src.grasps")
+        conn.execute(f"INSERT INTO grasps({_V1_GRASP_COLUMNS}) SELECT {_V1_GRASP_COLUMNS} "
+                     "FROM src.grasps")
         conn.execute("COMMIT")
         conn.execute("DETACH DATABASE src")
     finally:

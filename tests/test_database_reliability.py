@@ -26,6 +26,7 @@ from tests.db_support import (
 
 from synth.cli import main
 from synth.database import GraspDatabase, build_database, collect_mesh_files, export_database
+from synth.database.schema import SCHEMA_VERSION
 from synth.errors import DatabaseError, InputError
 
 ARGS = [f"--{k}={v}" for k, v in PARAMS.items()]
@@ -262,7 +263,7 @@ def test_second_writer_is_refused_as_busy(tmp_path: Path) -> None:
     message = next(r for r in results if r != "opened")
     assert message.startswith(f"{path}: database busy") and "\n" not in message
     with GraspDatabase(path, mode="w") as db:  # free again once the first writer is closed
-        assert db.schema_version == 2
+        assert db.schema_version == SCHEMA_VERSION
 
 
 def test_two_builds_of_one_new_database(tmp_path: Path, mesh_dir: Path, reference: Path) -> None:

@@ -60,6 +60,8 @@ DEFAULT_PARAMS: dict[str, Any] = {
     # the planner's wall-clock cap; far above a normal plan, so the evaluation budget (not the
     # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
     "time": 600.0,
+    # contact regions and placement tolerance of every grasp (synth plan --regions)
+    "regions": False,
 }
 
 
@@ -188,6 +190,9 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     for key in ("contacts", "top", "seed", "evals"):
         if isinstance(out[key], bool) or not isinstance(out[key], int):
             raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
+    if not isinstance(out["regions"], bool):
+        raise InputError(f"planner parameter 'regions' must be true or false, got "
+                         f"{out['regions']!r}")
     for key in ("time", "mu", "finger_radius"):
         if out[key] is not None:
             try:

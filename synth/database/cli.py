@@ -139,6 +139,9 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--evals", type=_int_in(*_EVALS), default=DEFAULT_PARAMS["evals"],
                    help=f"grasp evaluations per mesh, {_EVALS[0]} to {_EVALS[1]:,} (default "
                    "%(default)s, as 'synth plan'); with --seed this fixes the result")
+    b.add_argument("--regions", action="store_true",
+                   help="store each grasp's contact regions and placement tolerance (as synth "
+                   "plan --regions), for 'synth db top --rank-by tolerance'")
     b.add_argument("--workers", type=_int_in(*_WORKERS), default=None,
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
@@ -163,6 +166,9 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
     t.add_argument("-k", type=_int_in(*_K), default=5,
                    help=f"number of grasps, {_K[0]} to {_K[1]:,} (default 5)")
+    t.add_argument("--rank-by", choices=("rank", "tolerance"), default="rank",
+                   help="order: the planner's rank (default) or placement tolerance, largest "
+                   "first (needs a database built with --regions)")
     t.add_argument("--json", action="store_true", help="print the grasps as JSON")
 
     e = sub.add_parser("export", help="export a database to HDF5, NPZ or JSON", description="Export a database to HDF5, NPZ or JSON.")
@@ -178,7 +184,7 @@ def _build(args: argparse.Namespace) -> int:
 
     params = {
         "contacts": args.contacts, "mu": args.mu, "top": args.top, "seed": args.seed,
-        "finger_radius": args.finger_radius, "evals": args.evals,
+        "finger_radius": args.finger_radius, "evals": args.evals, "regions": args.regions,
     }  # fmt: skip
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
@@ -230,17 +236,20 @@ def _top(args: argparse.Namespace) -> int:
 
     with GraspDatabase(args.database) as db:
         mesh = db.mesh(args.mesh)
-        grasps = db.top(args.mesh, args.k)
+        grasps = db.top(args.mesh, args.k, args.rank_by)
     if args.json:
         print(json.dumps({"mesh": mesh.path, "grasps": [g.to_dict() for g in grasps]}, indent=1))
         return 0
     note = f" ({mesh.error})" if mesh.status != "done" and mesh.error else ""
     print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} grasps")
     if grasps:
-        print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  closure")
+        show = any(g.tolerance is not None for g in grasps)
+        print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
+              + (f"{'tolerance':>10}  " if show else "") + "closure")
         for g in grasps:
+            tol = "-" if g.tolerance is None else f"{g.tolerance:.3g}"
             print(f"{g.rank:>4}  {g.d_star:8.4f}  {g.conditioning:8.4f}  {g.epsilon:8.4f}  "
-                  f"{g.closure}")  # fmt: skip
+                  + (f"{tol:>10}  " if show else "") + g.closure)
     return 0
 
 

@@ -35,6 +35,8 @@ tip_centers, approach  (g, 3) f8     finger tip centres and approach directions
 tip_radius,            (n,) float64  finger geometry of each grasp
 body_length,
 body_radius
+tolerance              (n,) float64  placement tolerance, NaN where not computed
+contact_regions        (n,) str      JSON text of the grasp's contact regions, ``""`` if none
 =====================  ============  ==========================================================
 
 In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix) and
@@ -96,7 +98,8 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         k: []
         for k in (
             "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
-            "regions tip_centers approach tip_radius body_length body_radius"
+            "regions tip_centers approach tip_radius body_length body_radius tolerance "
+            "contact_regions"
         ).split()
     }
     contact_start, finger_start = [0], [0]
@@ -111,12 +114,17 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         lists["regions"].append(g.regions)
         lists["tip_centers"].append(g.tip_centers)
         lists["approach"].append(g.approach)
+        lists["tolerance"].append(np.nan if g.tolerance is None else g.tolerance)
+        lists["contact_regions"].append(
+            "" if g.contact_regions is None else canonical_json(g.contact_regions))
         contact_start.append(contact_start[-1] + g.n_contacts)
         finger_start.append(finger_start[-1] + g.tip_centers.shape[0])
     for name in ("grasp_mesh_id", "rank"):
         cols[name] = np.array(lists[name], dtype=np.int64)
-    for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius"):
+    for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius",
+                 "tolerance"):
         cols[name] = np.array(lists[name], dtype=np.float64)
+    cols["contact_regions"] = _str_array(lists["contact_regions"])
     cols["closure"] = _str_array(lists["closure"])
     cols["features"] = _str_array(lists["features"])
     for name in ("points", "normals", "tip_centers", "approach"):

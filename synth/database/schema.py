@@ -73,19 +73,25 @@ tip_radius     REAL       fingertip radius
 approach       BLOB       (f, 3) float64 little-endian: approach direction of each finger
 body_length    REAL       finger body length
 body_radius    REAL       finger body radius
+tolerance      REAL       placement tolerance (:func:`synth.contact_regions`) in the mesh's
+                          units; NULL when the build did not compute regions (new in version 3)
+contact_regions TEXT      canonical JSON of the grasp's ``contact_regions`` object (polygons,
+                          kinds, tolerance, limited_by, d_star_min, certified); NULL as above
 =============  =========  ======================================================================
 
-Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)`` and
-``grasps(d_star)``; the primary key of ``grasps`` serves "the best k grasps of a mesh".
+Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)``,
+``grasps(d_star)`` and ``grasps(tolerance)``; the primary key of ``grasps`` serves "the best k grasps of a mesh".
 
 A mesh's grasps are written in the same transaction as its ``done`` status, so a reader never
 sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``done``.
 
-Versions: schema version 1 lacks ``meshes.mesh_report``. A version-1 file is read as it is
-(every :attr:`MeshRecord.report` is None) and is migrated in place to version 2 -- ``ALTER TABLE
-meshes ADD COLUMN mesh_report TEXT``, ``meta.schema_version`` and ``PRAGMA user_version`` set to
-2, in one transaction -- the first time a build writes to it (:func:`migrate_schema`). A file of
-a newer version than this synth's is refused.
+Versions: schema version 1 lacks ``meshes.mesh_report``; versions 1 and 2 lack
+``grasps.tolerance`` and ``grasps.contact_regions``. An older file is read as it is (the missing
+fields read as None) and is migrated in place to version 3 -- the missing columns added with
+``ALTER TABLE`` (NULL in existing rows), the ``grasps(tolerance)`` index created,
+``meta.schema_version`` and ``PRAGMA user_version`` set to 3, in one transaction -- the first
+time a build writes to it (:func:`migrate_schema`). A file of a newer version than this synth's
+is refused.
 """
 
 from __future__ import annotations
@@ -116,9 +122,9 @@ __all__ = [
     "unpack_array",
 ]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: Schema versions this synth reads; the older ones are migrated by :func:`migrate_schema`.
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
 APPLICATION = "synth.grasps.db"
 APPLICATION_ID = 0x53594E54  # "SYNT"
 MESH_STATUSES = ("pending", "done", "failed", "duplicate")
@@ -171,9 +177,12 @@ CREATE TABLE grasps (
     approach     BLOB NOT NULL,
     body_length  REAL NOT NULL,
     body_radius  REAL NOT NULL,
+    tolerance    REAL,
+    contact_regions TEXT,
     PRIMARY KEY (mesh_id, rank)
 ) WITHOUT ROWID;
 CREATE INDEX grasps_d_star ON grasps(d_star);
+CREATE INDEX grasps_tolerance ON grasps(tolerance);
 """
 
 
@@ -295,6 +304,10 @@ class GraspRecord:
         Finger tip centres and approach directions.
     tip_radius, body_length, body_radius : float
         Finger geometry.
+    tolerance : float or None
+        Placement tolerance, None when not computed (or in a file older than version 3).
+    contact_regions : dict or None
+        The grasp's ``contact_regions`` JSON object, None as above.
     """
 
     mesh_id: int
@@ -312,6 +325,8 @@ class GraspRecord:
     approach: np.ndarray
     body_length: float
     body_radius: float
+    tolerance: float | None = None
+    contact_regions: dict[str, Any] | None = None
 
     @property
     def n_contacts(self) -> int:
@@ -343,12 +358,16 @@ class GraspRecord:
                 "body_length": self.body_length,
                 "body_radius": self.body_radius,
             },
+            "tolerance": self.tolerance,
+            "contact_regions": self.contact_regions,
         }
 
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> GraspRecord:
         """Build a record from a ``SELECT * FROM grasps`` row."""
         k, f = row["n_contacts"], row["n_fingers"]
+        keys = row.keys()
+        regions = row["contact_regions"] if "contact_regions" in keys else None
         return cls(
             mesh_id=row["mesh_id"],
             rank=row["rank"],
@@ -365,6 +384,8 @@ class GraspRecord:
             approach=unpack_array(row["approach"], (f, 3)),
             body_length=row["body_length"],
             body_radius=row["body_radius"],
+            tolerance=row["tolerance"] if "tolerance" in keys else None,
+            contact_regions=None if regions is None else json.loads(regions),
         )
 
 
@@ -469,8 +490,10 @@ def schema_version(meta: dict[str, str]) -> int:
 def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
     """Upgrade a readable database of an older schema version to this one, in one transaction.
 
-    Version 1 to 2: ``ALTER TABLE meshes ADD COLUMN mesh_report TEXT`` (NULL in every existing
-    row), then ``meta.schema_version`` and ``PRAGMA user_version`` set to 2. The version is read
+    Version 1 to 2: ``ALTER TABLE meshes ADD COLUMN mesh_report TEXT``; 2 to 3: ``grasps``
+    gains ``tolerance REAL`` and ``contact_regions TEXT`` and the ``grasps(tolerance)`` index
+    (NULL in every existing row); then ``meta.schema_version`` and ``PRAGMA user_version`` are
+    set to 3. The version is read
     again inside the transaction, so a file another process has just migrated is left alone.
     Either the whole migration is committed or nothing is.
 
@@ -496,6 +519,10 @@ def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
                 )
             if before < 2:
                 conn.execute("ALTER TABLE meshes ADD COLUMN mesh_report TEXT")
+            if before < 3:
+                conn.execute("ALTER TABLE grasps ADD COLUMN tolerance REAL")
+                conn.execute("ALTER TABLE grasps ADD COLUMN contact_regions TEXT")
+                conn.execute("CREATE INDEX grasps_tolerance ON grasps(tolerance)")
             if before != SCHEMA_VERSION:
                 conn.execute(
                     "UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),)

@@ -30,7 +30,10 @@ from synth.database.schema import (
 from synth.database.worker import PlanOutcome
 from synth.errors import DatabaseError, InputError
 
-__all__ = ["GraspDatabase", "DatabaseInfo"]
+__all__ = ["GraspDatabase", "DatabaseInfo", "TOP_ORDERS"]
+
+#: Orders :meth:`GraspDatabase.top` knows.
+TOP_ORDERS = ("rank", "tolerance")
 
 _BUSY_TIMEOUT_MS = 30_000
 _SQLITE_INT_MAX = 2**63 - 1
@@ -328,12 +331,22 @@ class GraspDatabase:
         for row in rows:
             yield GraspRecord.from_row(row)
 
-    def top(self, mesh: str | int, k: int = 5) -> list[GraspRecord]:
-        """The best ``k`` grasps of a mesh (by rank), following duplicates to their original."""
+    def top(self, mesh: str | int, k: int = 5, rank_by: str = "rank") -> list[GraspRecord]:
+        """The best ``k`` grasps of a mesh, following duplicates to their original.
+
+        ``rank_by``: ``"rank"`` (the planner's order) or ``"tolerance"`` (placement tolerance,
+        largest first; grasps without one last, then by rank).
+        """
         if k < 1:
             raise InputError(f"k must be at least 1, got {k}")
+        if rank_by not in TOP_ORDERS:
+            raise InputError(f"rank_by: expected one of {', '.join(TOP_ORDERS)}, got "
+                             f"{rank_by!r}")
+        order = "rank" if rank_by == "rank" else "tolerance IS NULL, tolerance DESC, rank"
+        if rank_by == "tolerance" and self.schema_version < 3:
+            order = "rank"  # an older file has no tolerances: every grasp has none
         rows = self._query(
-            "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank LIMIT ?",
+            f"SELECT * FROM grasps WHERE mesh_id = ? ORDER BY {order} LIMIT ?",
             (self._grasp_owner(mesh), min(int(k), _SQLITE_INT_MAX)),  # any larger k: all of them
         )
         return [GraspRecord.from_row(r) for r in rows]

@@ -49,7 +49,7 @@ DEFAULT_PLANNER = "synth.plan:plan_mesh_file"
 _GRASP_COLUMNS = (
     "rank", "d_star", "closure", "conditioning", "epsilon", "n_contacts", "points", "normals",
     "features", "regions", "n_fingers", "tip_centers", "tip_radius", "approach", "body_length",
-    "body_radius",
+    "body_radius", "tolerance", "contact_regions",
 )  # fmt: skip
 
 
@@ -245,6 +245,8 @@ def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
         pack_array(fingers["approach"], (f, 3)),
         float(fingers["body_length"]),
         float(fingers["body_radius"]),
+        None if g.get("tolerance") is None else float(g["tolerance"]),
+        None if g.get("contact_regions") is None else canonical_json(g["contact_regions"]),
     )
 
 

@@ -133,6 +133,19 @@ def test_plan_and_rank_report_tolerance(tmp_path):
     doc = json.loads(out.read_text())
     tol = [g["tolerance"] for g in doc["grasps"]]
     assert all(t is not None and t >= 0 for t in tol)
+    # the GLB's region patches are the JSON's polygons, lifted off the surface by 0.1% of L
+    scene = trimesh.load(tmp_path / "g.glb")
+    best = doc["grasps"][0]
+    lift = 1e-3 * doc["mesh"]["length"]
+    patches = 0
+    for i, (poly, n) in enumerate(zip(best["contact_regions"]["polygons"], best["normals"])):
+        if len(poly) < 3:
+            continue
+        patches += 1
+        want = np.array(poly) - lift * np.array(n)
+        got = scene.geometry[f"region_{i}"].vertices
+        assert np.allclose(np.sort(got, axis=0), np.sort(want, axis=0), atol=1e-6)
+    assert patches > 0
     cands = [{"name": f"g{i}", "points": g["points"]} for i, g in enumerate(doc["grasps"])]
     f = tmp_path / "c.json"
     f.write_text(json.dumps(cands))

@@ -1,7 +1,8 @@
 """Pictures of a plan: a PNG (matplotlib, headless) and a GLB scene (trimesh).
 
 Contacts are drawn as dots with their inward normals as short arrows, fingertips as spheres
-and finger bodies as capsules (lines in the PNG) along their approach directions. Both name
+and finger bodies as capsules (lines in the PNG) along their approach directions; a grasp's
+contact regions (when computed) as patches in its contacts' colours. Both name
 the plan's run (``Plan.run_id``): the PNG in its title and in a ``synth.run_id`` text chunk,
 the GLB in its scene's extras (``scene.metadata["synth"]["run_id"]`` once loaded by trimesh).
 """
@@ -70,13 +71,25 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool
                 ax.scatter(*pt, color=col, s=22, depthshade=False)
                 ax.quiver(*pt, *(nm * 0.12 * L), color=col, linewidth=1.5,
                           arrow_length_ratio=0.3)
+            if g.contact_regions is not None:
+                for i, poly in enumerate(g.contact_regions.polygons):
+                    col = _COLOURS[i % len(_COLOURS)]
+                    if len(poly) >= 3:
+                        ax.add_collection3d(Poly3DCollection([poly], facecolors=[col],
+                                                             edgecolors=[col], linewidths=2,
+                                                             alpha=0.85))
+                    elif len(poly) == 2:
+                        ax.plot(*np.asarray(poly).T, color=col, linewidth=4)
             for i, (c, a) in enumerate(zip(tips, app)):
                 col = _COLOURS[i % len(_COLOURS)]
                 end = c + a * f["body_length"]
                 ax.plot(*np.stack([c, end]).T, color=col, linewidth=3, alpha=0.8)
                 ax.scatter(*c, color=col, s=60, alpha=0.5, depthshade=False)
+            tol = "" if g.contact_regions is None else (
+                f", tolerance {g.contact_regions.tolerance:.3g}"
+                + ("" if g.contact_regions.certified else " (sampled)"))
             ax.set_title(f"#{p + 1}  d* = {g.d_star:.4f}  {g.closure} closure\n"
-                         f"conditioning {g.conditioning:.3f}, epsilon {g.epsilon:.4f}",
+                         f"conditioning {g.conditioning:.3f}, epsilon {g.epsilon:.4f}{tol}",
                          fontsize=9)
         else:
             ax.set_title(_wrap(plan.message), fontsize=8)
@@ -111,6 +124,18 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool
     return out
 
 
+def _patch(poly: np.ndarray, width: float) -> trimesh.Trimesh | None:
+    """A region as a mesh: a convex polygon as a two-sided fan of triangles, a segment as a
+    thin cylinder, a single point as nothing."""
+    if len(poly) >= 3:
+        n = len(poly)
+        fan = np.array([[0, i, i + 1] for i in range(1, n - 1)])
+        return trimesh.Trimesh(poly, np.vstack([fan, fan[:, ::-1]]), process=False)
+    if len(poly) == 2 and np.linalg.norm(poly[1] - poly[0]) > 0:
+        return trimesh.creation.cylinder(radius=width, segment=poly)
+    return None
+
+
 def _wrap(text: str, width: int = 70) -> str:
     import textwrap
 
@@ -127,10 +152,13 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
     plan : Plan
     path : str or Path
     grasp : int
-    atomic : bool
-        As for :func:`render_png`.
+    grasp : int
         Which grasp to show (0 = best); with no grasps, the part alone. The scene's extras
         hold the plan's ``run_id``, this grasp's rank, the mesh's SHA-256 and the parameters.
+        Its contact regions, when computed, are patches ``region_i`` in the contacts' colours,
+        lifted off the surface by 0.1% of the part's size.
+    atomic : bool
+        As for :func:`render_png`.
 
     Returns
     -------
@@ -161,6 +189,13 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
             cap.apply_transform(T)
             cap.visual.face_colors = col
             scene.add_geometry(cap, geom_name=f"finger_{i}")
+        if g.contact_regions is not None:
+            for i, (poly, n) in enumerate(zip(g.contact_regions.polygons, g.normals)):
+                patch = _patch(np.asarray(poly) - 1e-3 * part.length * n, 3e-3 * part.length)
+                if patch is not None:
+                    patch.visual.face_colors = (np.append(_COLOURS[i % len(_COLOURS)], 0.8)
+                                                * 255).astype(np.uint8)
+                    scene.add_geometry(patch, geom_name=f"region_{i}")
         for i, (p, n) in enumerate(zip(g.points, g.normals)):
             arrow = trimesh.creation.cylinder(radius=0.004 * part.length,
                                               segment=[p, p + 0.1 * part.length * n])

@@ -43,8 +43,9 @@ DISC_VERTICES = 32
 SIZE_PRECISION = 1.08
 #: Branch-and-bound work limit per cofactor while growing (an undecided size counts as lost).
 MAX_BOXES = 300
-#: Placements per radius when the tolerance is sampled.
+#: Placements per radius when the tolerance is sampled (scored in chunks of ``_CHUNK``).
 SAMPLES = 512
+_CHUNK = 128
 
 
 @dataclass(frozen=True)
@@ -389,23 +390,28 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
     reach = min(c.reach if c.kind != "curved" else L for c in cs)
     worst = {0.0: d0}
 
-    def placements(r: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        rad = r * np.sqrt(rng.uniform(size=(SAMPLES, k)))
-        rad[: SAMPLES // 2] = r  # half on the rim, where the extremes are
-        ang = rng.uniform(0, 2 * np.pi, size=(SAMPLES, k))
+    def placements(r: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        rad = r * np.sqrt(rng.uniform(size=(n, k)))
+        rad[: n // 2] = r  # half on the rim, where the extremes are
+        ang = rng.uniform(0, 2 * np.pi, size=(n, k))
         xy = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=2)
         PP = P + np.einsum("ska,kad->skd", xy, tangent)
-        NN = np.repeat(N[None], SAMPLES, axis=0)
+        NN = np.repeat(N[None], n, axis=0)
         if curved.any():
-            q, n = _on_surface(part, PP[:, curved].reshape(-1, 3))
-            PP[:, curved] = q.reshape(SAMPLES, -1, 3)
-            NN[:, curved] = n.reshape(SAMPLES, -1, 3)
+            q, nrm = _on_surface(part, PP[:, curved].reshape(-1, 3))
+            PP[:, curved] = q.reshape(n, -1, 3)
+            NN[:, curved] = nrm.reshape(n, -1, 3)
         return PP, NN
 
     def holds(r: float) -> bool:
-        d = score(*placements(r))
-        worst[r] = float(d.min())
-        return bool(d.min() > 0)
+        # in chunks: a radius that fails usually fails in the first one
+        worst[r] = d0
+        for _ in range(SAMPLES // _CHUNK):
+            d = score(*placements(r, _CHUNK))
+            worst[r] = min(worst[r], float(d.min()))
+            if worst[r] <= 0:
+                return False
+        return True
 
     tolerance = _grow(holds, 0.0, 0.01 * L, reach)
     shapes = [_shape(c, tolerance, REGION_VERTICES, False) if c.kind != "curved" else

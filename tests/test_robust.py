@@ -183,3 +183,26 @@ def test_sampled_with_friction_reports_uncertified():
                                                   regions=True))
     r = plan.grasps[0].contact_regions
     assert r is not None and r.certified is False and r.tolerance >= 0
+
+
+def test_more_than_seven_contacts_certified_by_a_subset():
+    part = synth.load_part("meshes/bracket.stl", units="dm")
+    plan = synth.plan_part(part, synth.PlanParams(contacts=8, top=2, seed=0))
+    rng = np.random.default_rng(4)
+    checked = 0
+    for g in plan.grasps:
+        reg = contact_regions(part, g.points, g.normals)
+        assert len(reg.polygons) == 8
+        if not reg.certified or reg.limited_by == "none":
+            continue
+        checked += 1
+        n = 1000  # one linprog each: closure with 8 contacts has a 2-D null space
+        pts = np.stack([sample_polygon(p, n, rng) for p in reg.polygons], axis=1)
+        W = wrenches(pts, np.repeat(g.normals[None], n, 0), part.center_mass, part.length)
+        d = np.array([d_star_lp(w) for w in W])
+        assert (np.linalg.matrix_rank(W) == 6).all()
+        assert d.min() > 0 and d.min() >= reg.d_star_min - 1e-7
+        closure, d_min = certify_regions(g.points, g.normals, reg.polygons, part.center_mass,
+                                         part.length)
+        assert closure is True and d_min <= d.min() + 1e-7
+    assert checked

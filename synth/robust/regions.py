@@ -8,9 +8,10 @@ within ``rho`` of its planned point, along the feature it lies on, keeps form cl
 A contact *slides* on its feature: on a planar piece (:mod:`synth.part.pieces`) it moves in
 the plane with its normal fixed; on a convex edge it moves along the edge with its normal
 fixed; at a vertex it cannot move. On planar pieces and straight edges each contact's wrench
-is affine in its position, and with 7 contacts (the minimum in space) the certificate of
-:mod:`synth.robust.certificate` decides closure over the regions. Everything else (friction,
-more than 7 contacts, contacts on curved patches) is *sampled*: random placements within the
+is affine in its position, and for 7 contacts (the minimum in space) the certificate of
+:mod:`synth.robust.certificate` decides closure over the regions; a grasp of more contacts is
+certified through 7-contact subsets that are closure by themselves. Everything else
+(friction, contacts on curved patches, a grasp with no closure 7-subset) is *sampled*: random placements within the
 radius, re-projected onto the surface with their normals, scored, and the radius bisected;
 such results say ``certified = False``.
 """
@@ -18,6 +19,8 @@ such results say ``certified = False``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import combinations
+from math import comb
 from typing import Any
 
 import numpy as np
@@ -43,6 +46,11 @@ DISC_VERTICES = 32
 SIZE_PRECISION = 1.08
 #: Branch-and-bound work limit per cofactor while growing (an undecided size counts as lost).
 MAX_BOXES = 300
+#: Most 7-contact subsets tried as certificates of closure of a grasp of more contacts (the
+#: d* bound uses as many as cover every contact), and how many candidates they are chosen
+#: from (all subsets when there are no more than this).
+SUBSETS = 3
+SUBSET_TRIES = 64
 #: Placements per radius when the tolerance is sampled (scored in chunks of ``_CHUNK``).
 SAMPLES = 512
 _CHUNK = 128
@@ -71,7 +79,7 @@ class ContactRegions:
         Smallest d* over every choice of one point per region: a certified lower bound when
         ``certified``, else the smallest sampled.
     certified : bool
-        True when the regions and tolerance are proven (frictionless, 7 contacts on planar
+        True when the regions and tolerance are proven (frictionless contacts on planar
         pieces, edges or vertices); False when sampled.
     """
 
@@ -230,7 +238,8 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     d_star : float, optional
         The grasp's d*, if already known.
     seed : int
-        Seed of the sampling (the certified path uses no randomness).
+        Seed of the sampling, and of the choice of 7-contact subsets of a grasp of more than
+        9 contacts.
 
     Returns
     -------
@@ -252,8 +261,12 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     N = N / np.linalg.norm(N, axis=1, keepdims=True)
     cs = _contacts(part, P, N)
     center, L = np.asarray(part.center_mass, float), float(part.length)
-    if mu == 0 and len(P) == 7 and all(c.kind != "curved" for c in cs):
-        return _certified(P, N, cs, center, L)
+    if mu == 0 and len(P) >= 7 and all(c.kind != "curved" for c in cs):
+        d0 = float(form_closure_batch(scaled_wrenches(P, N, center, L)[None]).d_star[0]) \
+            if d_star is None else float(d_star)
+        out = _certified(P, N, cs, center, L, d0, seed)
+        if out is not None:
+            return out
     return _sampled(part, P, N, cs, center, L, mu, edges, d_star, seed)
 
 
@@ -267,76 +280,133 @@ def _to3(P: NDArray[np.float64], cs: list[_Contact], shapes: list[NDArray[np.flo
     return tuple(P[i] + s @ c.axes for i, (c, s) in enumerate(zip(cs, shapes)))
 
 
+def _subsets(W: NDArray[np.float64], rng: np.random.Generator) -> list[NDArray[np.int64]]:
+    """The 7-contact subsets whose wrenches are form closure by themselves, best nominal d*
+    first: all of them for up to 9 contacts, else among
+    ``SUBSET_TRIES`` drawn at random. A closure subset keeps the whole grasp closure
+    wherever the other contacts are."""
+    k = W.shape[1]
+    if comb(k, 7) <= SUBSET_TRIES:
+        cand = np.array(list(combinations(range(k), 7)), dtype=np.int64)
+    else:
+        cand = np.unique(np.sort(np.array([rng.choice(k, 7, replace=False)
+                                           for _ in range(SUBSET_TRIES)]), axis=1), axis=0)
+    sub = np.swapaxes(W[:, cand], 0, 1)  # (n, 6, 7)
+    c = np.stack([(-1) ** j * np.linalg.det(np.delete(sub, j, axis=2)) for j in range(7)], 1)
+    c *= np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
+    scale = np.abs(c).max(axis=1)
+    ok = c.min(axis=1) > CERT_RTOL * scale
+    d = np.where(ok, c.min(axis=1) / np.where(scale > 0, scale, 1.0), -1.0)
+    order = np.argsort(-d, kind="stable")
+    return [cand[i] for i in order if d[i] > 0]
+
+
+def _cover(subsets: list[NDArray[np.int64]], k: int) -> list[NDArray[np.int64]]:
+    """The first subset, then the best subset holding a contact not yet covered, until every
+    contact is (or none is left)."""
+    chosen: list[NDArray[np.int64]] = []
+    covered = np.zeros(k, bool)
+    for S in subsets:
+        if not chosen or not covered[S].all():
+            chosen.append(S)
+            covered[S] = True
+        if covered.all():
+            break
+    return chosen
+
+
 def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
-               center: NDArray[np.float64], L: float) -> ContactRegions:
-    """Regions and tolerance proven by the cofactor certificate (7 frictionless contacts)."""
+               center: NDArray[np.float64], L: float, d0: float, seed: int
+               ) -> ContactRegions | None:
+    """Regions and tolerance proven by the cofactor certificate (frictionless contacts on
+    planar pieces, edges and vertices). With more than 7 contacts, closure over the regions
+    is proven by a 7-contact subset (:func:`_subsets`) and d* by a cover of such subsets (the
+    sum of their null vectors). None when no 7-contact subset is closure by itself."""
     axes = np.stack([c.axes for c in cs])
     W, D = _wrenches(P, N, center, L, axes)
-    e = expand(W, D)
     kinds = tuple(c.kind for c in cs)
-    d0 = float(e.c0.min() / e.c0.max()) if e.c0.max() > 0 else 0.0
-    if not e.c0.min() > CERT_RTOL * np.abs(e.c0).max():
-        return ContactRegions(_points(P), kinds, 0.0, "none", max(d0, 0.0), 0.0, True)
+    subsets = _subsets(W, np.random.default_rng(seed))
+    if not subsets:
+        return None if len(P) > 7 else ContactRegions(_points(P), kinds, 0.0, "none",
+                                                     max(d0, 0.0), 0.0, True)
+    cover = _cover(subsets, len(P))
+    exps = [(S, expand(W[:, S], D[S])) for S in subsets[:SUBSETS]]
     free = [c for c in cs if c.kind != "fixed"]
     if not free:
         return ContactRegions(_points(P), kinds, 0.0, "feature", d0, d0, True)
     reach = min(c.reach for c in cs)  # a contact at a vertex has nowhere to slide
-    # first-order guesses: the disc radius at which the linear part alone reaches zero
+    # first-order guess: the disc radius at which the best subset's linear part reaches zero
+    e = exps[0][1]
     gn = np.linalg.norm(e.g, axis=2).sum(axis=1)
     guess = float(np.min(e.c0 / np.where(gn > 0, gn, np.inf))) if gn.max() > 0 else L
 
-    def discs_hold(r: float) -> bool:
-        return bool(certify(e, [_shape(c, r, DISC_VERTICES, True) if c.kind == "plane" else
-                                _shape(c, r, 2, True) for c in cs], max_boxes=MAX_BOXES).closure)
+    def holds(shapes: list[NDArray[np.float64]]) -> bool:
+        return any(certify(e, [shapes[i] for i in S], max_boxes=MAX_BOXES).closure
+                   for S, e in exps)
 
-    tolerance = _grow(discs_hold, 0.0, guess, reach)
+    tolerance = _grow(lambda r: holds([_shape(c, r, DISC_VERTICES, True) for c in cs]), 0.0,
+                      guess, reach)
     limited = "feature" if tolerance >= reach else "closure"
     top = max(float(np.linalg.norm(c.feature, axis=1).max()) for c in free)
-
-    proven: dict[float, float] = {}  # size -> certified d* lower bound
-
-    def regions_hold(r: float) -> bool:
-        cert = certify(e, [_shape(c, r, REGION_VERTICES, False) for c in cs],
-                       max_boxes=MAX_BOXES)
-        if cert.closure:
-            proven[r] = cert.d_star_min
-        return bool(cert.closure)
-
-    size = _grow(regions_hold, tolerance, max(guess, tolerance * 1.5), top)
-    if size not in proven:  # the tolerance discs' size, proven as discs
-        regions_hold(size)
+    size = _grow(lambda r: holds([_shape(c, r, REGION_VERTICES, False) for c in cs]),
+                 tolerance, max(guess, tolerance * 1.5), top)
     shapes = [_shape(c, size, REGION_VERTICES, False) for c in cs]
+    cover_exps = [(S, expand(W[:, S], D[S])) for S in cover]
     return ContactRegions(_to3(P, cs, shapes), kinds, float(tolerance), limited, d0,
-                          proven.get(size, 0.0), True)
+                          _cover_bound(cover_exps, shapes, len(P)), True)
+
+
+def _cover_bound(exps: list[tuple[NDArray[np.int64], Any]], shapes: list[NDArray[np.float64]],
+                 k: int) -> float:
+    """Certified lower bound of d* over the regions from the subsets proven on them: their
+    null vectors (each scaled to largest entry 1, entries at least its d* bound on its
+    contacts) add up to a null vector of the whole grasp, so d* >= min bound / the most
+    subsets any contact is in; 0 unless the proven subsets cover every contact."""
+    bounds, count = [], np.zeros(k, np.int64)
+    for S, e in exps:
+        cert = certify(e, [shapes[i] for i in S], max_boxes=MAX_BOXES)
+        if cert.closure:
+            bounds.append(cert.d_star_min)
+            count[S] += 1
+    if not bounds or count.min() == 0:
+        return 0.0
+    return min(bounds) / int(count.max())
 
 
 def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayLike],
-                    center: ArrayLike, length: float) -> tuple[bool | None, float]:
+                    center: ArrayLike, length: float, seed: int = 0
+                    ) -> tuple[bool | None, float]:
     """Re-check stored regions (for example a grasp file's) with the certificate.
 
     Parameters
     ----------
-    points, normals : (7, 3) float
+    points, normals : (k, 3) float
+        At least 7 contacts.
     polygons : list of (v_i, 3) float
         Each contact's region: corners in order, in the plane through the contact normal to
         its normal (a segment, or the point itself, for contacts on edges or vertices).
     center : (3,) float
         Any moment reference; length : float, any moment scale (the answer is the same).
+    seed : int
+        Choice of 7-contact subsets of more than 9 contacts.
 
     Returns
     -------
     closure : bool or None
         True when every choice of one point per region is form closure, False when a choice
-        is not, None when undecided within the work limit.
+        is not, None when undecided within the work limit (with more than 7 contacts: when
+        no 7-contact subset proves closure).
     d_star_min : float
         Certified lower bound of d* over the regions.
     """
     P = np.asarray(points, float)
     N = np.asarray(normals, float)
     N = N / np.linalg.norm(N, axis=1, keepdims=True)
-    if P.shape != (7, 3) or N.shape != (7, 3) or len(polygons) != 7:
-        raise InputError("certify_regions: the certificate needs 7 contacts and 7 regions")
-    axes = np.zeros((7, 2, 3))
+    k = len(P)
+    if P.ndim != 2 or P.shape[1] != 3 or k < 7 or N.shape != P.shape or len(polygons) != k:
+        raise InputError(f"certify_regions: expected at least 7 contacts, as many normals and "
+                         f"regions; got {P.shape}, {N.shape} and {len(polygons)}")
+    axes = np.zeros((k, 2, 3))
     shapes = []
     for i, poly in enumerate(polygons):
         Q = np.asarray(poly, float).reshape(-1, 3) - P[i]
@@ -351,8 +421,14 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
             axes[i] = [u, v]
         shapes.append(Q @ axes[i].T)
     W, D = _wrenches(P, N, np.asarray(center, float), float(length), axes)
-    cert = certify(expand(W, D), shapes)
-    return cert.closure, cert.d_star_min
+    if k == 7:
+        cert = certify(expand(W, D), shapes)
+        return cert.closure, cert.d_star_min
+    subsets = _subsets(W, np.random.default_rng(seed))
+    exps = [(S, expand(W[:, S], D[S])) for S in _cover(subsets, k)]
+    if not any(certify(e, [shapes[i] for i in S]).closure for S, e in exps):
+        return None, 0.0
+    return True, _cover_bound(exps, shapes, k)
 
 
 def _on_surface(part: Part, points: NDArray[np.float64]

@@ -78,7 +78,7 @@ def worst_vertex_choice(P, N, polygons, center, length, rng, starts=6, sweeps=8)
             for _ in range(sweeps):
                 changed = False
                 for i in range(k):
-                    cand = np.repeat(np.array([polygons[l][pick[l]] for l in range(k)])[None],
+                    cand = np.repeat(np.array([polygons[c][pick[c]] for c in range(k)])[None],
                                      len(polygons[i]), axis=0)
                     cand[:, i] = polygons[i]
                     val = sign * cofactors(wrenches(cand, N, center, length))[:, j] / scale
@@ -87,7 +87,7 @@ def worst_vertex_choice(P, N, polygons, center, length, rng, starts=6, sweeps=8)
                         pick[i], changed = a, True
                 if not changed:
                     break
-            pts = np.array([polygons[l][pick[l]] for l in range(k)])
+            pts = np.array([polygons[c][pick[c]] for c in range(k)])
             v = sign * cofactors(wrenches(pts, N, center, length))[j] / scale
             if v < best:
                 best, best_pts = v, pts

@@ -102,7 +102,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     """Snap, resolve, check and score candidates on a part; best first (errors last).
 
     With ``regions`` (implied by ``rank_by="tolerance"``) every closure candidate gets its
-    contact regions and placement tolerance (:func:`synth.contact_regions`). A point is snapped to the closest point of the part's surface when it lies within
+    contact regions and placement tolerance (:func:`synth.contact_regions`). A point is
+    snapped to the closest point of the part's surface when it lies within
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (it
     lies against or inside another body of the part) makes its candidate unusable.
     """

@@ -191,9 +191,9 @@ def _full(e: Expansion) -> tuple[NDArray[np.float64], ...]:
     (k, 2k, 2k, 2k) and the Frobenius norms of ``T``'s contact blocks (k, k, k, k)."""
     k = len(e.c0)
     B = np.zeros((k, k, k, 2, 2))
-    for p, (i, l) in enumerate(e.pairs.tolist()):
-        B[:, i, l] = e.B[:, p]
-        B[:, l, i] = np.swapaxes(e.B[:, p], 1, 2)
+    for p, (i, m) in enumerate(e.pairs.tolist()):
+        B[:, i, m] = e.B[:, p]
+        B[:, m, i] = np.swapaxes(e.B[:, p], 1, 2)
     T = np.zeros((k, k, k, k, 2, 2, 2))
     for q, idx in enumerate(e.triples.tolist()):
         for perm in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)):

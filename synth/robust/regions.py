@@ -11,9 +11,9 @@ fixed; at a vertex it cannot move. On planar pieces and straight edges each cont
 is affine in its position, and for 7 contacts (the minimum in space) the certificate of
 :mod:`synth.robust.certificate` decides closure over the regions; a grasp of more contacts is
 certified through 7-contact subsets that are closure by themselves. Everything else
-(friction, contacts on curved patches, a grasp with no closure 7-subset) is *sampled*: random placements within the
-radius, re-projected onto the surface with their normals, scored, and the radius bisected;
-such results say ``certified = False``.
+(friction, contacts on curved patches, a grasp with no closure 7-subset) is *sampled*:
+random placements within the radius, re-projected onto the surface with their normals,
+scored, and the radius bisected; such results say ``certified = False``.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from synth.errors import InputError
 from synth.part.model import Part
 from synth.part.pieces import convex_piece
+from synth.part.tolerances import COPLANAR_ANGLE
 from synth.robust.certificate import CERT_RTOL, certify, expand
 from synth.scores.batch import form_closure_batch
 from synth.scores.friction import tangent_basis
@@ -163,13 +164,15 @@ def _contacts(part: Part, P: NDArray[np.float64], N: NDArray[np.float64]) -> lis
     """How each contact of a grasp can move on the part's surface."""
     res = part.resolve(P, snap=True)
     out = []
-    tol = 1e-9
+    # a normal within the coplanarity angle of the feature's counts as its own: it stays
+    # fixed while the contact slides, so the wrench is still affine in the position
+    cos_tol, sin_tol = np.cos(COPLANAR_ANGLE), np.sin(COPLANAR_ANGLE)
     for j in range(len(P)):
         rows = np.flatnonzero(res.finger == j)
         row = rows[np.argmax(res.normals[rows] @ N[j])]
         kind, face = str(res.features[row]), int(res.faces[row])
         reg = part.regions[int(part.face_region[face])] if part.face_region[face] >= 0 else None
-        if kind == "face" and reg is not None and reg.planar and np.dot(reg.normal, N[j]) > 1 - tol:
+        if kind == "face" and reg is not None and reg.planar and np.dot(reg.normal, N[j]) > cos_tol:
             piece = convex_piece(part, face, 0.0)
             if piece is not None:
                 xy = np.array([(P[j] - piece.origin) @ piece.u, (P[j] - piece.origin) @ piece.v])
@@ -181,7 +184,7 @@ def _contacts(part: Part, P: NDArray[np.float64], N: NDArray[np.float64]) -> lis
         if kind == "edge":
             a, b = part.mesh.vertices[part.mesh.edges_unique[int(res.feature_index[row])]]
             e = (b - a) / np.linalg.norm(b - a)
-            if abs(np.dot(e, N[j])) < 1e-6:
+            if abs(np.dot(e, N[j])) < sin_tol:
                 t = np.sort([(a - P[j]) @ e, (b - P[j]) @ e])
                 out.append(_Contact("edge", np.stack([e, np.zeros(3)]),
                                     np.array([[t[0], 0.0], [t[1], 0.0]]),

@@ -318,6 +318,30 @@ def _cover(subsets: list[NDArray[np.int64]], k: int) -> list[NDArray[np.int64]]:
     return chosen
 
 
+class _Proofs:
+    """Expansions and certificates of a grasp's 7-contact subsets, each computed once."""
+
+    def __init__(self, W: NDArray[np.float64], D: NDArray[np.float64]) -> None:
+        self.W, self.D = W, D
+        self._expansions: dict[tuple[int, ...], Any] = {}
+        self._certificates: dict[tuple[Any, ...], Any] = {}
+
+    def expansion(self, S: NDArray[np.int64]) -> Any:
+        key = tuple(S.tolist())
+        if key not in self._expansions:
+            self._expansions[key] = expand(self.W[:, S], self.D[S])
+        return self._expansions[key]
+
+    def holds(self, S: NDArray[np.int64], shapes: list[NDArray[np.float64]], name: tuple
+              ) -> Any:
+        """The certificate of subset ``S`` over ``shapes``, named ``name`` (kind, size)."""
+        key = (tuple(S.tolist()),) + name
+        if key not in self._certificates:
+            self._certificates[key] = certify(self.expansion(S), [shapes[i] for i in S],
+                                              max_boxes=MAX_BOXES)
+        return self._certificates[key]
+
+
 def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
                center: NDArray[np.float64], L: float, d0: float, seed: int
                ) -> ContactRegions | None:
@@ -332,42 +356,41 @@ def _certified(P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact
     if not subsets:
         return None if len(P) > 7 else ContactRegions(_points(P), kinds, 0.0, "none",
                                                      max(d0, 0.0), 0.0, True)
-    cover = _cover(subsets, len(P))
-    exps = [(S, expand(W[:, S], D[S])) for S in subsets[:SUBSETS]]
     free = [c for c in cs if c.kind != "fixed"]
     if not free:
         return ContactRegions(_points(P), kinds, 0.0, "feature", d0, d0, True)
+    proofs = _Proofs(W, D)
     reach = min(c.reach for c in cs)  # a contact at a vertex has nowhere to slide
     # first-order guess: the disc radius at which the best subset's linear part reaches zero
-    e = exps[0][1]
+    e = proofs.expansion(subsets[0])
     gn = np.linalg.norm(e.g, axis=2).sum(axis=1)
     guess = float(np.min(e.c0 / np.where(gn > 0, gn, np.inf))) if gn.max() > 0 else L
 
-    def holds(shapes: list[NDArray[np.float64]]) -> bool:
-        return any(certify(e, [shapes[i] for i in S], max_boxes=MAX_BOXES).closure
-                   for S, e in exps)
+    def discs(r: float) -> bool:
+        shapes = [_shape(c, r, DISC_VERTICES, True) for c in cs]
+        return any(proofs.holds(S, shapes, ("disc", r)).closure for S in subsets[:SUBSETS])
 
-    tolerance = _grow(lambda r: holds([_shape(c, r, DISC_VERTICES, True) for c in cs]), 0.0,
-                      guess, reach)
+    def regions(r: float) -> bool:
+        shapes = [_shape(c, r, REGION_VERTICES, False) for c in cs]
+        return any(proofs.holds(S, shapes, ("region", r)).closure for S in subsets[:SUBSETS])
+
+    tolerance = _grow(discs, 0.0, guess, reach)
     limited = "feature" if tolerance >= reach else "closure"
     top = max(float(np.linalg.norm(c.feature, axis=1).max()) for c in free)
-    size = _grow(lambda r: holds([_shape(c, r, REGION_VERTICES, False) for c in cs]),
-                 tolerance, max(guess, tolerance * 1.5), top)
+    size = _grow(regions, tolerance, max(guess, tolerance * 1.5), top)
     shapes = [_shape(c, size, REGION_VERTICES, False) for c in cs]
-    cover_exps = [(S, expand(W[:, S], D[S])) for S in cover]
+    certs = [(S, proofs.holds(S, shapes, ("region", size))) for S in _cover(subsets, len(P))]
     return ContactRegions(_to3(P, cs, shapes), kinds, float(tolerance), limited, d0,
-                          _cover_bound(cover_exps, shapes, len(P)), True)
+                          _cover_bound(certs, len(P)), True)
 
 
-def _cover_bound(exps: list[tuple[NDArray[np.int64], Any]], shapes: list[NDArray[np.float64]],
-                 k: int) -> float:
+def _cover_bound(certs: list[tuple[NDArray[np.int64], Any]], k: int) -> float:
     """Certified lower bound of d* over the regions from the subsets proven on them: their
     null vectors (each scaled to largest entry 1, entries at least its d* bound on its
     contacts) add up to a null vector of the whole grasp, so d* >= min bound / the most
     subsets any contact is in; 0 unless the proven subsets cover every contact."""
     bounds, count = [], np.zeros(k, np.int64)
-    for S, e in exps:
-        cert = certify(e, [shapes[i] for i in S], max_boxes=MAX_BOXES)
+    for S, cert in certs:
         if cert.closure:
             bounds.append(cert.d_star_min)
             count[S] += 1
@@ -428,10 +451,11 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
         cert = certify(expand(W, D), shapes)
         return cert.closure, cert.d_star_min
     subsets = _subsets(W, np.random.default_rng(seed))
-    exps = [(S, expand(W[:, S], D[S])) for S in _cover(subsets, k)]
-    if not any(certify(e, [shapes[i] for i in S]).closure for S, e in exps):
+    certs = [(S, certify(expand(W[:, S], D[S]), [shapes[i] for i in S]))
+             for S in _cover(subsets, k)]
+    if not any(cert.closure for _, cert in certs):
         return None, 0.0
-    return True, _cover_bound(exps, shapes, k)
+    return True, _cover_bound(certs, k)
 
 
 def _on_surface(part: Part, points: NDArray[np.float64]

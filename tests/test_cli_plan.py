@@ -158,6 +158,14 @@ def test_plan_and_rank_report_tolerance(tmp_path):
     got = [c["tolerance"] for c in ranked]
     assert got == sorted(got, reverse=True)
     assert sorted(got) == pytest.approx(sorted(tol))  # the same grasps, the same tolerances
+    floor = 1.5 * max(got)
+    proc = synth("rank", MESHES / "cube.stl", f, "--units", "dm", "--min-tolerance", floor,
+                 "--out", ranked_file)
+    assert proc.returncode == 0, proc.stderr
+    assert f"{len(got)} more below --min-tolerance" in proc.stderr
+    ranked = json.loads(ranked_file.read_text())["candidates"]
+    assert [c["status"] for c in ranked] == ["tolerance"] * len(got)
+    assert all("below --min-tolerance" in c["reason"] for c in ranked)
     plain = synth("plan", MESHES / "cube.stl", "--evals", "3000", "--top", "1", "--quiet",
                   "--no-files")
     assert "tolerance" not in plain.stdout

@@ -23,7 +23,7 @@ class RankedCandidate:
     """One candidate after snapping, normal resolution, finger checks and scoring."""
 
     name: str
-    status: str  # "ok", "fingers" (collides), "error" (unusable input)
+    status: str  # "ok", "tolerance" (below --min-tolerance), "fingers" (collides), "error"
     reason: str | None
     d_star: float = 0.0
     closure: str = "force"
@@ -88,6 +88,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--rank-by", choices=("d_star", "tolerance"), default="d_star",
                    help="order of the candidates (default d_star; tolerance computes the "
                    "regions)")
+    p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
+                   help="mark collision-free candidates whose placement tolerance is below R "
+                   "(mesh units) as status 'tolerance', ranked after the usable ones "
+                   "(default 0)")
     add_part_options(p)
     add_finger_options(p)
     p.add_argument("--out", default=None, metavar="JSON",
@@ -98,11 +102,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
-                    regions: bool = False, rank_by: str = "d_star") -> list[RankedCandidate]:
+                    regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0
+                    ) -> list[RankedCandidate]:
     """Snap, resolve, check and score candidates on a part; best first (errors last).
 
-    With ``regions`` (implied by ``rank_by="tolerance"``) every closure candidate gets its
-    contact regions and placement tolerance (:func:`synth.contact_regions`). A point is
+    With ``regions`` (implied by ``rank_by="tolerance"`` and a positive ``min_tolerance``)
+    every closure candidate gets its contact regions and placement tolerance
+    (:func:`synth.contact_regions`); a collision-free one whose tolerance is below
+    ``min_tolerance`` gets status ``"tolerance"`` and ranks after the usable ones. A point is
     snapped to the closest point of the part's surface when it lies within
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (it
     lies against or inside another body of the part) makes its candidate unusable.
@@ -158,15 +165,19 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         fing = chk.placement(0).to_dict() if chk.mask[0] else None
         holds = closure in ("form", "frictional form")
         robust = contact_regions(part, P, N, mu=m, d_star=d) if holds and (
-            regions or rank_by == "tolerance") else None
-        rows.append(RankedCandidate(
-            c.name, "ok" if chk.mask[0] else "fingers", None if chk.mask[0] else chk.reasons[0],
-            d, closure, cond, P, N, tuple(con.features), fing, robust))
+            regions or rank_by == "tolerance" or min_tolerance > 0) else None
+        status, reason = ("ok", None) if chk.mask[0] else ("fingers", chk.reasons[0])
+        if status == "ok" and robust is not None and robust.tolerance < min_tolerance:
+            status, reason = "tolerance", (f"placement tolerance {robust.tolerance:.4g} is "
+                                           f"below --min-tolerance {min_tolerance:g}")
+        rows.append(RankedCandidate(c.name, status, reason, d, closure, cond, P, N,
+                                    tuple(con.features), fing, robust))
     from synth.plan.search import rank_grasps
 
-    # usable first, then those the fingers cannot make, then errors; each best first (d*
-    # equal within the LPs' accuracy ordered by conditioning, as synth plan does)
-    return [r for status in ("ok", "fingers", "error")
+    # usable first, then those below --min-tolerance, those the fingers cannot make, then
+    # errors; each best first (d* equal within the LPs' accuracy ordered by conditioning, as
+    # synth plan does)
+    return [r for status in ("ok", "tolerance", "fingers", "error")
             for r in rank_grasps([r for r in rows if r.status == status],  # type: ignore[arg-type]
                                  rank_by)]
 
@@ -179,6 +190,7 @@ def run(args: argparse.Namespace) -> int:
 
     real("--mu", args.mu, 0, MAX_MU)
     real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")
+    real("--min-tolerance", args.min_tolerance, 0, MAX_LENGTH, unit=" (mesh units)")
     check_part_options(args)
     check_finger_options(args)
     out = None if args.out is None else output_path("--out", args.out, ".json")
@@ -193,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
     fingers = default_fingers(part, **over)
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
     rows = rank_candidates(part, cands, args.mu, fingers, max_d, regions=args.regions,
-                           rank_by=args.rank_by)
+                           rank_by=args.rank_by, min_tolerance=args.min_tolerance)
     unusable = [r for r in rows if r.status == "error"]
     if len(unusable) == len(rows):
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
@@ -210,7 +222,7 @@ def run(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         w = max([4] + [len(r.name) for r in rows])
-        show = args.regions or args.rank_by == "tolerance"
+        show = args.regions or args.rank_by == "tolerance" or args.min_tolerance > 0
         print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  "
               + (f"{'tolerance':>10}  " if show else "") + "status")
         for i, r in enumerate(rows, 1):
@@ -221,6 +233,8 @@ def run(args: argparse.Namespace) -> int:
                   f"{r.conditioning:>7.4f}  " + (f"{tol:>10}  " if show else "") + status)
     if not args.quiet:
         n_ok = sum(r.status == "ok" for r in rows)
-        print(f"{len(rows)} candidates: {n_ok} collision free, "
+        n_low = sum(r.status == "tolerance" for r in rows)
+        low = f" ({n_low} more below --min-tolerance)" if n_low else ""
+        print(f"{len(rows)} candidates: {n_ok} collision free{low}, "
               f"{len(unusable)} unusable", file=sys.stderr)
     return 0

@@ -172,6 +172,9 @@ def test_plan_ranks_and_filters_by_tolerance():
     floor = float(np.median(tol))
     kept = synth.plan_part(part, synth.PlanParams(top=4, seed=0, min_tolerance=floor))
     assert kept.grasps and all(g.tolerance >= floor for g in kept.grasps)
+    none = synth.plan_part(part, synth.PlanParams(top=2, seed=0, evals=3000,
+                                                  min_tolerance=part.length))
+    assert not none.grasps and "placement tolerance below --min-tolerance" in none.message
     plain = synth.plan_part(part, synth.PlanParams(top=2, seed=0))
     assert plain.grasps[0].contact_regions is None
     assert plain.to_json()["grasps"][0]["tolerance"] is None

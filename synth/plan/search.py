@@ -171,10 +171,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         message = (f"{int((archive.fit > 0).sum())} closure grasps were found, but the time "
                    f"limit passed before one of them passed the finger checks")
     elif rejected:
-        reason, _ = max(rejected.items(), key=lambda kv: kv[1])
-        message = (f"{sum(rejected.values())} closure grasps were found but the fingers could "
-                   f"make none of them (most often: {reason}); try a smaller --finger-radius "
-                   f"or a wider --approach-cone")
+        message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
+                   f"{_dropped(rejected, prm)}")
     else:
         escape = _why_none(archive, prm, score)
         kind = "with friction mu = %g" % prm.mu if prm.mu > 0 else "without friction"
@@ -271,13 +269,31 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
         if prm.evals < PlanParams().evals:
             message += f"; a budget above --evals {prm.evals} may find one"
         if rejected:
-            reason, _ = max(rejected.items(), key=lambda kv: kv[1])
-            message += f"; grasps the fingers could not make were dropped (most often: {reason})"
+            message += f"; grasps were dropped: {_dropped(rejected, prm)}"
     if stopped_by_time and tried:
         message += _cut_note(prm, score, budget)
     say(1.0, "done")
     return Plan(tuple(grasps), message, describe_part(part), prm.to_dict(), fingers.to_dict(),
                 score.evaluations, total, stopped_by_time, None)
+
+
+#: The key of ``_select``'s rejection counts for grasps below ``--min-tolerance``.
+_LOW_TOLERANCE = "placement tolerance below --min-tolerance"
+
+
+def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
+    """Why found grasps were dropped, in words: the finger checks' most common reason, and
+    how many fell below ``--min-tolerance``."""
+    parts = []
+    fingers = {k: v for k, v in rejected.items() if k != _LOW_TOLERANCE}
+    if fingers:
+        reason, _ = max(fingers.items(), key=lambda kv: kv[1])
+        parts.append(f"{sum(fingers.values())} the fingers could not make (most often: "
+                     f"{reason}; try a smaller --finger-radius or a wider --approach-cone)")
+    if rejected.get(_LOW_TOLERANCE):
+        parts.append(f"{rejected[_LOW_TOLERANCE]} with a placement tolerance below "
+                     f"--min-tolerance {prm.min_tolerance:g}")
+    return "; ".join(parts)
 
 
 def _cut_note(prm: PlanParams, score: Scorer, budget: int) -> str:
@@ -443,8 +459,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
                                      d_star=float(archive.d[i])) if prm.wants_regions else None
             if robust is not None and robust.tolerance < prm.min_tolerance:
-                key = "placement tolerance below --min-tolerance"
-                rejected[key] = rejected.get(key, 0) + 1
+                rejected[_LOW_TOLERANCE] = rejected.get(_LOW_TOLERANCE, 0) + 1
                 continue
             chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,

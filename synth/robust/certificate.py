@@ -269,11 +269,11 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
 
     A cofactor is affine in each contact's position, so over a product of convex polygons its
     extremes are at vertex choices: each contact's domain is its polygon's vertex cycle. A
-    box gives each contact a run of consecutive vertices (whose convex hull it covers) and is
-    bounded with the expansion recentred in it: the linear part exactly (its worst vertex),
+    box gives each contact a run of consecutive vertices and is bounded, over the runs' convex
+    hulls, with the expansion recentred in it: the linear part exactly (its worst vertex),
     the rest by the spectral and Frobenius norms of the recentred coefficients times the
     runs' radii. A box that is not certified has the run with the largest share of the error
-    cut in two. The value at each box's worst-vertex choice is a real value, so a
+    cut into two runs that share no vertex (the boxes need only cover every vertex choice). The value at each box's worst-vertex choice is a real value, so a
     non-positive one is a counterexample.
 
     Parameters
@@ -330,10 +330,10 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
         r = np.arange(len(bad))
         half = n0[r, i] // 2
         a_start, a_size = s0.copy(), n0.copy()
-        a_size[r, i] = half + 1  # runs share their cut vertex: the hulls cover the polygon
+        a_size[r, i] = half  # the halves split the run's vertices (all a box must cover)
         b_start, b_size = s0.copy(), n0.copy()
         b_start[r, i] = (s0[r, i] + half) % count[i]
-        b_size[r, i] = n0[r, i] - half + (n0[r, i] == count[i])
+        b_size[r, i] = n0[r, i] - half
         jz = np.concatenate([jz[bad], jz[bad]])
         start = np.concatenate([a_start, b_start])
         size = np.concatenate([a_size, b_size])

@@ -135,7 +135,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "slide on its face or edge and the grasp stays form closure) is below R, "
                    "in the mesh's units (default 0)")
     p.add_argument("--regions", action="store_true",
-                   help="compute each grasp's contact regions and placement tolerance (about "
+                   help="compute each grasp's contact regions and placement tolerance (up to "
                    "0.1 s per grasp; on with --rank-by tolerance or --min-tolerance)")
     p.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")

@@ -95,7 +95,7 @@ class PlanParams:
         conditioning; "tolerance" is the placement tolerance of :mod:`synth.robust`).
     regions : bool
         Compute contact regions and the placement tolerance of each returned grasp
-        (:func:`synth.contact_regions`; default False: it costs about 0.1 s per grasp).
+        (:func:`synth.contact_regions`; default False: it costs up to 0.1 s per grasp).
         ``rank_by="tolerance"`` and a positive ``min_tolerance`` turn it on.
     min_tolerance : float
         Grasps whose placement tolerance is below this length (the mesh's units) are not

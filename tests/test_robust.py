@@ -11,6 +11,7 @@ from synth.robust.regions import REGION_VERTICES, _contacts, _shape
 from tests.robust_check import (
     cofactors,
     d_star_lp,
+    d_star_solve,
     d_star_svd,
     sample_polygon,
     tangent_discs,
@@ -77,6 +78,18 @@ def test_expansion_is_exact():
     direct = cofactors(wrenches(moved, N, np.zeros(3), 1.0))
     sign = np.sign(cofactors(W).sum())
     np.testing.assert_allclose(e(x), sign * direct, rtol=1e-9, atol=1e-12)
+
+
+def test_the_checks_fast_scorer_agrees_with_its_svd():
+    rng = np.random.default_rng(5)
+    W = rng.normal(size=(20_000, 6, 7))
+    W[:10, :, 5] = W[:10, :, 0]  # singular 6 x 6 blocks go to the SVD
+    a, b = d_star_svd(W), d_star_solve(W)
+    assert ((a > 0) == (b > 0)).all() and (a > 0).sum() > 100
+    np.testing.assert_allclose(a[a > 0], b[a > 0], atol=1e-9)
+    assert np.array_equal(a[:10] > 0, b[:10] > 0)
+    for w, d in zip(W[:200], b[:200]):  # and linprog
+        assert abs(max(d, 0.0) - d_star_lp(w)) < 1e-6
 
 
 # --- planned grasps on sample and corpus meshes ---------------------------------------------

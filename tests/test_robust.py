@@ -80,6 +80,27 @@ def test_expansion_is_exact():
     np.testing.assert_allclose(e(x), sign * direct, rtol=1e-9, atol=1e-12)
 
 
+def test_certify_regions_takes_regions_of_slightly_tilted_normals():
+    """Real faces tilt by up to the coplanarity angle from their region's normal; the regions
+    contact_regions makes on them must re-check from their own data."""
+    part = synth.load_part("meshes/cube.stl", units="dm")
+    g = synth.plan_part(part, synth.PlanParams(top=1, seed=0)).grasps[0]
+    rng = np.random.default_rng(6)
+    for tilt in (1e-7, 5e-5):  # radians, below the coplanarity angle (1e-4)
+        side = np.cross(g.normals, rng.normal(size=g.normals.shape))
+        side /= np.linalg.norm(side, axis=1, keepdims=True)
+        N = np.cos(tilt) * g.normals + np.sin(tilt) * side
+        reg = contact_regions(part, g.points, N)
+        assert reg.certified and reg.kinds == ("plane",) * 7
+        closure, d_min = certify_regions(g.points, N, reg.polygons, part.center_mass,
+                                         part.length)
+        assert closure is True and d_min > 0
+    with pytest.raises(synth.InputError, match="does not contain its contact"):
+        certify_regions(g.points, g.normals, [p + 0.5 * (p[0] - q) if len(p) > 2 else p
+                                              for p, q in zip(reg.polygons, g.points)],
+                        part.center_mass, part.length)
+
+
 def test_the_checks_fast_scorer_agrees_with_its_svd():
     rng = np.random.default_rng(5)
     W = rng.normal(size=(20_000, 6, 7))
@@ -90,6 +111,20 @@ def test_the_checks_fast_scorer_agrees_with_its_svd():
     assert np.array_equal(a[:10] > 0, b[:10] > 0)
     for w, d in zip(W[:200], b[:200]):  # and linprog
         assert abs(max(d, 0.0) - d_star_lp(w)) < 1e-6
+
+
+def test_rank_deficient_grasps_are_never_certified():
+    """All normals in one plane: W has rank 5 and every cofactor is 0, so rounding noise
+    (about 1e-17) must not pass for one sign (it did when the test was relative to the
+    cofactors themselves)."""
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        P = rng.normal(size=(7, 3))
+        ang = rng.uniform(0, 2 * np.pi, 7)
+        N = np.stack([np.cos(ang), np.sin(ang), np.zeros(7)], axis=1)
+        Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        W = wrenches(P @ Q.T, N @ Q.T, np.zeros(3), 1.0)
+        assert certify(expand(W, np.zeros((7, 2, 6))), [np.zeros((1, 2))] * 7).closure is False
 
 
 # --- planned grasps on sample and corpus meshes ---------------------------------------------

@@ -33,10 +33,12 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Certificate", "Expansion", "certify", "expand"]
+__all__ = ["Certificate", "Expansion", "certify", "expand", "minor_scale"]
 
-#: A bound ``c_j`` must exceed this fraction of ``max |c0|`` to count as non-zero (the
-#: cofactors are computed to about 1e-15 relative; 1e-9 leaves room for the bound's sums).
+#: A cofactor (or its bound) counts as non-zero above this fraction of the Hadamard bound of
+#: the 6 x 6 minors (:func:`minor_scale`): an absolute scale, so the rounding noise of a
+#: rank-deficient matrix (all cofactors zero) never passes for one sign. Determinants are
+#: computed to about 1e-15 of that bound; 1e-9 leaves room for the bound's sums.
 CERT_RTOL = 1e-9
 
 
@@ -58,6 +60,8 @@ class Expansion:
     triples : (Q, 3) int
         Contact triples ``i < l < n`` of the third-order terms.
     T : (k, Q, 2, 2, 2) float
+    scale : float
+        Hadamard bound of the cofactors (:func:`minor_scale` of the planned ``W``).
     """
 
     c0: NDArray[np.float64]
@@ -66,6 +70,7 @@ class Expansion:
     B: NDArray[np.float64]
     triples: NDArray[np.int64]
     T: NDArray[np.float64]
+    scale: float
 
     @cached_property
     def dense(self) -> tuple[NDArray[np.float64], ...]:
@@ -107,6 +112,13 @@ def _layout(k: int, order: int) -> tuple[NDArray[np.int64], list[tuple[int, int,
                     rows.append(sel)
                     meta.append((j, o, (S, axes)))
     return np.array(rows, dtype=np.int64), meta
+
+
+def minor_scale(W: NDArray[np.float64]) -> NDArray[np.float64] | float:
+    """Hadamard bound of the ``m x m`` minors of ``m x (m + 1)`` matrices (..., m, m + 1):
+    the product of the column norms over the smallest one. No cofactor exceeds it."""
+    norms = np.linalg.norm(np.asarray(W, dtype=np.float64), axis=-2)
+    return np.prod(norms, axis=-1) / np.maximum(norms.min(axis=-1), 1e-300)
 
 
 def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
@@ -153,7 +165,7 @@ def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
         else:
             T[(j, tidx[key[0]]) + tuple(key[1])] = value
     s = -1.0 if c0.sum() < 0 else 1.0
-    return Expansion(s * c0, s * g, pairs, s * B, triples, s * T)
+    return Expansion(s * c0, s * g, pairs, s * B, triples, s * T, float(minor_scale(W)))
 
 
 @dataclass(frozen=True)
@@ -291,10 +303,9 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
     Certificate
     """
     k = len(e.c0)
-    scale = float(np.abs(e.c0).max())
-    tol = CERT_RTOL * scale
+    tol = CERT_RTOL * e.scale
     lower, upper = np.full(k, np.inf), np.full(k, -np.inf)
-    if not scale > 0 or e.c0.min() <= tol:
+    if e.c0.min() <= tol:  # the planned grasp itself (zero displacement) is not closure
         return Certificate(False, e.c0.copy(), e.c0.copy(), 0.0, np.zeros((k, 2)), 0)
     g, B, T, tn = e.dense
     V, count = _pad(polygons)

@@ -30,7 +30,7 @@ from synth.errors import InputError
 from synth.part.model import Part
 from synth.part.pieces import convex_piece
 from synth.part.tolerances import COPLANAR_ANGLE
-from synth.robust.certificate import CERT_RTOL, certify, expand
+from synth.robust.certificate import CERT_RTOL, certify, expand, minor_scale
 from synth.scores.batch import form_closure_batch
 from synth.scores.friction import tangent_basis
 from synth.scores.friction_batch import frictional_form_closure_batch
@@ -298,7 +298,7 @@ def _subsets(W: NDArray[np.float64], rng: np.random.Generator) -> list[NDArray[n
     c = np.stack([(-1) ** j * np.linalg.det(np.delete(sub, j, axis=2)) for j in range(7)], 1)
     c *= np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
     scale = np.abs(c).max(axis=1)
-    ok = c.min(axis=1) > CERT_RTOL * scale
+    ok = c.min(axis=1) > CERT_RTOL * minor_scale(sub)
     d = np.where(ok, c.min(axis=1) / np.where(scale > 0, scale, 1.0), -1.0)
     order = np.argsort(-d, kind="stable")
     return [cand[i] for i in order if d[i] > 0]
@@ -436,16 +436,23 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
     shapes = []
     for i, poly in enumerate(polygons):
         Q = np.asarray(poly, float).reshape(-1, 3) - P[i]
-        if np.abs(Q @ N[i]).max(initial=0.0) > 1e-9 * length:
-            raise InputError(f"certify_regions: region {i} does not lie in its contact's "
-                             f"tangent plane")
-        span = np.linalg.svd(Q, full_matrices=True)[2] if len(Q) > 1 else np.zeros((3, 3))
-        u = span[0] - np.dot(span[0], N[i]) * N[i]
-        if np.linalg.norm(u) > 0:
-            u /= np.linalg.norm(u)
-            v = np.cross(N[i], u)
-            axes[i] = [u, v]
-        shapes.append(Q @ axes[i].T)
+        # the region's own plane (its normal may differ from the contact's by up to the
+        # coplanarity angle, as on the faces of real meshes): frame from its principal axes
+        size = float(np.linalg.norm(Q, axis=1).max(initial=0.0))
+        if len(Q) > 1 and size > 0:
+            sv, span = np.linalg.svd(Q - Q.mean(axis=0), full_matrices=True)[1:]
+            planar = len(sv) > 1 and sv[1] > 1e-12 * size
+            axes[i] = [span[0], span[1] if planar else np.zeros(3)]
+            if abs(span[0] @ N[i]) > np.sin(COPLANAR_ANGLE) or planar and abs(
+                    span[1] @ N[i]) > np.sin(COPLANAR_ANGLE):
+                raise InputError(f"certify_regions: region {i} does not lie square to its "
+                                 f"contact's normal")
+        xy = Q @ axes[i].T
+        if np.linalg.norm(Q - xy @ axes[i], axis=1).max(initial=0.0) > 1e-9 * length:
+            raise InputError(f"certify_regions: region {i} is not a flat polygon")
+        if not _contains(xy, 1e-9 * length):
+            raise InputError(f"certify_regions: region {i} does not contain its contact point")
+        shapes.append(xy)
     W, D = _wrenches(P, N, np.asarray(center, float), float(length), axes)
     if k == 7:
         cert = certify(expand(W, D), shapes)
@@ -456,6 +463,19 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
     if not any(cert.closure for _, cert in certs):
         return None, 0.0
     return True, _cover_bound(certs, k)
+
+
+def _contains(poly: NDArray[np.float64], tol: float) -> bool:
+    """Whether a convex polygon (its corners in order; or a segment, or a point) in the plane
+    contains the origin, within ``tol``."""
+    if len(poly) < 3:
+        a, b = poly[0], poly[-1]
+        t = np.clip(-a @ (b - a) / max(float((b - a) @ (b - a)), 1e-300), 0.0, 1.0)
+        return bool(np.linalg.norm(a + t * (b - a)) <= tol)
+    e = np.roll(poly, -1, axis=0) - poly
+    cross = e[:, 0] * (-poly[:, 1]) - e[:, 1] * (-poly[:, 0])
+    lengths = np.linalg.norm(e, axis=1)
+    return bool((cross >= -tol * lengths).all() or (cross <= tol * lengths).all())
 
 
 def _on_surface(part: Part, points: NDArray[np.float64]

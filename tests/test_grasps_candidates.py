@@ -3,12 +3,14 @@ give the same values, and everything orjson refuses still goes through the stand
 
 from __future__ import annotations
 
+import gc
 import json
 import sys
 
 import numpy as np
 import pytest
 
+from synth.errors import InputError
 from synth.grasps import candidates
 from synth.grasps.candidates import parse_json, read_candidate_table
 
@@ -59,3 +61,26 @@ def test_malformed_json_raises_the_standard_librarys_error(monkeypatch) -> None:
     with pytest.raises(json.JSONDecodeError):
         parse_json(b'[{"points": [1, 2,]}]')
     assert candidates.parse_json(b"[1.5]") == [1.5]
+
+
+@pytest.mark.parametrize("text", ['[{"points": [[0, 0, 0]], "normals": [[0, 0, 1]]}]',
+                                  "[{", "[]"])
+def test_the_garbage_collector_is_back_on_after_reading_or_failing(tmp_path, text) -> None:
+    # the JSON reader pauses the cyclic collector while it builds the parsed document
+    path = tmp_path / "c.json"
+    path.write_text(text)
+    assert gc.isenabled()
+    try:
+        read_candidate_table(path)
+    except InputError:
+        pass
+    assert gc.isenabled()
+    gc.disable()
+    try:  # a caller that turned it off keeps it off
+        try:
+            read_candidate_table(path)
+        except InputError:
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -21,12 +21,14 @@ position, name and field) and checks the others in vectorised batches;
 
 from __future__ import annotations
 
+import gc
 import json
 import zipfile
 import zlib
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
 from pathlib import Path
+from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -245,6 +247,20 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
                           tuple(sorted(errors.items())))
 
 
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector while a large parsed document is built and
+    walked. The millions of lists a 100 MB candidate file becomes hold no cycles, yet every
+    700 allocations trigger a collection that rescans them: about 1 s of a 1.5 s parse."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
+
+
 def parse_json(raw: bytes) -> Any:
     """A JSON document from UTF-8 bytes: with orjson when it is installed (the ``fast`` extra;
     about twice as fast on a 100 MB candidate file), else the standard library. Whatever
@@ -282,9 +298,14 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such file")
-    where = str(p)
     if p.suffix.lower() == ".npz":
         return _read_npz(p)
+    with _collector_paused():
+        return _read_json(p, require_normals)
+
+
+def _read_json(p: Path, require_normals: bool) -> CandidateTable:
+    where = str(p)
     try:
         data = parse_json(p.read_bytes())
     except (OSError, ValueError, RecursionError) as e:

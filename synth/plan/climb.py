@@ -277,9 +277,12 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
         V = (C.reshape(M * 7, 6) @ X).reshape(M, 7, n_pool)  # null vectors of every replacement
         V[:, j, :] = vj[:, None]
         screened += M * n_pool
-        V *= np.where(V.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
-        vmin, vmax = V.min(axis=1), V.max(axis=1)
-        d = np.where(vmin > 0, vmin / np.where(vmax > 0, vmax, 1.0), 0.0)
+        # d* = min/max over a null vector whose entries share one strict sign, else 0: with
+        # a negative vector, max/min of the entries as they are (no pass to flip the signs)
+        vmin, vmax = np.minimum.reduce(V, axis=1), np.maximum.reduce(V, axis=1)
+        d = np.zeros((M, n_pool))
+        np.divide(vmin, vmax, out=d, where=vmin > 0)
+        np.divide(vmax, vmin, out=d, where=vmax < 0)
         others = np.delete(members, j, axis=1)
         d[np.arange(M)[:, None], others] = 0.0  # a contact once only
         d[clash[others].any(axis=1)] = 0.0  # fingertips apart

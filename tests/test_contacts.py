@@ -39,7 +39,7 @@ def _assert_valid(part: Part, c: Contacts) -> None:
 
 
 @pytest.mark.parametrize("name", NAMES)
-@pytest.mark.parametrize("method", ["uniform", "even"])
+@pytest.mark.parametrize("method", ["uniform", "even", "regions"])
 def test_surface_samples_on_surface_and_inward(parts: dict[str, Part], name: str,
                                                method: str) -> None:
     part = parts[name]
@@ -85,6 +85,29 @@ def test_uniform_is_area_uniform(parts: dict[str, Part]) -> None:
     expected = area / area.sum()
     sigma = np.sqrt(expected * (1 - expected) / len(c))
     assert (np.abs(share - expected) < 5 * sigma + 1e-12).all()
+
+
+def test_regions_method_gives_every_region_an_equal_share(parts: dict[str, Part]) -> None:
+    # the nut: 14 regions whose areas differ 7-fold; by region each gets 1 / 14
+    part = parts["nut"]
+    n = 20000
+    c = sample_contacts(part, n, seed=3, method="regions")
+    count = np.bincount(c.region, minlength=len(part.regions))
+    p = 1 / len(part.regions)
+    sigma = np.sqrt(p * (1 - p) / n)
+    assert (np.abs(count / n - p) < 5 * sigma).all()
+    area = np.array([r.area for r in part.regions])
+    # the test means something: area-uniform shares would fail it by far
+    assert (np.abs(area / area.sum() - p) > 20 * sigma).any()
+    # within one region the points stay area-uniform over its faces
+    big = int(np.argmax(area))
+    faces = part.regions[big].faces
+    fa = np.asarray(part.mesh.area_faces)[faces]
+    got = np.array([(c.faces == f).sum() for f in faces])
+    want = got.sum() * fa / fa.sum()
+    assert (np.abs(got - want) < 5 * np.sqrt(want) + 1).all()
+    sub = sample_contacts(part, 300, seed=3, method="regions", regions=[big])
+    assert (sub.region == big).all()
 
 
 def test_even_spread_beats_uniform(parts: dict[str, Part]) -> None:

@@ -16,17 +16,21 @@ if TYPE_CHECKING:
 __all__ = ["SAMPLE_METHODS", "sample_contacts"]
 
 #: Sampling methods of :func:`sample_contacts`.
-SAMPLE_METHODS: tuple[str, ...] = ("uniform", "even", "edges", "corners")
+SAMPLE_METHODS: tuple[str, ...] = ("uniform", "even", "regions", "edges", "corners")
 
 _EVEN_OVERSAMPLE = 8
 _MAX_ROUNDS = 20
 
 
-def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray,
+                  by_region: bool = False) -> tuple[np.ndarray, np.ndarray]:
     area = np.asarray(part.mesh.area_faces, float)[faces] * (part.face_exposure[faces] > 0)
     if area.sum() <= 0:
         raise InputError("sample_contacts: the chosen faces have no exposed area")
+    if by_region:  # every region with exposed area weighs 1, split by area among its faces
+        reg = part.face_region[faces]
+        total = np.bincount(reg, weights=area)[reg]
+        area = np.divide(area, total, out=np.zeros_like(area), where=total > 0)
     f = faces[rng.choice(len(faces), size=n, p=area / area.sum())]
     u = rng.random((n, 2))
     flip = u.sum(axis=1) > 1.0
@@ -45,16 +49,18 @@ def _exposed_points(part: Part, pts: np.ndarray, faces: np.ndarray) -> tuple[Con
     return c, part.exposed(pts, toward)
 
 
-def _draw(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray]:
+def _draw(part: Part, rng: np.random.Generator, n: int, faces: np.ndarray,
+          by_region: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """``n`` area-uniform points of the exposed surface of ``faces`` (rejection sampling;
-    fewer only when almost nothing of those faces is exposed)."""
+    fewer only when almost nothing of those faces is exposed); with ``by_region``, each face
+    region is equally likely and the points are area-uniform within it."""
     pts, fs = np.zeros((0, 3)), np.zeros(0, np.int64)
     for _ in range(_MAX_ROUNDS):
         need = n - len(pts)
         if need <= 0:
             break
-        p, f = _faces_points(part, rng, max(need, 16) * (1 if part._solids is None else 2), faces)
+        p, f = _faces_points(part, rng, max(need, 16) * (1 if part._solids is None else 2), faces,
+                             by_region)
         _, good = _exposed_points(part, p, f)
         pts, fs = np.concatenate([pts, p[good]]), np.concatenate([fs, f[good]])
     return pts[:n], fs[:n]
@@ -91,13 +97,16 @@ def sample_contacts(
         or edges is exposed, fewer placements may come back.
     seed : int or numpy.random.Generator, optional
         Seed of ``np.random.default_rng``; the same seed gives the same contacts.
-    method : {"uniform", "even", "edges", "corners"}
+    method : {"uniform", "even", "regions", "edges", "corners"}
         ``"uniform"``: area-uniform on the surface. ``"even"``: an even spread
-        (farthest-point subset of 8 n area-uniform samples). ``"edges"``: uniform along
+        (farthest-point subset of 8 n area-uniform samples). ``"regions"``: every face region
+        (planar facet or curved patch) with exposed area equally likely, area-uniform within
+        it, so that small facets, whose distinct normals matter to closure as much as large
+        ones, are not drowned by area. ``"edges"``: uniform along
         the sharp (convex and concave) edges, by length. ``"corners"``: corner and saddle
         vertices, without replacement while there are enough, with replacement beyond.
     regions : sequence of int, optional
-        Restrict ``"uniform"`` and ``"even"`` to these face regions.
+        Restrict ``"uniform"``, ``"even"`` and ``"regions"`` to these face regions.
 
     Returns
     -------
@@ -113,7 +122,7 @@ def sample_contacts(
     if method not in SAMPLE_METHODS:
         raise InputError(f"method: expected one of {SAMPLE_METHODS}, got {method!r}")
     rng = np.random.default_rng(seed)
-    if method in ("uniform", "even"):
+    if method in ("uniform", "even", "regions"):
         if regions is None:
             faces = np.arange(len(part.mesh.faces))
         else:
@@ -123,15 +132,16 @@ def sample_contacts(
                     f"regions: expected ids in [0, {len(part.regions)}), got {r.tolist()}"
                 )
             faces = np.flatnonzero(np.isin(part.face_region, r))
-        if method == "uniform":
-            pts, f = _draw(part, rng, n, faces)
+        if method in ("uniform", "regions"):
+            pts, f = _draw(part, rng, n, faces, method == "regions")
         else:
             pts, f = _draw(part, rng, max(n, 1) * _EVEN_OVERSAMPLE, faces)
             keep = _farthest(pts, min(n, len(pts)), rng) if n else np.zeros(0, np.int64)
             pts, f = pts[keep], f[keep]
         return part.resolve(pts, f)
     if regions is not None:
-        raise InputError(f"regions: only used by 'uniform' and 'even', not {method!r}")
+        raise InputError(f"regions: only used by 'uniform', 'even' and 'regions', not "
+                         f"{method!r}")
     feats = part.features
     if method == "edges":
         e = feats.sharp_edges

@@ -50,8 +50,11 @@ __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "
 
 Progress = Callable[[float, str], None]
 
-#: Contacts sampled for the pool (those a finger cannot make are then dropped).
+#: Contacts sampled for the pool (those a finger cannot make are then dropped), and the share
+#: of them drawn region by region rather than by area (a small facet's normal matters to
+#: closure as much as a large one's: the rim facets of a can).
 _POOL = 3000
+REGION_SHARE = 1 / 2
 #: Shares of the evaluation budget for the seeds, the pool climb and the surface climb. The
 #: swap climb (7 contacts without friction) takes the pool climb's place and climbs one seed per
 #: ``SWAP_COST`` evaluations of that share.
@@ -311,16 +314,22 @@ def _placement_counts(pool: Placements) -> str:
 
 
 def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> GraspBatch:
-    """Single face contacts of the exposed surface a finger can make, as one-contact grasps."""
-    c = sample_contacts(part, _POOL, seed=rng, method="uniform")
-    single = np.bincount(c.finger)[c.finger] == 1
-    keep = (c.features == "face") & single
-    if keep.sum() < k:
-        keep = single
-    keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
-    n = int(keep.sum())
-    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None], c.faces[keep][:, None],
-                      c.region[keep][:, None], np.zeros(n), np.zeros(n))
+    """Single face contacts of the exposed surface a finger can make, as one-contact grasps:
+    area-uniform, and ``REGION_SHARE`` of them spread evenly over the face regions."""
+    n_reg = int(REGION_SHARE * _POOL)
+    out = []
+    for n, method in ((_POOL - n_reg, "uniform"), (n_reg, "regions")):
+        c = sample_contacts(part, n, seed=rng, method=method)
+        single = np.bincount(c.finger)[c.finger] == 1
+        keep = (c.features == "face") & single
+        if keep.sum() < k:
+            keep = single
+        keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
+        m = int(keep.sum())
+        out.append(GraspBatch(c.points[keep][:, None], c.normals[keep][:, None],
+                              c.faces[keep][:, None], c.region[keep][:, None], np.zeros(m),
+                              np.zeros(m)))
+    return GraspBatch.concat(out)
 
 
 def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int,

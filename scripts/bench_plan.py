@@ -16,21 +16,29 @@ hold), one run prints:
 
 Usage:
 
-    python scripts/bench_plan.py [--files a.obj b.stl] [--no-t99]
+    python scripts/bench_plan.py [--files a.obj b.stl] [--no-t99] [--cpu N]
+
+The process pins itself to one CPU (the last one by default; Linux) and to one BLAS thread,
+so the times are one core's whatever else the machine runs.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
-import time
-from pathlib import Path
+import os
 
-import numpy as np
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy loads its BLAS
 
-from synth import PlanParams, load_part, plan_part, sample_contacts
-from synth.fingers import default_fingers
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from synth import PlanParams, load_part, plan_part, sample_contacts  # noqa: E402
+from synth.fingers import default_fingers  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from reference_search import CACHE, CORPUS, valid_d_star  # noqa: E402
@@ -69,7 +77,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--files", nargs="*", default=None)
     ap.add_argument("--no-t99", action="store_true", help="skip the time-to-99% column")
+    ap.add_argument("--cpu", type=int, default=None, help="CPU to run on (default: the last)")
     args = ap.parse_args()
+    if hasattr(os, "sched_setaffinity"):
+        cpu = max(os.sched_getaffinity(0)) if args.cpu is None else args.cpu
+        os.sched_setaffinity(0, {cpu})
+        print(f"pinned to CPU {cpu}")
     entries = json.loads((CORPUS / "corpus.json").read_text())
     ref = json.loads(CACHE.read_text()) if CACHE.exists() else {}
     print(f"{'mesh':40s} {'planner d*':>10} {'time s':>7} {'t(99%) s':>8} {'random d*':>9} "

@@ -23,9 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
 from synth.scores.friction import frictional_form_closure, tangent_basis
+from synth.scores.gram import rank_of_balanced
 from synth.scores.simplex import UNBOUNDED, UNVERIFIED, solve_batch
 from synth.scores.wrench import balance_rows
-from synth.tolerances import D_STAR_TOL, RANK_RTOL
+from synth.tolerances import D_STAR_TOL
 
 __all__ = ["frictional_form_closure_batch", "friction_edge_wrenches_batch"]
 
@@ -118,8 +119,7 @@ def frictional_form_closure_batch(
     o = P.mean(axis=1) if center is None else np.asarray(center, dtype=np.float64)
     G = friction_edge_wrenches_batch(P, N, mu_a, o, E)
     Gb, _ = balance_rows(G)
-    S = np.linalg.svd(Gb, compute_uv=False)
-    rank = np.sum(S > RANK_RTOL * S[:, :1], axis=1).astype(np.int64)
+    rank = rank_of_balanced(Gb)  # a Gram certificate, the SVD only where it cannot tell
     nE = k * E
     # columns: lam' (nE) | s | g (k) | artificials (6); rows: 6 wrench rows | k contact rows
     rowmax = np.abs(Gb).max(axis=2, keepdims=True)

@@ -42,9 +42,14 @@ __all__ = ["GROW", "SHRINK", "FIRST_STEP", "Population", "pool_climb", "surface_
 
 #: Step-size factors after a round with and without an improvement.
 GROW, SHRINK = 1.5, 0.7
-#: First (and largest) step, relative to the part's length.
+#: First (and largest) step of the pool climb and the placement climb, relative to the part's
+#: length.
 FIRST_STEP = 0.05
-#: Surface climb: converged below this step (relative to the part's length).
+#: Surface climb: first (and largest) step and the step below which a member has converged,
+#: relative to the part's length. Its seeds come out of the swap climb already refined, so
+#: it starts finer than the pool climb (corpus, seeds 0-5: mean planner/reference d* 0.988
+#: -> 0.992, median 0.981 -> 0.986, runs below the reference 72% -> 68%, against 0.05).
+_SURFACE_FIRST_STEP = 0.02
 _MIN_STEP = 1e-4
 #: Pool climb: members and single-contact moves each proposes per round.
 _POOL_MEMBERS, _POOL_MOVES = 16, 32
@@ -352,7 +357,7 @@ def surface_climb(part: Any, seeds: GraspBatch, score: Scorer, fingers: Fingers,
     L = score.length
     k = seeds.points.shape[1]
     gradient = score.params.mu == 0 and k == 7
-    pop = Population(seeds, _SURFACE_MEMBERS, FIRST_STEP * L, _MIN_STEP * L)
+    pop = Population(seeds, _SURFACE_MEMBERS, _SURFACE_FIRST_STEP * L, _MIN_STEP * L)
     used = 0
     while used < evals and len(pop) and not score.out_of_time():
         who, P, moved = _proposals(pop, rng, gradient, score)

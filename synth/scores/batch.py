@@ -11,8 +11,8 @@ Then two exact routes, chosen per grasp:
 * Otherwise: substituting ``c = d 1 + (1 - d) f`` with ``0 <= f <= 1`` turns Trinkle's LP into
   ``max s  s.t.  W f + s W 1 = 0,  0 <= f <= 1,  s >= 0`` with ``d* = s / (1 + s)`` (a ray shot
   from the origin along ``-W 1`` into the zonotope ``W [0, 1]^n``). That LP has only m = 6
-  (or 3) equality rows, so the batched bounded simplex of :mod:`synth.scores.simplex` works on
-  (m + 1) x (n + 1) tableaux (reduced costs as the last row). As the right-hand side is 0,
+  (or 3) equality rows, so the batched bounded simplex of :mod:`synth.scores.simplex` keeps
+  only m x m basis inverses. As the right-hand side is 0,
   every basis is feasible at the origin, so the simplex starts from a crash basis of real
   columns instead of pivoting the artificials out one degenerate step at a time. Every optimum
   is verified from a fresh factorisation; anything not verified is re-solved with HiGHS.

@@ -30,7 +30,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.contacts import sample_contacts
+from synth.contacts import Contacts, sample_contacts
 from synth.errors import InputError, InternalError
 from synth.fingers import Fingers, check_fingers, default_fingers
 from synth.part import Part
@@ -317,19 +317,16 @@ def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> Gra
     """Single face contacts of the exposed surface a finger can make, as one-contact grasps:
     area-uniform, and ``REGION_SHARE`` of them spread evenly over the face regions."""
     n_reg = int(REGION_SHARE * _POOL)
-    out = []
-    for n, method in ((_POOL - n_reg, "uniform"), (n_reg, "regions")):
-        c = sample_contacts(part, n, seed=rng, method=method)
-        single = np.bincount(c.finger)[c.finger] == 1
-        keep = (c.features == "face") & single
-        if keep.sum() < k:
-            keep = single
-        keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
-        m = int(keep.sum())
-        out.append(GraspBatch(c.points[keep][:, None], c.normals[keep][:, None],
-                              c.faces[keep][:, None], c.region[keep][:, None], np.zeros(m),
-                              np.zeros(m)))
-    return GraspBatch.concat(out)
+    c = Contacts.concatenate([sample_contacts(part, _POOL - n_reg, seed=rng, method="uniform"),
+                              sample_contacts(part, n_reg, seed=rng, method="regions")])
+    single = np.bincount(c.finger)[c.finger] == 1
+    keep = (c.features == "face") & single
+    if keep.sum() < k:
+        keep = single
+    keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
+    n = int(keep.sum())
+    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None], c.faces[keep][:, None],
+                      c.region[keep][:, None], np.zeros(n), np.zeros(n))
 
 
 def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int,

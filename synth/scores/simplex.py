@@ -9,11 +9,11 @@ which is feasible with every other variable at 0 (optionally, when ``b = 0``, a 
 movable columns replaces the artificials first). All problems pivot in lock step, in revised
 form: each keeps its basis inverse, updated by a batched rank-one correction per pivot, and
 prices the columns from its duals; finished ones are dropped from the working set in batches.
-Pricing is Dantzig's rule, switching to Bland's rule (which
-cannot cycle) for a problem after a run of degenerate pivots. Every answer is then verified from
-scratch: the final basis is refactorised, the basic values and the duals are recomputed and
-primal and dual feasibility are checked. A problem whose check fails (or that hits the
-iteration cap) is reported as unverified so the caller can re-solve it another way.
+Pricing is Dantzig's rule, switching to Bland's rule (which cannot cycle) for a problem after a
+run of degenerate pivots. Every answer is then verified from scratch: the final basis is
+refactorised, the basic values and the duals are recomputed and primal and dual feasibility
+are checked. A problem whose check fails (or that hits the iteration cap) is reported as
+unverified so the caller can re-solve it another way.
 """
 
 from __future__ import annotations
@@ -100,10 +100,12 @@ def solve_batch(
     Revised simplex: each problem keeps its basis inverse ``Binv`` (K, M, M), updated by a
     batched rank-one correction per pivot, and prices the movable columns (``hi > 0``; a fixed
     column can never enter) from the duals, ``r = c - (c_B Binv) A``: one pass over ``A`` a
-    pivot, where updating a full (M + 1) x N tableau costs three (so about 3x less work on the
-    8-columns-a-contact frictional LP). Problems that finish stay in the arrays, inert, until
-    a quarter of the working set has finished; then the set is compacted (fewer copies than
-    compacting every iteration). The verification refactorises every final basis from ``A``.
+    pivot, where updating a full (M + 1) x N tableau costs three. Measured, that is about 10%
+    faster on the 7-contact frictional LP and 5-7% slower on the narrow frictionless ones:
+    numpy's per-call cost over the pivots dominates either way. Problems that finish stay in
+    the arrays, inert, until a quarter of the working set has finished; then the set is
+    compacted (fewer copies than compacting every iteration). The verification refactorises
+    every final basis from ``A``.
     """
     Bn, M, N = A.shape
     c = np.asarray(c, dtype=np.float64)

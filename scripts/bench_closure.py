@@ -1,7 +1,10 @@
 """Benchmark: batched d* vs a per-grasp scipy linprog (HiGHS) loop of the same LP.
 
 Three parts, each on random grasps (fixed seeds) scored both ways in one run, printing
-per-grasp times, the speed-up and the largest |difference| in d*:
+per-grasp times of the batch scorer with the numpy simplex and with its default route (the
+numba kernel when numba is installed and the batch has at least 2000 LPs, see
+``synth.scores.simplex.compiled_for``), of the linprog loop, the speed-ups and the largest
+|difference| in d*:
 
 1. frictionless d* (``form_closure_batch``) at 7, 12 and 20 contacts;
 2. Trinkle's frictional d* (``frictional_form_closure_batch``, mu = 0.5, 8 cone edges) at 3, 4
@@ -10,8 +13,8 @@ per-grasp times, the speed-up and the largest |difference| in d*:
 3. ``synth score`` end to end on 100,000 candidates of 7 contacts (read, score, rank, print the
    top rows, write --json), from NPZ and from JSON, as a separate process.
 
-Each timing is the best of ``--repeat`` runs, interleaved (batch, loop, batch, loop, ...), so
-load from other jobs on the machine affects both sides alike. Usage:
+Each timing is the best of ``--repeat`` runs, interleaved (numpy, default, loop, numpy, ...),
+so load from other jobs on the machine affects every side alike. Usage:
 
     python scripts/bench_closure.py [--batch 4000] [--loop 300] [--repeat 3] [--no-score]
 """
@@ -20,16 +23,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linprog
 
-from synth import form_closure_batch, frictional_form_closure_batch, wrench_matrix
+from synth import BatchScores, form_closure_batch, frictional_form_closure_batch, wrench_matrix
+from synth.scores.simplex import compiled_for
 
 
 def linprog_d_star(W: np.ndarray) -> float:
@@ -93,27 +99,45 @@ def contacts(rng: np.random.Generator, B: int, n: int) -> tuple[np.ndarray, np.n
     return P, N / np.linalg.norm(N, axis=2, keepdims=True)
 
 
+HEADER = (f"{'n':>3} {'closure %':>9} {'numpy us':>9} {'batch us':>9} "
+          f"{'linprog us':>11} {'speed-up':>9} {'numpy speed-up':>15} {'max |diff d*|':>14} "
+          f"{'fallbacks':>9}")
+
+
+def compare(n: int, batch: Callable[[], BatchScores], loop: Callable[[], np.ndarray],
+            args: argparse.Namespace) -> None:
+    """Time one batch scorer on ``args.batch`` grasps with the numpy simplex and with the default
+    route (numba when installed), and the linprog loop on the first ``args.loop``, interleaved;
+    print one row of :data:`HEADER` (times per grasp, best of ``args.repeat``)."""
+    routes = {"numpy": np.inf, "auto": np.inf}
+    t_loop = np.inf
+    for _ in range(args.repeat):
+        for route in routes:
+            os.environ["SYNTH_SIMPLEX"] = route
+            t0 = time.perf_counter()
+            res = batch()
+            routes[route] = min(routes[route], (time.perf_counter() - t0) / args.batch)
+        t0 = time.perf_counter()
+        ref = loop()
+        t_loop = min(t_loop, (time.perf_counter() - t0) / args.loop)
+    diff = np.abs(res.d_star[: args.loop] - ref).max()
+    print(f"{n:>3} {100 * res.closure.mean():>9.1f} {1e6 * routes['numpy']:>9.1f} "
+          f"{1e6 * routes['auto']:>9.1f} {1e6 * t_loop:>11.1f} "
+          f"{t_loop / routes['auto']:>8.0f}x {t_loop / routes['numpy']:>14.0f}x {diff:>14.2e} "
+          f"{res.fallback:>9}")
+
+
 def frictional(args: argparse.Namespace) -> None:
     """Part 2: the frictional batch scorer against linprog of the same LP."""
     rng = np.random.default_rng(7)
     mu, edges = 0.5, 8
     print(f"\nfrictional d*, mu = {mu}, {edges} cone edges")
-    print(f"{'n':>3} {'closure %':>15} {'batch us/grasp':>15} {'linprog us/grasp':>17} "
-          f"{'speed-up':>9} {'max |diff d*|':>14} {'fallbacks':>9}")
+    print(HEADER)
     for n in (3, 4, 7):
         P, N = contacts(rng, args.batch, n)
-        frictional_form_closure_batch(P[:10], N[:10], mu, edges=edges)  # warm up
-        t_batch = t_loop = np.inf
-        for _ in range(args.repeat):
-            t0 = time.perf_counter()
-            res = frictional_form_closure_batch(P, N, mu, edges=edges)
-            t_batch = min(t_batch, (time.perf_counter() - t0) / args.batch)
-            t0 = time.perf_counter()
-            ref = np.array([linprog_frictional(P[i], N[i], mu, edges) for i in range(args.loop)])
-            t_loop = min(t_loop, (time.perf_counter() - t0) / args.loop)
-        diff = np.abs(res.d_star[: args.loop] - ref).max()
-        print(f"{n:>3} {100 * res.closure.mean():>15.1f} {1e6 * t_batch:>15.1f} "
-              f"{1e6 * t_loop:>17.1f} {t_loop / t_batch:>8.0f}x {diff:>14.2e} {res.fallback:>9}")
+        compare(n, lambda: frictional_form_closure_batch(P, N, mu, edges=edges),  # noqa: B023
+                lambda: np.array([linprog_frictional(P[i], N[i], mu, edges)  # noqa: B023
+                                  for i in range(args.loop)]), args)
 
 
 def score_cli() -> None:
@@ -146,23 +170,16 @@ def main() -> None:
     ap.add_argument("--no-score", action="store_true", help="skip the synth score part")
     args = ap.parse_args()
     rng = np.random.default_rng(2024)
+    kernel = ("the numba kernel for batches of at least 2000 LPs, else numpy" if
+              compiled_for(10**9) else "numpy (numba is not installed)")
+    print(f"batch: the default simplex route, {kernel}; numpy: the numpy route forced; times "
+          "per grasp\n")
     print("frictionless d*")
-    print(f"{'n':>3} {'form-closure %':>15} {'batch us/grasp':>15} {'linprog us/grasp':>17} "
-          f"{'speed-up':>9} {'max |diff d*|':>14} {'fallbacks':>9}")
+    print(HEADER)
     for n in (7, 12, 20):
         W = grasps(rng, args.batch, n)
-        form_closure_batch(W[:10])  # warm up
-        t_batch = t_loop = np.inf
-        for _ in range(args.repeat):
-            t0 = time.perf_counter()
-            res = form_closure_batch(W)
-            t_batch = min(t_batch, (time.perf_counter() - t0) / args.batch)
-            t0 = time.perf_counter()
-            ref = np.array([linprog_d_star(w) for w in W[: args.loop]])
-            t_loop = min(t_loop, (time.perf_counter() - t0) / args.loop)
-        diff = np.abs(res.d_star[: args.loop] - ref).max()
-        print(f"{n:>3} {100 * res.closure.mean():>15.1f} {1e6 * t_batch:>15.1f} "
-              f"{1e6 * t_loop:>17.1f} {t_loop / t_batch:>8.0f}x {diff:>14.2e} {res.fallback:>9}")
+        compare(n, lambda: form_closure_batch(W),  # noqa: B023
+                lambda: np.array([linprog_d_star(w) for w in W[: args.loop]]), args)  # noqa: B023
     frictional(args)
     if not args.no_score:
         score_cli()

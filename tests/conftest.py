@@ -1,4 +1,4 @@
-"""Shared pytest setup: headless plotting, and the fixtures of the database tests."""
+"""Shared pytest setup: headless plotting, both simplex routes, the database fixtures."""
 
 import os
 
@@ -9,6 +9,18 @@ from pathlib import Path  # noqa: E402
 import pytest  # noqa: E402
 
 from tests.db_support import PARAMS, PLANNER, make_mesh_dir  # noqa: E402
+
+
+@pytest.fixture(params=["numpy", "numba"])
+def pivot_route(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Run a test with the numpy lock-step simplex, then with the numba kernel.
+
+    Sets ``SYNTH_SIMPLEX``, whatever the batch size; the numba run is skipped without numba.
+    """
+    if request.param == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv("SYNTH_SIMPLEX", request.param)
+    return request.param
 
 
 @pytest.fixture

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from synth import InputError, form_closure, form_closure_batch, wrench_matrix
-from synth.scores.simplex import solve_batch
 from tests.scoring_cases import blob_contacts, cube_contacts, example1_W, TABLE1
+
+#: every test here runs with both simplex routes (see tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("pivot_route")
 
 
 def _compare(Ws):
@@ -71,12 +73,3 @@ def test_empty_and_bad_batches():
     bad[1, 0, 0] = np.nan
     with pytest.raises(InputError, match=r"W\[1\]"):
         form_closure_batch(bad)
-
-
-def test_simplex_small_lp_known_optimum():
-    # max x0 + x1 s.t. x0 + x1 + s = 1.5, 0 <= x0, x1 <= 1: optimum 1.5 (an independent check)
-    A = np.array([[[1.0, 1.0, 1.0]]])
-    sol = solve_batch(A, np.array([[1.5]]), np.array([1.0, 1.0, 0.0]),
-                      np.array([1.0, 1.0, np.inf]), np.array([2]))
-    assert sol.status[0] == 0
-    assert sol.objective[0] == pytest.approx(1.5)

@@ -14,6 +14,9 @@ from synth import (
 )
 from tests.scoring_cases import blob_contacts
 
+#: every test here runs with both simplex routes (see tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("pivot_route")
+
 
 @pytest.mark.parametrize("k, mu, edges", [(3, 0.5, 8), (4, 0.3, 6), (6, 0.8, 8), (7, 0.05, 4)])
 def test_agrees_with_single_lp(k, mu, edges):

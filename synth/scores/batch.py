@@ -15,7 +15,8 @@ Then two exact routes, chosen per grasp:
   only m x m basis inverses. As the right-hand side is 0,
   every basis is feasible at the origin, so the simplex starts from a crash basis of real
   columns instead of pivoting the artificials out one degenerate step at a time. Every optimum
-  is verified from a fresh factorisation; anything not verified is re-solved with HiGHS.
+  is checked against the LP (a primal point and duals that prove it); anything not verified
+  is re-solved with HiGHS.
 """
 
 from __future__ import annotations

@@ -24,11 +24,14 @@ from synth.errors import InputError
 from synth.scores.batch import BatchScores
 from synth.scores.friction import frictional_form_closure, tangent_basis
 from synth.scores.gram import rank_of_balanced
-from synth.scores.simplex import UNBOUNDED, UNVERIFIED, solve_batch
+from synth.scores.simplex import UNBOUNDED, UNVERIFIED, compiled_for, solve_batch
 from synth.scores.wrench import balance_rows
 from synth.tolerances import D_STAR_TOL
 
 __all__ = ["frictional_form_closure_batch", "friction_edge_wrenches_batch"]
+
+#: Grasps per block of LPs: a block's matrices (about 8 kB a grasp at 7 contacts) stay in cache.
+_CHUNK = 512
 
 
 def friction_edge_wrenches_batch(
@@ -59,14 +62,18 @@ def friction_edge_wrenches_batch(
     B, k, _ = points.shape
     N = normals / np.linalg.norm(normals, axis=2, keepdims=True)
     u, v = tangent_basis(N.reshape(-1, 3))
-    u, v = u.reshape(B, k, 1, 3), v.reshape(B, k, 1, 3)
-    a = 2.0 * np.pi * np.arange(edges) / edges
-    mu_b = np.asarray(mu, dtype=np.float64).reshape(1, -1, 1, 1)
-    F = N[:, :, None, :] + mu_b * (np.cos(a)[None, None, :, None] * u
-                                   + np.sin(a)[None, None, :, None] * v)
+    mu_k = np.broadcast_to(np.asarray(mu, dtype=np.float64), (k,))[None, :, None]
+    Mu, Mv = mu_k * u.reshape(B, k, 3), mu_k * v.reshape(B, k, 3)
     R = points - np.asarray(center, dtype=np.float64).reshape(-1, 1, 3)
-    tau = np.cross(R[:, :, None, :], F)
-    return np.concatenate([F, tau], axis=3).reshape(B, k * edges, 6).transpose(0, 2, 1)
+    # edge j of contact i is n + mu (cos a_j u + sin a_j v), its wrench linear in (n, mu u, mu v):
+    # basis[:, row, i] holds the wrenches of those three, and one matmul spreads them to edges
+    basis = np.empty((B, 6, k, 3))
+    for col, F in enumerate((N, Mu, Mv)):
+        basis[:, :3, :, col] = F.transpose(0, 2, 1)
+        basis[:, 3:, :, col] = np.cross(R, F).transpose(0, 2, 1)
+    a = 2.0 * np.pi * np.arange(edges) / edges
+    G = basis.reshape(-1, 3) @ np.stack([np.ones(edges), np.cos(a), np.sin(a)])  # one GEMM
+    return G.reshape(B, 6, k * edges)
 
 
 def frictional_form_closure_batch(
@@ -116,27 +123,38 @@ def frictional_form_closure_batch(
     E = int(edges)
     if B == 0:
         return BatchScores(np.zeros(0), np.zeros(0, bool), np.zeros(0, np.int64))
-    o = P.mean(axis=1) if center is None else np.asarray(center, dtype=np.float64)
-    G = friction_edge_wrenches_batch(P, N, mu_a, o, E)
-    Gb, _ = balance_rows(G)
-    rank = rank_of_balanced(Gb)  # a Gram certificate, the SVD only where it cannot tell
-    nE = k * E
+    o = P.mean(axis=1) if center is None else np.broadcast_to(
+        np.asarray(center, dtype=np.float64), (B, 3))
+    d = np.zeros(B)
+    rank = np.zeros(B, dtype=np.int64)
     # columns: lam' (nE) | s | g (k) | artificials (6); rows: 6 wrench rows | k contact rows
-    rowmax = np.abs(Gb).max(axis=2, keepdims=True)
-    A = np.zeros((B, 6 + k, nE + 1 + k + 6))
-    A[:, :6, :nE] = Gb / np.where(rowmax > 0, rowmax, 1.0)
-    A[:, :6, nE + 1 + k :] = np.eye(6)
-    A[:, 6:, :nE] = -np.kron(np.eye(k), np.ones((1, E)))
-    A[:, 6:, nE] = 1.0
-    A[:, 6:, nE + 1 : nE + 1 + k] = np.eye(k)
+    nE = k * E
+    template = np.zeros((6 + k, nE + 1 + k + 6))
+    template[:6, nE + 1 + k :] = np.eye(6)
+    template[6:, :nE] = -np.kron(np.eye(k), np.ones((1, E)))
+    template[6:, nE] = 1.0
+    template[6:, nE + 1 : nE + 1 + k] = np.eye(k)
     hi = np.concatenate([np.full(nE + 1, np.inf), np.ones(k), np.zeros(6)])
     c = np.zeros(nE + 1 + k + 6)
     c[nE] = 1.0
     basis0 = np.concatenate([np.arange(nE + 1 + k, nE + 1 + k + 6), np.arange(nE + 1, nE + 1 + k)])
-    sol = solve_batch(A, np.zeros((B, 6 + k)), c, hi, basis0, crash=True)
-    s = sol.x[:, nE]
-    d = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
-    bad = np.nonzero(sol.status == UNVERIFIED)[0]
+    unverified = []
+    compiled = compiled_for(B)  # for the whole batch, not per chunk
+    A_all = np.empty((min(B, _CHUNK),) + template.shape)  # one buffer: only G's block changes
+    A_all[:] = template
+    for lo in range(0, B, _CHUNK):  # chunks keep the LP matrices in cache
+        sl = slice(lo, min(lo + _CHUNK, B))
+        G = friction_edge_wrenches_batch(P[sl], N[sl], mu_a, o[sl], E)
+        rank[sl] = rank_of_balanced(balance_rows(G)[0])  # a Gram certificate, else the SVD
+        A = A_all[: G.shape[0]]
+        rowmax = np.abs(G).max(axis=2, keepdims=True)  # rows scaled to max-norm 1
+        np.divide(G, np.where(rowmax > 0, rowmax, 1.0), out=A[:, :6, :nE])
+        sol = solve_batch(A, np.zeros((G.shape[0], 6 + k)), c, hi, basis0, crash=True,
+                          compiled=compiled)
+        s = sol.x[:, nE]
+        d[sl] = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
+        unverified.append(lo + np.nonzero(sol.status == UNVERIFIED)[0])
+    bad = np.concatenate(unverified)
     for j in bad:
         d[j] = frictional_form_closure(P[j], N[j], mu_a, center=None, edges=E).d_star
     d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)

@@ -1,4 +1,4 @@
-"""A batched bounded-variable primal simplex, in numpy, for many small LPs at once.
+"""A batched bounded-variable primal simplex for many small LPs at once.
 
 Solves, for each of ``B`` problems of the same shape,
 
@@ -6,26 +6,36 @@ Solves, for each of ``B`` problems of the same shape,
 
 starting from a basis whose columns form the identity (slacks or artificials fixed at 0) and
 which is feasible with every other variable at 0 (optionally, when ``b = 0``, a crash basis of
-movable columns replaces the artificials first). All problems pivot in lock step, in revised
+movable columns replaces the artificials first). Pricing is Dantzig's rule, switching to
+Bland's rule (which cannot cycle) for a problem after a run of degenerate pivots.
+
+Two routes run the same pivot rules. In numpy, all problems pivot in lock step, in revised
 form: each keeps its basis inverse, updated by a batched rank-one correction per pivot, and
-prices the columns from its duals; finished ones are dropped from the working set in batches.
-Pricing is Dantzig's rule, switching to Bland's rule (which cannot cycle) for a problem after a
-run of degenerate pivots. Every answer is then verified from scratch: the final basis is
-refactorised, the basic values and the duals are recomputed and primal and dual feasibility
-are checked. A problem whose check fails (or that hits the iteration cap) is reported as
-unverified so the caller can re-solve it another way.
+prices the columns from its duals; finished ones leave the working set in batches. With numba
+installed, :mod:`synth.scores.simplex_compiled` pivots each problem's own dense tableau in
+compiled code, which is 3-4x faster on large batches (:func:`compiled_for` chooses).
+
+Either way, every answer is then checked against the LP itself: the final point must satisfy
+``A x = b`` and its bounds, and its duals must price every basic column at zero and no
+nonbasic column out of its bound, which proves optimality by LP duality. A problem that fails
+the check (or hits the iteration cap) is reported as unverified so the caller can re-solve it
+another way.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from synth.errors import InputError, SolverError
 from synth.tolerances import LP_FEAS_TOL
 
-__all__ = ["BatchLP", "solve_batch"]
+__all__ = ["BatchLP", "COMPILED_MIN_PROBLEMS", "compiled_for", "solve_batch"]
 
 _PIVOT_TOL = 1e-9
 #: Degenerate pivots in a row after which a problem switches to Bland's rule. Bland cannot
@@ -34,8 +44,14 @@ _PIVOT_TOL = 1e-9
 #: after 32. A problem that cycles anyway hits the iteration cap and is re-solved by HiGHS.
 _DEGENERATE_RUN = 32
 _COMPACT = 0.75
+#: Smallest batch the compiled kernel is used for by default: importing numba and loading the
+#: cached kernel costs about 0.5 s once per process (and compiling it, on first use after an
+#: install, about 10 s), which the planner's batches of about 50 LPs never repay.
+COMPILED_MIN_PROBLEMS = 2000
 #: Crash pivots must exceed this fraction of the row's largest entry in ``A``.
 _CRASH_TOL = 1e-6
+#: Largest reduced cost of the wrong sign (or on a basic column) an optimum may show.
+_DUAL_TOL = 1e-7
 OPTIMAL, UNBOUNDED, UNVERIFIED = 0, 1, 2
 
 
@@ -69,6 +85,7 @@ def solve_batch(
     basis0: NDArray[np.int64],
     max_iter: int = 500,
     crash: bool = False,
+    compiled: bool | None = None,
 ) -> BatchLP:
     """Solve ``B`` bounded LPs ``max c^T x, A x = b, 0 <= x <= hi`` in lock step.
 
@@ -90,6 +107,10 @@ def solve_batch(
         Replace the basic fixed columns (artificials) by movable ones before the simplex
         starts, by Gauss-Jordan pivots on each row's largest entry. Only valid when ``b = 0``
         (then every basis is feasible at ``x = 0``).
+    compiled : bool, optional
+        Run the pivots in numba-compiled code (:mod:`synth.scores.simplex_compiled`), one
+        problem at a time, instead of the numpy lock-step loop. Default:
+        :func:`compiled_for` ``(B)``. Both routes end in the same optimality check.
 
     Returns
     -------
@@ -104,27 +125,134 @@ def solve_batch(
     faster on the 7-contact frictional LP and 5-7% slower on the narrow frictionless ones:
     numpy's per-call cost over the pivots dominates either way. Problems that finish stay in
     the arrays, inert, until a quarter of the working set has finished; then the set is
-    compacted (fewer copies than compacting every iteration). The verification refactorises
-    every final basis from ``A``.
+    compacted (fewer copies than compacting every iteration). The compiled route runs a
+    dense tableau per problem instead (see :mod:`synth.scores.simplex_compiled`).
     """
     Bn, M, N = A.shape
     c = np.asarray(c, dtype=np.float64)
     hi = np.asarray(hi, dtype=np.float64)
+    basis0 = np.asarray(basis0, dtype=np.int64)
+    if compiled is None:
+        compiled = compiled_for(Bn)
+    pivots = _compiled_module() if compiled else None
+    if compiled and pivots is None:
+        raise SolverError("compiled pivots need numba (pip install 'synth[fast]')")
+    wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
+    if pivots is not None:
+        fixed0 = np.unique(basis0[hi[basis0] <= 0])
+        cols = np.concatenate([wcols, fixed0])
+        tpos = np.full(N, -1, dtype=np.int64)
+        tpos[cols] = np.arange(cols.size)
+        bt, upper_w, xB, y, run, iters = pivots(
+            A, cols, wcols.size, np.ascontiguousarray(b, dtype=np.float64), c[cols], hi[cols],
+            tpos[basis0], max_iter, crash, LP_FEAS_TOL, _PIVOT_TOL, _CRASH_TOL, _DEGENERATE_RUN)
+        status = np.where(run == 1, UNBOUNDED, UNVERIFIED).astype(np.int64)
+        which = np.nonzero(run == 0)[0]
+        bases, upper_w, xB, y = cols[bt[which]], upper_w[which], xB[which], y[which]
+    else:
+        which, bases, upper_w, xB, y, status, iters = _pivot_lockstep(A, b, c, hi, wcols, basis0,
+                                                                      max_iter, crash)
     x_out = np.zeros((Bn, N))
+    if which.size:
+        every = which.size == Bn  # which is increasing: then it is every problem, in order
+        x, ok = _certify(A if every else A[which], b if every else b[which], c, hi, wcols,
+                         bases, upper_w, xB, y)
+        x_out[which] = x
+        status[which[ok]] = OPTIMAL
+    obj = np.where(status == UNBOUNDED, np.inf, x_out @ c)
+    return BatchLP(x=x_out, objective=obj, status=status, iterations=iters)
+
+
+@lru_cache(maxsize=1)
+def _compiled_module() -> Any:
+    """:func:`synth.scores.simplex_compiled.pivot_each`, or None without numba."""
+    try:
+        from synth.scores.simplex_compiled import pivot_each
+    except ImportError:
+        return None
+    return pivot_each
+
+
+def compiled_for(n_problems: int) -> bool:
+    """Whether :func:`solve_batch` runs ``n_problems`` LPs through the numba kernel by default.
+
+    ``SYNTH_SIMPLEX`` in the environment chooses: ``numpy`` (never), ``numba`` (always; an
+    error without numba) or ``auto`` (the default: when numba is installed and the batch has
+    at least :data:`COMPILED_MIN_PROBLEMS` LPs, which repay loading it). The choice depends on
+    the batch size only, never on what ran before, so a plan is the same in any process.
+
+    Parameters
+    ----------
+    n_problems : int
+
+    Returns
+    -------
+    bool
+    """
+    mode = os.environ.get("SYNTH_SIMPLEX", "auto") or "auto"
+    if mode not in ("auto", "numpy", "numba"):
+        raise InputError(f"SYNTH_SIMPLEX must be auto, numpy or numba, got {mode!r}")
+    if mode == "numpy" or (mode == "auto" and n_problems < COMPILED_MIN_PROBLEMS):
+        return False
+    if _compiled_module() is None:
+        if mode == "numba":
+            raise SolverError("SYNTH_SIMPLEX=numba needs numba (pip install 'synth[fast]')")
+        return False
+    return True
+
+
+def _pivot_lockstep(
+    A: NDArray[np.float64],
+    b: NDArray[np.float64],
+    c: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    wcols: NDArray[np.int64],
+    basis0: NDArray[np.int64],
+    max_iter: int,
+    crash: bool,
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_], NDArray[np.int64],
+           NDArray[np.int64]]:
+    """Run the pivots of :func:`solve_batch` for all problems in lock step, in numpy.
+
+    Parameters
+    ----------
+    A : (B, M, N) float
+    b : (B, M) float
+    c, hi : (N,) float
+    wcols : (Nw,) int
+        The movable columns of ``A``.
+    basis0 : (M,) int
+    max_iter : int
+    crash : bool
+
+    Returns
+    -------
+    which : (K,) int
+        Problems that finished bounded (to check), in increasing order.
+    bases : (K, M) int
+        Their final bases (columns of ``A``).
+    upper : (K, Nw) bool
+        Their nonbasic movable columns at the upper bound.
+    xB, y : (K, M) float
+        Their basic values and duals.
+    status : (B,) int
+        UNBOUNDED where found so, else UNVERIFIED.
+    iterations : (B,) int
+    """
+    Bn, M, N = A.shape
+    Nw = wcols.size
+    if Nw and wcols[-1] - wcols[0] == Nw - 1:  # a slice copies faster than a gather
+        Aw = np.ascontiguousarray(A[:, :, wcols[0] : wcols[0] + Nw])
+    else:
+        Aw = A[:, :, wcols]
     status = np.full(Bn, UNVERIFIED, dtype=np.int64)
     iters = np.zeros(Bn, dtype=np.int64)
-    wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
-    Nw = wcols.size
     wpos = np.full(N, -1, dtype=np.int64)  # original column -> working column (or -1)
     wpos[wcols] = np.arange(Nw)
     hi_w = hi[wcols]
     c_w = c[wcols]
     finite_w = np.isfinite(hi_w)
     idx = np.arange(Bn)
-    if Nw and wcols[-1] - wcols[0] == Nw - 1:  # a slice copies faster than a gather
-        Aw = np.ascontiguousarray(A[:, :, wcols[0] : wcols[0] + Nw])
-    else:
-        Aw = A[:, :, wcols]
     Binv = np.broadcast_to(np.eye(M), (Bn, M, M)).copy()
     xB = b.astype(np.float64, copy=True)
     basis = np.broadcast_to(np.asarray(basis0, dtype=np.int64), (Bn, M)).copy()
@@ -134,12 +262,13 @@ def solve_batch(
     degen = np.zeros(Bn, dtype=np.int64)
     n_it = np.zeros(Bn, dtype=np.int64)
     live = np.ones(Bn, dtype=bool)
-    stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]] = []
+    stash: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_],
+                      NDArray[np.float64], NDArray[np.float64]]] = []
 
-    def retire(mask: NDArray[np.bool_]) -> None:
-        """Record the final basis of finished, bounded problems for the verification."""
+    def retire(mask: NDArray[np.bool_], y: NDArray[np.float64]) -> None:
+        """Record basis, basic values and duals ``y`` of finished, bounded problems."""
         if mask.any():
-            stash.append((idx[mask], basis[mask], sgn[mask] < 0))
+            stash.append((idx[mask], basis[mask], sgn[mask] < 0, xB[mask], y[mask]))
 
     if crash:
         # crash basis, replacing the degenerate pivots that would drive out the artificials
@@ -216,7 +345,7 @@ def solve_batch(
         done = live & (~has | unbounded)
         if done.any():
             status[idx[unbounded & live]] = UNBOUNDED
-            retire(done & ~unbounded)
+            retire(done & ~unbounded, y)  # no pivot this round: y is still theirs
             live &= ~done
             if live.sum() <= _COMPACT * K:
                 iters[idx] = n_it
@@ -224,26 +353,22 @@ def solve_batch(
                 sgn, basic, degen = sgn[live], basic[live], degen[live]
                 n_it, live = n_it[live], live[live]
     iters[idx] = n_it
-    if stash:
-        which = np.concatenate([w for w, _, _ in stash])
-        bases = np.concatenate([bs for _, bs, _ in stash])
-        up_w = np.concatenate([u for _, _, u in stash])
-        if which.size:
-            uppers = np.zeros((which.size, N), dtype=bool)
-            uppers[:, wcols] = up_w
-            x_v, ok = _verify(A[which], b[which], c, hi, bases, uppers)
-            x_out[which] = x_v
-            status[which[ok]] = OPTIMAL
-    obj = np.where(status == UNBOUNDED, np.inf, x_out @ c)
-    return BatchLP(x=x_out, objective=obj, status=status, iterations=iters)
+    if not stash:
+        return (np.zeros(0, np.int64), np.zeros((0, M), np.int64), np.zeros((0, Nw), bool),
+                np.zeros((0, M)), np.zeros((0, M)), status, iters)
+    which, bases, upper, xBs, ys = (np.concatenate(part) for part in zip(*stash, strict=True))
+    order = np.argsort(which)
+    return (which[order], bases[order], upper[order], xBs[order], ys[order], status, iters)
 
 
 def _pivot(Binv: NDArray[np.float64], col: NDArray[np.float64], p: NDArray[np.int64],
            piv: NDArray[np.bool_]) -> None:
-    """Update the basis inverses ``Binv`` (K, M, M) in place for the entering columns ``col``
-    (K, M) (``Binv`` times the column) replacing basic position ``p`` (K,), where ``piv`` (K,)
-    is set: row p becomes row p / pivot and every other row r loses ``col[r]`` times it (a
-    rank-one correction; problems that do not pivot get none)."""
+    """Update the basis inverses ``Binv`` (K, M, M) in place after a pivot.
+
+    The entering columns ``col`` (K, M) (``Binv`` times the column) replace basic position
+    ``p`` (K,) where ``piv`` (K,) is set: row p becomes row p / pivot and every other row r
+    loses ``col[r]`` times it (a rank-one correction; problems that do not pivot get none).
+    """
     ar = np.arange(len(p))
     pv = np.where(piv, col[ar, p], 1.0)
     new_row = Binv[ar, p, :] / pv[:, None]
@@ -252,99 +377,61 @@ def _pivot(Binv: NDArray[np.float64], col: NDArray[np.float64], p: NDArray[np.in
     Binv -= f[:, :, None] * new_row[:, None, :]
 
 
-def _solve_square(
-    Mat: NDArray[np.float64], rhs: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Solve ``Mat x = rhs`` for a stack of small matrices by Gaussian elimination.
-
-    Partial pivoting, vectorised over the stack (numpy's batched ``solve`` calls LAPACK once
-    per matrix, which costs microseconds each for 6 x 6).
-
-    Parameters
-    ----------
-    Mat : (K, M, M) float
-    rhs : (K, M) float
-
-    Returns
-    -------
-    x : (K, M) float
-    ok : (K,) bool
-        False where a pivot was zero or not finite (singular to working precision).
-    """
-    K, M, _ = Mat.shape
-    ar = np.arange(K)
-    G = np.concatenate([Mat, rhs[:, :, None]], axis=2)
-    ok = np.ones(K, dtype=bool)
-    for j in range(M):
-        piv = j + np.argmax(np.abs(G[:, j:, j]), axis=1)
-        rows = G[ar, piv].copy()
-        G[ar, piv] = G[:, j]
-        G[:, j] = rows
-        d = rows[:, j]
-        good = np.isfinite(d) & (d != 0)
-        ok &= good
-        d = np.where(good, d, 1.0)
-        if j + 1 < M:
-            f = G[:, j + 1 :, j] / d[:, None]
-            G[:, j + 1 :, j:] -= f[:, :, None] * rows[:, None, j:]
-    x = np.empty((K, M))
-    for j in range(M - 1, -1, -1):
-        d = G[:, j, j]
-        d = np.where(d != 0, d, 1.0)
-        x[:, j] = (G[:, j, M] - np.einsum("km,km->k", G[:, j, j + 1 : M], x[:, j + 1 :])) / d
-    return x, ok & np.isfinite(x).all(axis=1)
-
-
-def _verify(
+def _certify(
     A: NDArray[np.float64],
     b: NDArray[np.float64],
     c: NDArray[np.float64],
     hi: NDArray[np.float64],
+    wcols: NDArray[np.int64],
     basis: NDArray[np.int64],
-    upper: NDArray[np.bool_],
+    upper_w: NDArray[np.bool_],
+    xB: NDArray[np.float64],
+    y: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Refactorise each final basis, recompute x and duals, check optimality.
+    """Check each final point and its duals against the LP itself (an optimality certificate).
+
+    The point ``x`` (basic values ``xB``, nonbasic columns at 0 or at their upper bound) must
+    satisfy ``A x = b`` and the bounds, and the reduced costs ``r = c - y^T A`` must vanish on
+    the basis and not point out of the box elsewhere (``r <= 0`` at a lower bound, ``r >= 0``
+    at an upper bound): then ``x`` is optimal by LP duality. Nothing here comes from the
+    pivots' arithmetic except the candidate pair ``(x, y)``.
 
     Parameters
     ----------
     A : (K, M, N) float
     b : (K, M) float
     c, hi : (N,) float
+    wcols : (Nw,) int
+        Movable columns (``hi > 0``); fixed ones carry no sign condition.
     basis : (K, M) int
-    upper : (K, N) bool
-        Nonbasic variables at their upper bound.
+    upper_w : (K, Nw) bool
+        Nonbasic movable columns at their upper bound.
+    xB, y : (K, M) float
 
     Returns
     -------
     x : (K, N) float
+        The points, clipped to their bounds.
     ok : (K,) bool
     """
     K, M, N = A.shape
-    ar = np.arange(K)
+    ar = np.arange(K)[:, None]
+    upper = np.zeros((K, N), dtype=bool)
+    upper[:, wcols] = upper_w
     x = np.where(upper, np.where(np.isinf(hi), 0.0, hi), 0.0)
-    nonbasic = np.ones((K, N), dtype=bool)
-    nonbasic[ar[:, None], basis] = False
-    x = np.where(nonbasic, x, 0.0)
-    Bm = np.take_along_axis(A, basis[:, None, :], axis=2)  # (K, M, M)
-    rhs = b - np.einsum("kmn,kn->km", A, x)
-    both = np.concatenate([Bm, np.transpose(Bm, (0, 2, 1))])
-    rhs2 = np.concatenate([rhs, c[basis]])
-    try:  # LAPACK; a singular basis anywhere raises for the whole stack
-        sol = np.linalg.solve(both, rhs2[..., None])[..., 0]
-        solved = np.isfinite(sol).all(axis=1)
-    except np.linalg.LinAlgError:
-        sol, solved = _solve_square(both, rhs2)
-    xB, y = sol[:K], sol[K:]
-    solved = solved[:K] & solved[K:]
-    xB = np.where(solved[:, None], xB, 0.0)
-    y = np.where(solved[:, None], y, 0.0)
-    res_p = np.abs(np.einsum("kmj,kj->km", Bm, xB) - rhs).max(axis=1)
-    ok = solved & (res_p <= LP_FEAS_TOL * (1.0 + np.abs(xB).max(axis=1)))
-    x[ar[:, None], basis] = xB
-    red = c[None, :] - np.einsum("km,kmn->kn", y, A)
+    x[ar, basis] = xB
     scale = 1.0 + np.abs(xB).max(axis=1)
-    primal = (xB >= -LP_FEAS_TOL * scale[:, None]) & (xB <= hi[basis] + LP_FEAS_TOL * scale[:, None])
-    movable = hi > 0
-    dual_bad = nonbasic & movable[None, :] & np.where(upper, red < -1e-7, red > 1e-7)
-    ok &= primal.all(axis=1) & ~dual_bad.any(axis=1)
+    slack = LP_FEAS_TOL * scale[:, None]
+    res_p = np.abs(np.einsum("kmn,kn->km", A, x) - b).max(axis=1)
+    ok = np.isfinite(xB).all(axis=1) & np.isfinite(y).all(axis=1)
+    ok &= res_p <= LP_FEAS_TOL * scale
+    ok &= ((xB >= -slack) & (xB <= hi[basis] + slack)).all(axis=1)
+    red = c[None, :] - np.einsum("km,kmn->kn", y, A)
+    movable = np.zeros(N, dtype=bool)
+    movable[wcols] = True
+    nonbasic = np.ones((K, N), dtype=bool)
+    nonbasic[ar, basis] = False
+    dual_bad = nonbasic & movable[None, :] & np.where(upper, red < -_DUAL_TOL, red > _DUAL_TOL)
+    ok &= ~dual_bad.any(axis=1)
+    ok &= (np.abs(np.take_along_axis(red, basis, axis=1)) <= _DUAL_TOL).all(axis=1)
     return np.clip(x, 0.0, np.where(np.isinf(hi), np.inf, hi)), ok

@@ -210,8 +210,8 @@ def _pivot_lockstep(
     basis0: NDArray[np.int64],
     max_iter: int,
     crash: bool,
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_], NDArray[np.int64],
-           NDArray[np.int64]]:
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64],
+           NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     """Run the pivots of :func:`solve_batch` for all problems in lock step, in numpy.
 
     Parameters

@@ -58,7 +58,7 @@ REGION_SHARE = 1 / 2
 #: Shares of the evaluation budget for the seeds, the pool climb and the surface climb. The
 #: swap climb (7 contacts without friction) takes the pool climb's place and climbs one seed per
 #: ``SWAP_COST`` evaluations of that share.
-SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.3, 0.5, 0.15
+SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.3, 0.5, 0.12
 SWAP_COST = 250
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40

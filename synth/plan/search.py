@@ -46,7 +46,7 @@ from synth.scores import describe_twist, form_closure, form_closure_batch, frict
 from synth.scores.quality import conditioning, epsilon_quality
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
-           "SWAP_COST", "D_STAR_TIE"]
+           "PLACEMENT_SHARE", "SWAP_COST", "D_STAR_TIE"]
 
 Progress = Callable[[float, str], None]
 
@@ -59,6 +59,8 @@ REGION_SHARE = 1 / 2
 #: swap climb (7 contacts without friction) takes the pool climb's place and climbs one seed per
 #: ``SWAP_COST`` evaluations of that share.
 SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.3, 0.5, 0.12
+#: With ``--fingers``, the placement climb's share (it has no separate surface climb).
+PLACEMENT_SHARE = 0.65
 SWAP_COST = 250
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40
@@ -230,8 +232,7 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
             chosen, fit = np.concatenate([chosen, more]), np.concatenate([fit, more_fit])
             order = np.argsort(-fit, kind="stable")[:_KEEP]
             chosen, fit = chosen[order], fit[order]
-        climbed = finger_climb(pool, chosen, fit, score, rng,
-                               int((POOL_SHARE + SURFACE_SHARE) * budget), L)
+        climbed = finger_climb(pool, chosen, fit, score, rng, int(PLACEMENT_SHARE * budget), L)
         for kk, g in climbed.items():
             archives.setdefault(kk, []).append(g)
         say((n + 1) / (len(counts) + 1), f"{F} fingers searched")

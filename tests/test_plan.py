@@ -189,3 +189,18 @@ def test_time_caps_the_search_whatever_the_budget(params):
 def test_a_search_well_inside_its_cap_does_not_report_a_cut():
     plan = plan_part(load_part(MESHES / "cube.stl"), PlanParams(evals=2000, time=600.0))
     assert not plan.stopped_by_time and "time limit" not in plan.message
+
+
+def test_planner_never_uses_the_compiled_simplex(monkeypatch):
+    """Even with SYNTH_SIMPLEX=numba and batches of thousands of LPs (11 contacts: none has a
+    one-dimensional null space), the planner keeps to the numpy simplex, so its plans do not
+    depend on numba and never wait for the kernel's compile."""
+    from synth.scores import simplex
+
+    def refuse():
+        raise AssertionError("the planner loaded the compiled simplex")
+
+    monkeypatch.setenv("SYNTH_SIMPLEX", "numba")
+    monkeypatch.setattr(simplex, "_compiled_module", refuse)
+    plan = plan_part(load_part(MESHES / "cube.stl"), PlanParams(contacts=11, evals=6000, top=1))
+    assert plan.grasps and plan.grasps[0].d_star > 0

@@ -147,10 +147,14 @@ class Scorer:
                finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
         prm = self.params
+        # the numpy simplex always: a plan must not depend on whether numba is installed, nor
+        # stall in the kernel's first compile (about 10 s) under a time cap
         if prm.mu == 0:
-            res = form_closure_batch(scaled_wrenches(P, N, self.center, self.length))
+            res = form_closure_batch(scaled_wrenches(P, N, self.center, self.length),
+                                     compiled=False)
         else:
-            res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges)
+            res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges,
+                                                compiled=False)
         d, ok = res.d_star, res.closure.copy()
         if ok.any():  # conditioning matters only for closure grasps
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)

@@ -397,7 +397,7 @@ def _spans_forces(normals: NDArray[np.float64]) -> bool:
     """Necessary condition for form closure: the normals positively span 3-D force space,
     i.e. the origin is strictly inside their convex hull (Trinkle's test on the 3 x k force
     rows alone)."""
-    return bool(form_closure_batch(normals.T[None]).closure[0])
+    return bool(form_closure_batch(normals.T[None], compiled=False).closure[0])
 
 
 def _distinct_rows(rng: np.random.Generator, n: int, size: int, k: int) -> NDArray[np.int64]:

@@ -265,8 +265,8 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     cs = _contacts(part, P, N)
     center, L = np.asarray(part.center_mass, float), float(part.length)
     if mu == 0 and len(P) >= 7 and all(c.kind != "curved" for c in cs):
-        d0 = float(form_closure_batch(scaled_wrenches(P, N, center, L)[None]).d_star[0]) \
-            if d_star is None else float(d_star)
+        d0 = float(form_closure_batch(scaled_wrenches(P, N, center, L)[None], compiled=False)
+                   .d_star[0]) if d_star is None else float(d_star)
         out = _certified(P, N, cs, center, L, d0, seed)
         if out is not None:
             return out
@@ -499,10 +499,11 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
     tangent[curved] = np.stack(tangent_basis(N[curved]), axis=1)
 
     def score(PP: NDArray[np.float64], NN: NDArray[np.float64]) -> NDArray[np.float64]:
+        # numpy simplex: regions must not depend on whether numba is installed (as plans)
         if mu > 0:
-            res = frictional_form_closure_batch(PP, NN, mu, center, edges)
+            res = frictional_form_closure_batch(PP, NN, mu, center, edges, compiled=False)
         else:
-            res = form_closure_batch(scaled_wrenches(PP, NN, center, L))
+            res = form_closure_batch(scaled_wrenches(PP, NN, center, L), compiled=False)
         return np.where(res.closure, res.d_star, -1.0)
 
     d0 = float(score(P[None], N[None])[0]) if d_star is None else float(d_star)

@@ -98,7 +98,7 @@ def _check_batch(W: ArrayLike) -> NDArray[np.float64]:
     return A
 
 
-def form_closure_batch(W: ArrayLike) -> BatchScores:
+def form_closure_batch(W: ArrayLike, compiled: bool | None = None) -> BatchScores:
     """Form-closure measure d*, closure flag and rank of many wrench matrices.
 
     Gives the same answers as :func:`synth.form_closure` (to 1e-7 on d*) at a small fraction of
@@ -108,6 +108,10 @@ def form_closure_batch(W: ArrayLike) -> BatchScores:
     ----------
     W : (B, m, n) float
         Normal wrench matrices, m = 6 (space) or 3 (plane).
+    compiled : bool, optional
+        Simplex route for the grasps that need the LP (see
+        :func:`synth.scores.simplex.compiled_for`, the default): True for the numba kernel,
+        False for numpy. The answers agree to about 1e-12 either way.
 
     Returns
     -------
@@ -161,7 +165,8 @@ def form_closure_batch(W: ArrayLike) -> BatchScores:
         hi = np.concatenate([np.ones(n), [np.inf], np.zeros(m)])
         c = np.zeros(n + 1 + m)
         c[n] = 1.0
-        sol = solve_batch(Afull, np.zeros((k, m)), c, hi, np.arange(n + 1, n + 1 + m), crash=True)
+        sol = solve_batch(Afull, np.zeros((k, m)), c, hi, np.arange(n + 1, n + 1 + m), crash=True,
+                          compiled=compiled)
         s = sol.x[:, n]
         d[ii] = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
         bad = ii[sol.status == UNVERIFIED]

@@ -82,6 +82,7 @@ def frictional_form_closure_batch(
     mu: ArrayLike,
     center: ArrayLike | None = None,
     edges: int = 8,
+    compiled: bool | None = None,
 ) -> BatchScores:
     """Frictional d*, closure flag and rank of many spatial grasps.
 
@@ -98,6 +99,9 @@ def frictional_form_closure_batch(
         Moment reference (default: each grasp's centroid); d* does not depend on it.
     edges : int
         Cone edges (>= 3).
+    compiled : bool, optional
+        Simplex route (see :func:`synth.scores.simplex.compiled_for`, the default): True for
+        the numba kernel, False for numpy.
 
     Returns
     -------
@@ -139,7 +143,8 @@ def frictional_form_closure_batch(
     c[nE] = 1.0
     basis0 = np.concatenate([np.arange(nE + 1 + k, nE + 1 + k + 6), np.arange(nE + 1, nE + 1 + k)])
     unverified = []
-    compiled = compiled_for(B)  # for the whole batch, not per chunk
+    if compiled is None:
+        compiled = compiled_for(B)  # for the whole batch, not per chunk
     A_all = np.empty((min(B, _CHUNK),) + template.shape)  # one buffer: only G's block changes
     A_all[:] = template
     for lo in range(0, B, _CHUNK):  # chunks keep the LP matrices in cache

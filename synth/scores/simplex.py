@@ -46,7 +46,8 @@ _DEGENERATE_RUN = 32
 _COMPACT = 0.75
 #: Smallest batch the compiled kernel is used for by default: importing numba and loading the
 #: cached kernel costs about 0.5 s once per process (and compiling it, on first use after an
-#: install, about 10 s), which the planner's batches of about 50 LPs never repay.
+#: install, about 10 s), which small batches never repay. (The planner never uses the kernel:
+#: see :class:`synth.plan.batch.Scorer`.)
 COMPILED_MIN_PROBLEMS = 2000
 #: Crash pivots must exceed this fraction of the row's largest entry in ``A``.
 _CRASH_TOL = 1e-6
@@ -179,7 +180,8 @@ def compiled_for(n_problems: int) -> bool:
     ``SYNTH_SIMPLEX`` in the environment chooses: ``numpy`` (never), ``numba`` (always; an
     error without numba) or ``auto`` (the default: when numba is installed and the batch has
     at least :data:`COMPILED_MIN_PROBLEMS` LPs, which repay loading it). The choice depends on
-    the batch size only, never on what ran before, so a plan is the same in any process.
+    the batch size only, never on what ran before. Callers that must not depend on numba
+    (the planner) pass ``compiled=False`` instead.
 
     Parameters
     ----------

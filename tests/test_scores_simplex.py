@@ -124,12 +124,18 @@ def test_bad_compiled_answer_is_caught(monkeypatch):
 
 
 def test_route_choice(monkeypatch):
-    """auto uses the kernel from COMPILED_MIN_PROBLEMS LPs on (when numba is there), numpy
-    below; numpy and numba force a route; anything else is refused by name."""
+    """auto uses the kernel from COMPILED_MIN_PROBLEMS LPs on (when numba is there), or for any
+    batch once it is loaded, else numpy; numpy and numba force a route; anything else is
+    refused by name."""
     have = simplex._compiled_module() is not None
     monkeypatch.delenv("SYNTH_SIMPLEX", raising=False)
+    monkeypatch.setattr(simplex, "_kernel_loaded", False)
     assert not simplex.compiled_for(simplex.COMPILED_MIN_PROBLEMS - 1)
     assert simplex.compiled_for(simplex.COMPILED_MIN_PROBLEMS) == have
+    if have:
+        A, b, c, hi, basis0 = _one_lp()
+        solve_batch(A, b, c, hi, basis0, compiled=True)
+        assert simplex._kernel_loaded and simplex.compiled_for(1)
     monkeypatch.setenv("SYNTH_SIMPLEX", "numpy")
     assert not simplex.compiled_for(10**6)
     monkeypatch.setenv("SYNTH_SIMPLEX", "numba")

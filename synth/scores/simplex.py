@@ -44,11 +44,13 @@ _PIVOT_TOL = 1e-9
 #: after 32. A problem that cycles anyway hits the iteration cap and is re-solved by HiGHS.
 _DEGENERATE_RUN = 32
 _COMPACT = 0.75
-#: Smallest batch the compiled kernel is used for by default: importing numba and loading the
+#: Smallest batch that loads the compiled kernel by default: importing numba and loading the
 #: cached kernel costs about 0.5 s once per process (and compiling it, on first use after an
-#: install, about 10 s), which small batches never repay. (The planner never uses the kernel:
-#: see :class:`synth.plan.batch.Scorer`.)
-COMPILED_MIN_PROBLEMS = 2000
+#: install, about 10 s). The kernel saves 25-65 us a frictional LP and about 10 us a
+#: frictionless one, so 20,000 frictional LPs repay the import; once loaded, the kernel serves
+#: every batch. (The planner never uses it: see :class:`synth.plan.batch.Scorer`.)
+COMPILED_MIN_PROBLEMS = 20_000
+_kernel_loaded = False
 #: Crash pivots must exceed this fraction of the row's largest entry in ``A``.
 _CRASH_TOL = 1e-6
 #: Largest reduced cost of the wrong sign (or on a basic column) an optimum may show.
@@ -138,6 +140,9 @@ def solve_batch(
     pivots = _compiled_module() if compiled else None
     if compiled and pivots is None:
         raise SolverError("compiled pivots need numba (pip install 'synth[fast]')")
+    if pivots is not None:
+        global _kernel_loaded
+        _kernel_loaded = True
     wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
     if pivots is not None:
         fixed0 = np.unique(basis0[hi[basis0] <= 0])
@@ -178,10 +183,11 @@ def compiled_for(n_problems: int) -> bool:
     """Whether :func:`solve_batch` runs ``n_problems`` LPs through the numba kernel by default.
 
     ``SYNTH_SIMPLEX`` in the environment chooses: ``numpy`` (never), ``numba`` (always; an
-    error without numba) or ``auto`` (the default: when numba is installed and the batch has
-    at least :data:`COMPILED_MIN_PROBLEMS` LPs, which repay loading it). The choice depends on
-    the batch size only, never on what ran before. Callers that must not depend on numba
-    (the planner) pass ``compiled=False`` instead.
+    error without numba) or ``auto`` (the default: when numba is installed and either the
+    batch has at least :data:`COMPILED_MIN_PROBLEMS` LPs, which repay loading the kernel, or
+    an earlier batch of this process loaded it already). Both routes give the same optima to
+    about 1e-12; callers whose output must not depend on numba at all (the planner) pass
+    ``compiled=False`` to :func:`solve_batch` instead.
 
     Parameters
     ----------
@@ -194,7 +200,8 @@ def compiled_for(n_problems: int) -> bool:
     mode = os.environ.get("SYNTH_SIMPLEX", "auto") or "auto"
     if mode not in ("auto", "numpy", "numba"):
         raise InputError(f"SYNTH_SIMPLEX must be auto, numpy or numba, got {mode!r}")
-    if mode == "numpy" or (mode == "auto" and n_problems < COMPILED_MIN_PROBLEMS):
+    if mode == "numpy" or (mode == "auto" and n_problems < COMPILED_MIN_PROBLEMS
+                           and not _kernel_loaded):
         return False
     if _compiled_module() is None:
         if mode == "numba":

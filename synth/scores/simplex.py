@@ -140,11 +140,10 @@ def solve_batch(
     pivots = _compiled_module() if compiled else None
     if compiled and pivots is None:
         raise SolverError("compiled pivots need numba (pip install 'synth[fast]')")
+    wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
     if pivots is not None:
         global _kernel_loaded
         _kernel_loaded = True
-    wcols = np.nonzero(hi > 0)[0]  # working (movable) columns
-    if pivots is not None:
         fixed0 = np.unique(basis0[hi[basis0] <= 0])
         cols = np.concatenate([wcols, fixed0])
         tpos = np.full(N, -1, dtype=np.int64)

@@ -8,7 +8,7 @@ every mesh), and for each grasp of a ``synth.grasps`` document checks that
    towards its fingertip's centre (along the outward normal for a fingertip with one contact)
    lands outside every closed piece (trimesh's signed distance);
 2. every normal points into every face the contact touches (faces within the on-surface
-   tolerance of it) and lies in the cone of the inward normals of those faces and the faces
+   tolerance of it, except those buried in another closed piece beside it) and lies in the cone of the inward normals of those faces and the faces
    around them (sharing a corner): a face normal, a normal of an edge's or a corner's cone,
    and a normal interpolated on a tessellated curved surface all do;
 3. d* solved again as a plain scipy LP (Trinkle 1992, LP (12)-(15) with the box
@@ -157,9 +157,21 @@ class Pieces:
         return out
 
     def touched(self, p: np.ndarray) -> np.ndarray:
-        """Faces (with an area, so a normal) within the on-surface tolerance of the point."""
+        """Faces (with an area, so a normal) within the on-surface tolerance of the point and
+        not buried in another closed piece beside it: some point of the face a step from
+        ``p`` (towards its centroid or one of its corners), stepped out along the face's
+        normal, is outside every closed piece (a piece that overlaps another has faces inside
+        it that reach the other's surface only along a seam; a finger cannot touch them)."""
         d = point_triangle_distance(self.tri, np.broadcast_to(p, (len(self.tri), 3)))
-        return np.flatnonzero((d <= self.tol) & (np.linalg.norm(self.normals, axis=1) > 0.5))
+        faces = np.flatnonzero((d <= self.tol) & (np.linalg.norm(self.normals, axis=1) > 0.5))
+        step = STEP_RTOL * self.length
+        tri = self.tri[faces]
+        toward = np.concatenate([tri.mean(axis=1, keepdims=True), tri], axis=1) - p  # (f, 4, 3)
+        far = np.linalg.norm(toward, axis=2, keepdims=True)
+        q = p + toward / np.maximum(far, 1e-300) * np.minimum(step, far / 2)
+        q += step * self.normals[faces][:, None, :]
+        out = self.inside_depth(q.reshape(-1, 3)).reshape(len(faces), 4) < 0
+        return faces[out.any(axis=1)]
 
     def normal_cone(self, faces: np.ndarray) -> np.ndarray:
         """Inward normals of the touched faces and of the faces sharing a corner with them."""

@@ -324,3 +324,35 @@ def test_closest_within_radius_against_brute_force() -> None:
     assert np.allclose(d[found], brute[found], rtol=0, atol=1e-12)
     assert np.allclose(np.linalg.norm(q[found] - pts[found], axis=1), d[found], atol=1e-12)
     assert 200 < found.sum() < 2900
+
+
+@pytest.mark.parametrize("name", ["bracket", "torus", "fine_torus"])
+def test_closest_points_near_stays_on_the_faces_nearby(name: str) -> None:
+    """``exact=False`` (the climb's drop onto the surface): the point returned lies on the
+    face returned, it is never closer than the true closest point, it is the closest point of
+    the faces of the 8 nearest proxies (brute force over those faces), and it is the exact
+    answer wherever that face is among them."""
+    from synth.part.resolve import closest_points
+
+    part = _fine_torus() if name == "fine_torus" else \
+        load_part(MESHES / f"{name}.stl", units="decimeters")
+    pts = _query_points(part, np.random.default_rng(9))
+    q, f, d = closest_points(part, pts, exact=False)
+    all_d, best = _brute(part, pts)
+    rows = np.arange(len(pts))
+    eps = 1e-12 * part.length
+    tol = part.surface_tolerance
+    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, rtol=0, atol=eps)
+    assert np.all(np.abs(all_d[rows, f] - d) <= eps)
+    assert np.all(d >= best - eps)
+    index = part._index
+    k = min(8, len(index.proxy_face))
+    _, near = index.tree.query(pts, k=k)
+    near = index.proxy_face[near]
+    near_best = all_d[rows[:, None], near].min(axis=1)
+    fast = d <= tol  # the fast pass: on a nearby face's plane, inside it
+    assert np.all(np.abs(d - near_best)[~fast] <= eps)
+    assert np.all(d[fast] - near_best[fast] <= tol)
+    q_exact, _, d_exact = closest_points(part, pts)
+    covered = (near == np.argmin(all_d, axis=1)[:, None]).any(axis=1)
+    assert np.all(np.abs(d - d_exact)[covered] <= tol + eps)

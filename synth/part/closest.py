@@ -320,7 +320,7 @@ def _prune(index: MeshIndex, points: np.ndarray, owner: np.ndarray, cand: np.nda
 def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
                     cand: np.ndarray | None = None, dist_c: np.ndarray | None = None,
                     h: np.ndarray | None = None, side: np.ndarray | None = None,
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                    exact: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact closest point of the mesh to each point.
 
     The faces of the ``k`` nearest proxies are tried first; faces whose lower bound (plane
@@ -340,6 +340,9 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
         queried.
     h, side : (n, k) and (n, k, 3) float, optional
         :func:`plane_and_sides` of ``cand``, if already computed.
+    exact : bool
+        False: stop at the closest point on the faces of the ``k`` nearest proxies, a point
+        of the surface that may not be the closest one (no widened search).
 
     Returns
     -------
@@ -372,7 +375,7 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
                 hh, ins = h[s:s + m], side[s:s + m]
         c, f, d = _prune(index, p, np.repeat(np.arange(m), k), cd.ravel(), np.arange(m) * k,
                          _lower_bound(index, cd, hh, ins).ravel(), dc.ravel())
-        if k < n_proxy:  # else every face was a candidate
+        if exact and k < n_proxy:  # else every face was a candidate
             unsure = np.flatnonzero(d > dc[:, -1] - radius)
             if len(unsure):
                 rows, owner, cand2, starts = _near_faces(index, p[unsure], d[unsure])

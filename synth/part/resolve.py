@@ -49,19 +49,25 @@ def mesh_index(part: Part) -> MeshIndex:
     return part._index
 
 
-def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closest surface point, its face and distance for each query point (exact).
+def closest_points(part: Part, points: np.ndarray, *, exact: bool = True
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closest surface point, its face and distance for each query point.
 
     A point within ``surface_tolerance`` of the plane of one of the faces with the 8 nearest
     centroids, whose projection lies inside that face (the first such face in centroid
-    order), is taken as on that face: the projection, on the face. Otherwise the exact search :func:`synth.part.closest.closest_on_mesh` runs
-    on those 8 faces, widened to every face that could be closer when the bound
-    ``|p - c_f| - r`` cannot certify the answer.
+    order), is taken as on that face: the projection, on the face. Otherwise the exact search
+    :func:`synth.part.closest.closest_on_mesh` runs on those 8 faces, widened to every face
+    that could be closer when the bound ``|p - c_f| - r`` cannot certify the answer.
 
     Parameters
     ----------
     part : Part
     points : (n, 3) float
+    exact : bool
+        False skips the widened search: the answer is the closest point on those 8 faces, a
+        point of the surface near the query but not always the closest one (enough to drop
+        a point moved a small step off the surface back onto it, at a fraction of the cost
+        far from flat regions).
 
     Returns
     -------
@@ -108,7 +114,7 @@ def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarr
     if len(sel):
         rows = rest[sel]
         c2, f2, d2 = closest_on_mesh(index, points[rows], cand=cand[rows], dist_c=dist_c[rows],
-                                     h=h[sel], side=side[sel])
+                                     h=h[sel], side=side[sel], exact=exact)
         closest[rows], face[rows], dist[rows] = c2, f2, d2
     return closest, face, dist
 

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from synth.fingers import Fingers, check_fingers
+from synth.part.resolve import closest_points
 from synth.plan.ascent import ascent_directions
 from synth.plan.batch import GraspBatch, Scorer
 
@@ -411,11 +412,17 @@ def _proposals(pop: Population, rng: np.random.Generator, gradient: bool, score:
 
 def _settle(part: Any, members: GraspBatch, who: NDArray[np.int64], P: NDArray[np.float64],
             moved: NDArray[np.bool_]) -> tuple[GraspBatch, NDArray[np.bool_]]:
-    """Snap the moved contacts onto the surface; candidates (c,) and which keep every moved
-    contact a single face contact."""
+    """Drop the moved contacts onto the surface; candidates (c,) and which keep every moved
+    contact a single face contact.
+
+    A moved point goes to the closest point of the faces near it (not a certified closest
+    point of the whole mesh: any surface point near the proposal is a valid move, and the
+    certification costs a widened search wherever the surface curves away from the step).
+    """
     cand = members.take(who)
     rows, cols = np.nonzero(moved)
-    c = part.resolve(P[rows, cols], snap=True)
+    q, f, _ = closest_points(part, P[rows, cols], exact=False)
+    c = part.resolve(q, f, snap=True)
     n = len(rows)
     one = np.bincount(c.finger, minlength=n) == 1
     first = np.full(n, -1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
 from tests.independent_check import Pieces, point_triangle_distance
 from tests.test_part_compound import _box, _obj
 

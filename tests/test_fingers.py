@@ -367,3 +367,42 @@ def test_results_do_not_depend_on_the_batch(bracket):
         one = check_fingers(bracket, points[i : i + 1], normals[i : i + 1], f)
         assert one.mask[0] == res.mask[i] and one.reasons[0] == res.reasons[i]
         np.testing.assert_array_equal(one.approach[0], res.approach[i])
+
+
+def _roof() -> trimesh.Trimesh:
+    """Return a block whose top is two facets meeting at a ridge along y, tilted 12 degrees."""
+    h = math.tan(math.radians(12.0))
+    pts = [(x, y, z) for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 0.0)]
+    return trimesh.convex.convex_hull(np.array(pts + [(0.0, -1.0, h), (0.0, 1.0, h)]))
+
+
+def test_tip_on_an_edge_sinks_only_when_every_touched_facet_is_shallow() -> None:
+    """A contact on the ridge, its normal tilted 8.9 degrees from the facet it lies on and 21
+    from the facet across the ridge: the tip enters the ridge by r (1 - cos 8 deg) (distance
+    from the tip centre to the ridge line, derived by hand and measured with trimesh). The
+    curved-patch allowance covers the near facet alone, not the sharp edge, so the tip is
+    rejected; the same normal in the middle of the facet gets the allowance."""
+    from synth.fingers.collide import facet_sink
+    from synth.part import Part
+
+    mesh = _roof()
+    part = Part(mesh)
+    n_a = np.array([-math.sin(math.radians(12.0)), 0.0, math.cos(math.radians(12.0))])
+    n_b = n_a * [-1.0, 1.0, 1.0]
+    # outward normal: n_a turned 4 degrees towards n_b, then 8 degrees along the ridge
+    swing = np.cross([0.0, 1.0, 0.0], n_a)
+    n = math.cos(math.radians(4.0)) * n_a + math.sin(math.radians(4.0)) * swing
+    n = math.cos(math.radians(8.0)) * n + math.sin(math.radians(8.0)) * np.array([0.0, 1.0, 0.0])
+    assert n @ n_b < math.cos(math.radians(15.0)) < n @ n_a
+    r = 0.2
+    ridge = np.array([-1e-9, 0.0, math.tan(math.radians(12.0))])  # on facet a, at the ridge
+    sunk = r - trimesh.proximity.signed_distance(mesh, [ridge + r * n])[0] * -1
+    assert sunk == pytest.approx(r * (1 - math.cos(math.radians(8.0))), rel=1e-6)
+    fingers = Fingers(tip_radius=r, body_length=0.0)
+    assert sunk > fingers.penetration_tol
+    assert facet_sink(part, ridge[None], -n[None], r)[0, 0] == 0.0
+    res = check_fingers(part, ridge[None], -n[None], fingers)
+    assert not res.mask[0] and res.status[0, 0] == TIP_PENETRATES, res.reasons[0]
+    inside = np.array([-0.5, 0.0, 0.5 * math.tan(math.radians(12.0))])  # facet a only
+    assert facet_sink(part, inside[None], -n[None], r)[0, 0] == pytest.approx(
+        r * (1 - n @ n_a), rel=1e-9)

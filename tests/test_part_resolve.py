@@ -326,6 +326,28 @@ def test_closest_within_radius_against_brute_force() -> None:
     assert 200 < found.sum() < 2900
 
 
+def test_faces_within_radius_against_brute_force() -> None:
+    """Every face that comes within the radius of each point, and no other (trimesh's own
+    point-triangle distances over all faces), on a mesh with a long sliver."""
+    from synth.part.closest import build_index, faces_within
+
+    mesh = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide()
+    sliver = trimesh.Trimesh([[-5, 2, 0], [5, 2, 0], [0, 2.001, 0.0]], [[0, 1, 2]])
+    mesh = trimesh.util.concatenate([mesh, sliver])
+    index = build_index(np.asarray(mesh.triangles), np.asarray(mesh.face_normals))
+    rng = np.random.default_rng(6)
+    pts = np.r_[rng.uniform(-0.8, 0.8, size=(400, 3)),
+                rng.uniform([-6, 1.7, -0.3], [6, 2.3, 0.3], size=(100, 3))]
+    radius = 0.15
+    owner, faces = faces_within(index, pts, radius)
+    got = set(zip(owner.tolist(), faces.tolist(), strict=True))
+    brute = np.array([np.linalg.norm(trimesh.triangles.closest_point(
+        index.triangles, np.broadcast_to(p, (len(index.triangles), 3))) - p, axis=1)
+        for p in pts])
+    assert got == set(zip(*(a.tolist() for a in np.nonzero(brute <= radius)), strict=True))
+    assert 300 < len(got) < 5000
+
+
 @pytest.mark.parametrize("name", ["bracket", "torus", "fine_torus"])
 def test_closest_points_near_stays_on_the_faces_nearby(name: str) -> None:
     """``exact=False`` (the climb's drop onto the surface): the point returned lies on the

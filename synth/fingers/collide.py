@@ -523,8 +523,10 @@ def facet_sink(part: Any, points: np.ndarray, normals: np.ndarray, tip_radius: f
     a fingertip touching the contact along that normal overlaps the flat facet it lies on by
     ``r (1 - cos a)``, ``a`` the angle between the two normals: the tessellation's own error,
     not a collision (the curved surface the facets approximate is not entered). That depth is
-    allowed where ``a`` is at most ``MAX_SINK_ANGLE``; elsewhere (sharp edges, corners, planar
-    faces) none.
+    allowed where ``a`` is at most ``MAX_SINK_ANGLE`` for every facet within the surface
+    tolerance of the contact (a contact on an edge or a vertex touches them all); elsewhere
+    (sharp edges, corners, planar faces) none. A contact inside its facet, farther than the
+    surface tolerance from the facet's edges, is taken to touch that facet alone.
 
     Parameters
     ----------
@@ -536,18 +538,33 @@ def facet_sink(part: Any, points: np.ndarray, normals: np.ndarray, tip_radius: f
     -------
     (B, k) float, or None when ``points`` cannot be read (the check reports that)
     """
-    from synth.part.resolve import closest_points
+    from synth.part.closest import faces_within, plane_and_sides
+    from synth.part.resolve import closest_points, mesh_index
 
     try:
         P = np.asarray(points, float)
         N = np.asarray(normals, float)
         P, N = (P[None], N[None]) if P.ndim == 2 else (P, N)
-        _, faces, _ = closest_points(part, P.reshape(-1, 3))
+        flat = P.reshape(-1, 3)
+        _, faces, _ = closest_points(part, flat)
     except (TypeError, ValueError, IndexError):
         return None
-    inward = -np.asarray(part.mesh.face_normals, float)[faces].reshape(P.shape)
+    face_normals = np.asarray(part.mesh.face_normals, float)
     N = N / np.maximum(np.linalg.norm(N, axis=-1, keepdims=True), 1e-300)
-    cos = np.clip(np.einsum("bkx,bkx->bk", N, inward), -1.0, 1.0)
+    Nf = N.reshape(-1, 3)
+    cos = np.einsum("nx,nx->n", Nf, -face_normals[faces])
+    # a contact on an edge or a vertex touches every face there: the fingertip may sink only
+    # when all of them lie within MAX_SINK_ANGLE of its normal (else the feature is sharp).
+    # Only contacts that would get an allowance and lie at the border of their face need it.
+    index, tol = mesh_index(part), part.surface_tolerance
+    _, side = plane_and_sides(index, faces[:, None], flat)
+    ask = np.flatnonzero((cos >= np.cos(MAX_SINK_ANGLE)) & (cos < 1.0) & (
+        (side[:, 0].min(axis=1) <= tol) | index.unbounded[faces]))
+    owner, near = faces_within(index, flat[ask], tol)
+    real = np.linalg.norm(face_normals[near], axis=1) > 0.5  # a face without area has no normal
+    owner, near = ask[owner[real]], near[real]
+    np.minimum.at(cos, owner, np.einsum("nx,nx->n", Nf[owner], -face_normals[near]))
+    cos = np.clip(cos, -1.0, 1.0).reshape(P.shape[:2])
     return np.where(cos >= np.cos(MAX_SINK_ANGLE), tip_radius * (1.0 - cos), 0.0)
 
 

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 from synth import load_part
-from synth.part.repair import drop_duplicate_faces, fix_degenerate
+from synth.part.repair import close, drop_duplicate_faces, fix_degenerate
 from synth.part.tolerances import coordinate_precision
 
 
@@ -45,6 +45,34 @@ def test_needle_corners_are_merged_and_the_cube_stays_closed() -> None:
     assert (fixed, dropped) == (1, 0)
     assert out.is_watertight and out.volume == pytest.approx(1.0) and len(out.faces) == 12
     assert trimesh.triangles.normals(out.triangles)[1].all()
+
+
+def test_needle_farther_than_max_move_is_flipped_not_merged() -> None:
+    """A merge moves the surface around the merged corner by the distance the corner
+    travels; past ``max_move`` the needle is flipped: no face lost, the cube still closed."""
+    mesh = _cube_with_cap(1e-8)
+    out, fixed, dropped, _ = fix_degenerate(mesh, 1e-9, max_move=1e-9)
+    assert (fixed, dropped) == (1, 0)
+    assert len(out.faces) == len(mesh.faces) and len(out.vertices) == len(mesh.vertices)
+    assert out.is_watertight and out.volume == pytest.approx(1.0)
+    out, _, _, _ = fix_degenerate(mesh, 1e-9, max_move=2e-8)
+    assert len(out.faces) == 12
+
+
+def test_a_body_that_stays_open_comes_back_as_it_came() -> None:
+    """trimesh fills the triangular hole but not the pentagonal one: the faces it added are
+    not kept (they would be surface the file does not have), nor reported."""
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    ring = np.flatnonzero((sphere.faces == 0).any(axis=1))[:3]  # 3 of the 5 faces at vertex 0
+    far = int(np.argmin(sphere.triangles_center @ sphere.vertices[0]))  # one face opposite
+    keep = np.setdiff1d(np.arange(len(sphere.faces)), np.r_[ring, far])
+    mesh = trimesh.Trimesh(sphere.vertices, sphere.faces[keep], process=False)
+    filled = mesh.copy()
+    trimesh.repair.fill_holes(filled)
+    assert len(filled.faces) == len(mesh.faces) + 1 and not filled.is_watertight
+    out, what = close(mesh.copy())
+    assert what is None and np.array_equal(out.faces, mesh.faces)
+    assert np.array_equal(out.vertices, mesh.vertices)
 
 
 def test_a_sliver_laden_file_loads_closed_with_real_normals(tmp_path: Path) -> None:

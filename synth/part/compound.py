@@ -134,7 +134,7 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
 
 
 def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: list[bool],
-                      height: float
+                      height: float, max_move: float | None = None
                       ) -> tuple[list[trimesh.Trimesh], list[str], list[np.ndarray], list[str]]:
     """Unite the closed bodies of one object that overlap (manifold3d, float64).
 
@@ -143,9 +143,9 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
     meshes : list of trimesh.Trimesh
     names : list of str
     closed : list of bool
-    height : float
-        Slivers of the union thinner than this are repaired
-        (:func:`synth.part.repair.fix_degenerate`).
+    height, max_move : float
+        Slivers of the union thinner than ``height`` are repaired, moving its surface by at
+        most ``max_move`` (:func:`synth.part.repair.fix_degenerate`).
 
     Returns
     -------
@@ -216,7 +216,7 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
                             np.diff(runs))
             united = trimesh.Trimesh(np.asarray(mesh.vert_properties, float)[:, :3] + centre,
                                      np.asarray(mesh.tri_verts, np.int64), process=False)
-            united, _, _, kept = fix_degenerate(united, height)
+            united, _, _, kept = fix_degenerate(united, height, max_move)
             out_m.append(united)
             out_s.append(src[kept])
             out_n.append(label if len(pieces) == 1 else f"{label}#{k}")

@@ -169,7 +169,7 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
             continue
         m, k = weld(m, weld_tol)
         counts["welded"] += k
-        m, k, j, _ = fix_degenerate(m, sliver)
+        m, k, j, _ = fix_degenerate(m, sliver, tol.surface_tolerance(length, precision))
         counts["repaired"] += k
         counts["degenerate"] += j
         m, k = drop_duplicate_faces(m)
@@ -361,7 +361,8 @@ def load_part(
     meshes, names, sources, notes = unite_overlapping([bodies[i][1] for i in chosen],
                                              [bodies[i][0] for i in chosen],
                                              [bodies[i][2] for i in chosen],
-                                             max(tol.DEGENERATE_RTOL * length, precision))
+                                             max(tol.DEGENERATE_RTOL * length, precision),
+                                             tol.surface_tolerance(length, precision))
     repairs.extend(notes)
     mesh = meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
     mesh = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),

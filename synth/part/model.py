@@ -182,7 +182,7 @@ class Part:
     @property
     def surface_tolerance(self) -> float:
         """Distance within which ``resolve`` accepts a point as on the surface."""
-        return max(tol.ON_SURFACE_RTOL * self.length, tol.PRECISION_FACTOR * self.precision)
+        return tol.surface_tolerance(self.length, self.precision)
 
     @property
     def watertight(self) -> bool:

@@ -44,10 +44,15 @@ def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return np.where(trimesh.triangles.normals(tri)[1], h, 0.0)
 
 
-def fix_degenerate(mesh: trimesh.Trimesh, height: float
+def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None = None
                    ) -> tuple[trimesh.Trimesh, int, int, np.ndarray]:
     """Remove faces whose smallest height is below ``height`` (or that trimesh cannot give a
     normal) without opening the mesh.
+
+    A flip moves the surface by less than the cap's height. A merge moves the faces around
+    the merged corner by up to the distance it travels, so it is made only while that
+    distance, added to those of earlier merges into the corner, is at most ``max_move``
+    (None: ``1000 height``); a needle that would go farther is flipped instead.
 
     Returns the repaired mesh, the number of slivers repaired (edge flips and merges), the
     number dropped (those on an open boundary or left after a few passes) and, for each face
@@ -56,6 +61,8 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float
     v = np.asarray(mesh.vertices, float)
     f = np.asarray(mesh.faces, np.int64).copy()
     ids = np.arange(len(f))
+    reach = _NEEDLE_FACTOR * height if max_move is None else float(max_move)
+    drift = np.zeros(len(v))  # how far the corners merged into each vertex have travelled
     fixed = 0
     for _ in range(_PASSES):
         proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
@@ -80,10 +87,12 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float
             u, w, apex = a[j], a[(j + 1) % 3], a[(j + 2) % 3]
             seg = v[w] - v[u]
             t = float(np.dot(v[apex] - v[u], seg) / max(np.dot(seg, seg), 1e-300))
-            if min(t, 1.0 - t) * lens[j] <= _NEEDLE_FACTOR * height:  # needle: merge
-                end = u if t < 0.5 else w
-                if remap[apex] == apex and remap[end] == end:
+            end = u if t < 0.5 else w
+            move = drift[apex] + float(np.linalg.norm(v[apex] - v[end]))
+            if min(t, 1.0 - t) * lens[j] <= _NEEDLE_FACTOR * height and move <= reach:
+                if remap[apex] == apex and remap[end] == end:  # needle: merge
                     remap[apex] = end
+                    drift[end] = max(drift[end], move)
                     busy[i] = True
                     actions += 1
                 continue
@@ -142,12 +151,14 @@ def open_edges(mesh: trimesh.Trimesh) -> int:
 
 
 def close(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str | None]:
-    """Try to close an open body; returns it and what was done (None: still open)."""
+    """Try to close an open body; returns it and what was done (None: still open, and
+    returned as it came: faces that close some holes but not all are not kept)."""
     n_f = len(mesh.faces)
-    trimesh.repair.fill_holes(mesh)
-    if mesh.is_watertight:
-        mesh, _ = orient(mesh)
-        return mesh, f"filled holes with {len(mesh.faces) - n_f} faces"
+    filled = mesh.copy()
+    trimesh.repair.fill_holes(filled)
+    if filled.is_watertight:
+        filled, _ = orient(filled)
+        return filled, f"filled holes with {len(filled.faces) - n_f} faces"
     try:
         import manifold3d as mf
 

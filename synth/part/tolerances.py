@@ -71,6 +71,7 @@ __all__ = [
     "GROUP_GAP_RTOL",
     "PRECISION_FACTOR",
     "coordinate_precision",
+    "surface_tolerance",
 ]
 
 SHARP_ANGLE: float = float(np.radians(30.0))
@@ -88,6 +89,13 @@ PRECISION_FACTOR: float = 4.0
 
 _F32_RELATIVE = 2.0**-24  # half a float32 ulp, relative
 _F64_RELATIVE = 2.0**-53
+
+
+def surface_tolerance(length: float, precision: float) -> float:
+    """Distance within which a point of a part of this size, and coordinates of this
+    precision, is on its surface (``Part.surface_tolerance``); no repair moves the surface
+    farther than this."""
+    return max(ON_SURFACE_RTOL * length, PRECISION_FACTOR * precision)
 
 
 def coordinate_precision(vertices: np.ndarray) -> float:

@@ -173,18 +173,10 @@ class Pieces:
         out = self.inside_depth(q.reshape(-1, 3)).reshape(len(faces), 4) < 0
         return faces[out.any(axis=1)]
 
-    def normal_cone(self, faces: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Inward normals of the touched faces, of the faces sharing a corner with them and
-        of the faces facing the same side that come as close to ``p`` as the touched faces'
-        longest edge: where overlapping pieces meet, the seam crosses faces of the file, and
-        the faces across it share no vertex with them."""
+    def normal_cone(self, faces: np.ndarray) -> np.ndarray:
+        """Inward normals of the touched faces and of the faces sharing a corner with them."""
         ring = np.flatnonzero(np.isin(self.surface.faces, self.surface.faces[faces]).any(1))
-        tri = self.tri[faces]
-        reach = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max()
-        near = point_triangle_distance(self.tri, np.broadcast_to(p, (len(self.tri), 3)))
-        facing = (self.normals @ self.normals[faces].T > 0).any(axis=1)
-        seam = np.flatnonzero((near <= reach) & facing)
-        return -self.normals[np.union1d(np.union1d(faces, ring), seam)]
+        return -self.normals[np.union1d(faces, ring)]
 
 
 def lp_d_star(points: np.ndarray, normals: np.ndarray) -> tuple[float, int]:
@@ -261,7 +253,7 @@ def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8) -> lis
     for j, (p, n) in enumerate(zip(P, N)):
         faces = pieces.touched(p)
         if len(faces) and (np.any(-pieces.normals[faces] @ n <= 0)
-                           or not _in_cone(n, pieces.normal_cone(faces, p))):
+                           or not _in_cone(n, pieces.normal_cone(faces))):
             out.append(f"contact {j}: normal {np.round(n, 4).tolist()} is outside the normal "
                        "cone of the faces it touches")
     d, rank = lp_d_star(P, N)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from tests.independent_check import Pieces, point_triangle_distance
 from tests.test_part_compound import _box, _obj
@@ -33,30 +32,3 @@ def test_touched_faces_skip_faces_buried_in_another_piece(tmp_path: Path) -> Non
     corner = pieces.touched(np.array([2.0, 1.2, 1.5]))  # A's face and C's y = 1.2 side
     assert np.isclose(outward[corner], [0.0, -1.0, 0.0]).all(axis=1).any()
     assert np.isclose(np.abs(outward[corner]), [1.0, 0.0, 0.0]).all(axis=1).any()
-
-
-def test_normal_cone_reaches_across_the_seam_of_overlapping_pieces(tmp_path: Path) -> None:
-    """A finely meshed 2-cube ``A`` and a slab ``B`` tilted 15 degrees about x whose top
-    crosses ``A``'s top along y = 0 (above it for y > 0). A contact on ``A``'s top at y = -0.1
-    may carry a normal between the two tops (a smooth surface interpolated across the seam),
-    though no face of ``B`` shares a vertex with ``A``; a normal tilted the other way (no face
-    there) stays outside the cone."""
-    from tests.independent_check import _in_cone
-
-    a = trimesh.creation.box((2.0, 2.0, 2.0)).subdivide().subdivide().subdivide()
-    tilt = np.radians(15.0)
-    top_b = np.array([0.0, -np.sin(tilt), np.cos(tilt)])
-    b = trimesh.creation.box((1.0, 1.0, 0.5))
-    b.apply_transform(trimesh.transformations.rotation_matrix(tilt, [1, 0, 0]))
-    b.apply_translation(np.array([0.0, 0.0, 1.0]) - 0.25 * top_b)
-    assert np.isclose(b.face_normals @ top_b, 1.0).sum() == 2
-    pieces = Pieces(_obj(tmp_path / "seam.obj", {"A": a, "B": b}))
-    p = np.array([0.1, -0.1, 1.0])
-    faces = pieces.touched(p)
-    assert len(faces) and np.allclose(pieces.normals[faces], [0.0, 0.0, 1.0])
-    blend = -(np.array([0.0, 0.0, 1.0]) + top_b) / np.linalg.norm([0.0, 0.0, 1.0] + top_b)
-    other = blend * [1.0, -1.0, 1.0]
-    ring = np.flatnonzero(np.isin(pieces.surface.faces, pieces.surface.faces[faces]).any(1))
-    assert not _in_cone(blend, -pieces.normals[ring])  # shared vertices alone miss B
-    assert _in_cone(blend, pieces.normal_cone(faces, p))
-    assert not _in_cone(other, pieces.normal_cone(faces, p))

@@ -60,8 +60,8 @@ def test_needle_farther_than_max_move_is_flipped_not_merged() -> None:
 
 
 def test_a_body_that_stays_open_comes_back_as_it_came() -> None:
-    """Of two holes, trimesh fills the triangle but not the pentagon: the face it added is
-    not kept (it would be surface the file does not have), nor reported."""
+    """trimesh fills the triangular hole but not the pentagonal one: the faces it added are
+    not kept (they would be surface the file does not have), nor reported."""
     sphere = trimesh.creation.icosphere(subdivisions=1)
     ring = np.flatnonzero((sphere.faces == 0).any(axis=1))[:3]  # 3 of the 5 faces at vertex 0
     far = int(np.argmin(sphere.triangles_center @ sphere.vertices[0]))  # one face opposite

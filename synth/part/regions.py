@@ -183,7 +183,8 @@ def compute_regions(
     _, face_group = np.unique(np.where(face_planar, lab_cp, n_f + lab_sm), return_inverse=True)
     face_group = face_group.astype(np.int64)
 
-    corner = _corner_normals(mesh, face_group, face_planar, normals)
+    corner = _corner_normals(mesh, features.edges[inner][both], fa[both], fb[both], face_planar,
+                             normals)
     regions = _build_regions(mesh, features, face_region, face_planar, normals, areas)
     for arr in (face_region, face_group, corner):
         arr.flags.writeable = False
@@ -191,17 +192,29 @@ def compute_regions(
 
 
 def _corner_normals(
-    mesh: trimesh.Trimesh, group: np.ndarray, planar: np.ndarray, normals: np.ndarray
+    mesh: trimesh.Trimesh, edges: np.ndarray, fa: np.ndarray, fb: np.ndarray,
+    planar: np.ndarray, normals: np.ndarray
 ) -> np.ndarray:
+    """Inward normal at each face corner (f, 3, 3): the angle-weighted mean normal of the
+    faces around the vertex that the corner's face reaches through the smooth ``edges``
+    (e, 2) at that vertex (between faces ``fa``, ``fb``). A crease that ends at a vertex
+    (a seam of a union, a dart) keeps its two sides apart there instead of blending them;
+    planar faces keep their own normal."""
     faces = np.asarray(mesh.faces, np.int64)
-    n_v = len(mesh.vertices)
-    key = (group[:, None] * n_v + faces).ravel()
-    uniq, inv = np.unique(key, return_inverse=True)
+    n_f = len(faces)
+    links = []
+    for end in (0, 1):  # the corners of both faces at each end of each smooth edge
+        v = edges[:, end]
+        ca = fa * 3 + np.argmax(faces[fa] == v[:, None], axis=1)
+        cb = fb * 3 + np.argmax(faces[fb] == v[:, None], axis=1)
+        links.append((ca, cb))
+    fan = _components(3 * n_f, np.concatenate([a for a, _ in links]),
+                      np.concatenate([b for _, b in links]))
     w = np.asarray(mesh.face_angles, float).ravel()
-    acc = np.zeros((len(uniq), 3))
-    np.add.at(acc, inv, np.repeat(normals, 3, axis=0) * w[:, None])
+    acc = np.zeros((int(fan.max()) + 1 if n_f else 0, 3))
+    np.add.at(acc, fan, np.repeat(normals, 3, axis=0) * w[:, None])
     acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
-    corner = acc[inv].reshape(-1, 3, 3)
+    corner = acc[fan].reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]
     return -corner
 

@@ -106,6 +106,7 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None 
             x = b[(int(order[k] % 3) + 2) % 3]
             f[i] = (u, x, apex)
             f[g] = (x, w, apex)
+            ids[i] = ids[g]  # both now lie on the neighbour (the cap has no area)
             busy[i] = busy[g] = True
             actions += 1
         fixed += actions

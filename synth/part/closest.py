@@ -14,6 +14,7 @@ proxy-to-corner distance of the pieces.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterator
 from typing import NamedTuple
 
 import numpy as np
@@ -419,11 +420,7 @@ def closest_within(index: MeshIndex, points: np.ndarray, radius: float
     n = len(points)
     closest, face, dist = np.zeros((n, 3)), np.full(n, -1, np.int64), np.full(n, np.inf)
     found = np.zeros(n, bool)
-    for s in range(0, n, _CHUNK):
-        p = points[s:s + _CHUNK]
-        rows, owner, cand, starts = _near_faces(index, p, np.full(len(p), radius))
-        if not len(rows):
-            continue
+    for s, p, rows, owner, cand, starts in _near_chunks(index, points, radius):
         pr = p[rows]
         h, side = plane_and_sides(index, cand[:, None], pr[owner])
         lb = _lower_bound(index, cand[:, None], h, side)[:, 0]
@@ -453,11 +450,7 @@ def faces_within(index: MeshIndex, points: np.ndarray, radius: float
     """
     points = np.asarray(points, dtype=np.float64)
     owners, found = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-    for s in range(0, len(points), _CHUNK):
-        p = points[s:s + _CHUNK]
-        rows, owner, cand, _ = _near_faces(index, p, np.full(len(p), radius))
-        if not len(rows):
-            continue
+    for s, p, rows, owner, cand, _ in _near_chunks(index, points, radius):
         q = p[rows[owner]]
         h = np.einsum("cx,cx->c", index.plane_normals[cand], q) - index.plane_offsets[cand]
         near = (np.abs(h) <= radius) | index.unbounded[cand]  # within reach of the plane
@@ -467,6 +460,19 @@ def faces_within(index: MeshIndex, points: np.ndarray, radius: float
         owners.append(s + rows[who[keep]])
         found.append(cand[keep])
     return np.concatenate(owners), np.concatenate(found)
+
+
+def _near_chunks(index: MeshIndex, points: np.ndarray, radius: float
+                 ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                     np.ndarray]]:
+    """The points in chunks, each with the faces that may come within ``radius`` of its
+    points (see :func:`_near_faces`): ``(start, chunk, rows, owner, cand, starts)``; chunks
+    with no candidate are skipped."""
+    for s in range(0, len(points), _CHUNK):
+        p = points[s:s + _CHUNK]
+        rows, owner, cand, starts = _near_faces(index, p, np.full(len(p), radius))
+        if len(rows):
+            yield s, p, rows, owner, cand, starts
 
 
 def _near_faces(index: MeshIndex, points: np.ndarray, reach: np.ndarray

@@ -77,8 +77,8 @@ class RegionSet:
     face_region : (f,) int
         Region id of each face.
     face_group : (f,) int
-        Normal group of each face: faces in one group share interpolated vertex normals
-        (a planar facet, or a smooth component).
+        Normal group of each face: a planar facet, or a smooth component (within which
+        corner normals are shared by the faces of one fan around a vertex).
     corner_normals : (f, 3, 3) float
         Inward unit normal at each corner of each face (``[f, j]`` for vertex
         ``faces[f, j]``), exact face normal on planar facets.
@@ -197,9 +197,9 @@ def _corner_normals(
 ) -> np.ndarray:
     """Inward normal at each face corner (f, 3, 3): the angle-weighted mean normal of the
     faces around the vertex that the corner's face reaches through the smooth ``edges``
-    (e, 2) at that vertex (between faces ``fa``, ``fb``). A crease that ends at a vertex
-    (a seam of a union, a dart) keeps its two sides apart there instead of blending them;
-    planar faces keep their own normal."""
+    (e, 2) at that vertex (between faces ``fa``, ``fb``). Where a crease (a seam of a union)
+    passes through a vertex, its two sides keep their own normals there even when they join
+    elsewhere; planar faces keep their own normal."""
     faces = np.asarray(mesh.faces, np.int64)
     n_f = len(faces)
     links = []

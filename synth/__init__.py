@@ -36,7 +36,8 @@ _LAZY: dict[str, str] = {
                      "form_closure", "form_closure_batch", "friction_cone_wrenches",
                      "frictional_form_closure", "frictional_form_closure_batch",
                      "frictional_squeezable", "squeezable_contacts", "strong_force_closure",
-                     "wrench_matrix"], "synth.scores"),
+                     "wrench_matrix", "GravityHold", "MuMin", "gravity_hold_batch", "mu_min",
+                     "mu_min_batch"], "synth.scores"),
     **dict.fromkeys(["conditioning", "epsilon_quality"], "synth.scores.quality"),
     **dict.fromkeys(["ContactRegions", "contact_regions", "certify_regions"], "synth.robust"),
 }
@@ -96,6 +97,11 @@ __all__ = [
     "wrench_matrix",
     "conditioning",
     "epsilon_quality",
+    "GravityHold",
+    "MuMin",
+    "gravity_hold_batch",
+    "mu_min",
+    "mu_min_batch",
     # scores -> robust (contact regions, placement tolerance)
     "ContactRegions",
     "contact_regions",

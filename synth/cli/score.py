@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from synth.cli.checks import integer, output_path, real
 from synth.errors import InputError
 from synth.files import write_atomic
-from synth.limits import MAX_EDGES, MAX_MU, MIN_EDGES
+from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
 
 __all__ = ["add_parser", "run", "score_table", "explain", "Scores", "format_table"]
 
@@ -86,6 +86,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         f"{MAX_MU:g}] (default 0: frictionless form closure)",
     )
     p.add_argument(
+        "--torsion", type=float, default=0.0, metavar="GAMMA",
+        help=f"torsional friction of soft contacts, a length in the candidates' unit, in [0, "
+        f"{MAX_LENGTH:g}] (default 0: point contacts); each contact then also resists a "
+        "moment about its normal, MuJoCo's condim-4 cone (linearised), and two contacts can "
+        "close",
+    )
+    p.add_argument(
         "--edges", type=int, default=8,
         help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} (default 8)",
     )
@@ -113,7 +120,7 @@ def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.floa
     return np.concatenate([N, tau], axis=2).swapaxes(1, 2)
 
 
-def score_table(table: Any, mu: float = 0.0, edges: int = 8) -> Scores:
+def score_table(table: Any, mu: float = 0.0, edges: int = 8, torsion: float = 0.0) -> Scores:
     """Score every valid candidate of a :class:`synth.grasps.CandidateTable`.
 
     Parameters
@@ -123,6 +130,9 @@ def score_table(table: Any, mu: float = 0.0, edges: int = 8) -> Scores:
         Friction coefficient of candidates that give none.
     edges : int
         Edges of each linearised friction cone.
+    torsion : float
+        Torsional coefficient of soft contacts (0: point contacts); planar candidates are
+        refused with it.
 
     Returns
     -------
@@ -146,17 +156,24 @@ def score_table(table: Any, mu: float = 0.0, edges: int = 8) -> Scores:
         for m_val in np.unique(mu_used[g.index]):
             sel = mu_used[g.index] == m_val
             idx = g.index[sel]
-            need = min_contacts(dim, m_val)
-            if k < need:
+            need = 2 if torsion > 0 and dim == 3 else min_contacts(dim, m_val)
+            if k < need or (torsion > 0 and dim == 2):
                 kind = "with friction" if m_val > 0 else "without friction (use --mu for friction)"
                 space = "in space" if dim == 3 else "in the plane"
                 for i in idx.tolist():
                     name = f" ({table.names[i]})" if not table.names[i].startswith("#") else ""
-                    errors[i] = (f"{table.source}: candidate {i}{name}: {k} contacts, but at "
-                                 f"least {need} are needed {space} {kind}")
+                    errors[i] = (f"{table.source}: candidate {i}{name}: " + (
+                        "--torsion needs contacts in space, got planar ones" if dim == 2
+                        and torsion > 0 else f"{k} contacts, but at least {need} are needed "
+                        f"{space} {kind}"))
                 continue
             P, N = g.points[sel], g.normals[sel]
-            if m_val == 0:
+            if torsion > 0:
+                res = frictional_form_closure_batch(P, N, float(m_val), edges=edges,
+                                                    torsion=torsion)
+                d[idx], rank[idx] = res.d_star, res.rank
+                closure[idx] = np.where(res.closure, "frictional form", "force")
+            elif m_val == 0:
                 res = form_closure_batch(_wrenches(P, N))
                 d[idx], rank[idx] = res.d_star, res.rank
                 closure[idx] = np.where(res.closure, "form", "force")
@@ -173,8 +190,8 @@ def score_table(table: Any, mu: float = 0.0, edges: int = 8) -> Scores:
                   tuple(sorted(errors.items())))
 
 
-def explain(table: Any, scores: Scores, rows: NDArray[np.int64], edges: int = 8
-            ) -> dict[int, tuple[str | None, list[int] | None]]:
+def explain(table: Any, scores: Scores, rows: NDArray[np.int64], edges: int = 8,
+            torsion: float = 0.0) -> dict[int, tuple[str | None, list[int] | None]]:
     """For the failing candidates among ``rows``: the motion left free, in words, and the
     contacts that can still be squeezed without bound (Trinkle's strong force closure, with
     friction where the candidate has it)."""
@@ -192,13 +209,13 @@ def explain(table: Any, scores: Scores, rows: NDArray[np.int64], edges: int = 8
         g, j = where[i]
         P, N = g.points[j], g.normals[j]
         m = float(scores.mu[i])
-        if m == 0:
+        if m == 0 and torsion == 0:
             W = _wrenches(P[None], N[None])[0]
             words = form_closure(W).escape_words
             squeeze = squeezable_contacts(W)
         else:
-            words = frictional_form_closure(P, N, m, edges=edges).escape_words
-            squeeze = frictional_squeezable(P, N, m, edges=edges).squeezable
+            words = frictional_form_closure(P, N, m, edges=edges, torsion=torsion).escape_words
+            squeeze = frictional_squeezable(P, N, m, edges=edges, torsion=torsion).squeezable
         out[i] = (words, np.flatnonzero(squeeze).tolist())
     return out
 
@@ -232,19 +249,20 @@ def run(args: argparse.Namespace) -> int:
     from synth.grasps import read_candidate_table
 
     real("--mu", args.mu, 0, MAX_MU)
+    real("--torsion", args.torsion, 0, MAX_LENGTH)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     integer("--top", args.top, 0)
     if args.json not in (None, "-"):
         output_path("--json", args.json, ".json")
     table = read_candidate_table(args.file)
-    scores = score_table(table, args.mu, args.edges)
+    scores = score_table(table, args.mu, args.edges, args.torsion)
     order = scores.order()
     if not len(order):
         more = f" (and {len(scores.errors) - 1} more malformed)" if len(scores.errors) > 1 else ""
         raise InputError(f"no candidate could be scored: {scores.errors[0][1]}{more}")
     top = DEFAULT_TOP if args.top is None else args.top
     shown = order if top == 0 else order[:top]
-    why = explain(table, scores, shown, args.edges)
+    why = explain(table, scores, shown, args.edges, args.torsion)
     if args.json is not None:
         rank_of = np.zeros(len(scores.names), np.int64)
         rank_of[order] = np.arange(1, len(order) + 1)

@@ -32,7 +32,7 @@ from synth.part.pieces import convex_piece
 from synth.part.tolerances import COPLANAR_ANGLE
 from synth.robust.certificate import CERT_RTOL, certify, expand, minor_scale
 from synth.scores.batch import form_closure_batch
-from synth.scores.friction import tangent_basis
+from synth.scores.cones import tangent_basis
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import scaled_wrenches
 

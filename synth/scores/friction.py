@@ -20,6 +20,15 @@ In the plane a cone has exactly its two edges ``n_i +- mu_i t_i`` and ``edges`` 
 the paper's Example 2 (contact 3 with mu = 0.3 > tan 15 deg) this reproduces Table 2 exactly.
 With every mu = 0 the edges coincide with the normals and d* is :func:`synth.form_closure`'s.
 
+Soft contacts (``torsion`` = gamma > 0, a length) also resist a moment about their normal, in
+MuJoCo's condim-4 cone ``f_n^2 >= |f_t|^2 / mu^2 + tau^2 / gamma^2`` linearised by inscribed
+generators (:mod:`synth.scores.cones`); the LP is the same with those generators. Two soft
+contacts closing on a part (a parallel-jaw grasp) are frictional form closure exactly when the
+line between them lies strictly inside both (linearised) friction cones and gamma > 0; two point
+contacts never are (the rotation about that line is free). Exactly on a cone's boundary (a case
+of measure zero) the paper's LP, which bounds only the normal intensities, still finds its
+internal force and reports closure.
+
 The paper first finds which normal intensities can grow without bound once friction counts
 (its footnote 2) and adds only those contacts' friction columns. When d* > 0 every contact is
 such a contact, so d* needs no separate step; :func:`frictional_squeezable` finds that set with
@@ -38,7 +47,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
+from synth.scores.cones import cone_wrenches_batch
 from synth.scores.escape import describe_twist, escape_twist
+from synth.scores.friction_lp import solve_frictional_lp
 from synth.scores.wrench import balance_rows, check_contacts, numerical_rank, wrench_matrix
 from synth.tolerances import D_STAR_TOL
 
@@ -48,7 +59,6 @@ __all__ = [
     "frictional_form_closure",
     "frictional_squeezable",
     "friction_cone_wrenches",
-    "tangent_basis",
 ]
 
 
@@ -77,7 +87,10 @@ class FrictionalFormClosure:
     mu : (n,) float
         Friction coefficient of each contact.
     edges : int
-        Cone edges per contact actually used (2 in the plane).
+        Cone edges per contact actually used (2 in the plane); a soft contact's cone has
+        ``3 edges + 2`` generators (``lam`` has that many columns).
+    torsion : (n,) float
+        Torsional coefficient (a length) of each contact; 0 for point contacts.
     escape : (m,) float or None
         A twist no contact force in the pyramids resists, for grasps without closure.
     escape_words : str or None
@@ -95,6 +108,7 @@ class FrictionalFormClosure:
     escape: NDArray[np.float64] | None = field(repr=False)
     escape_words: str | None
     solve_time: float = field(default=0.0, repr=False)
+    torsion: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
 
     @property
     def is_closure(self) -> bool:
@@ -112,7 +126,8 @@ class FrictionalSqueeze:
         Contacts whose normal intensity can grow without bound with friction (an internal
         force in the linearised cones pushes on them).
     friction_columns : (n,) bool
-        Contacts whose tangential columns the paper's test includes: squeezable, with mu > 0.
+        Contacts whose tangential (and torsional) columns the paper's test includes:
+        squeezable, with mu > 0 or torsion > 0.
     c_normal : (n,) float
         Normal intensities of an internal force pushing on every squeezable contact (scaled
         so that the smallest positive one is 1).
@@ -132,35 +147,14 @@ class FrictionalSqueeze:
     closure: str
 
 
-def tangent_basis(normals: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Two unit tangents ``u, v`` per normal with ``(u, v, n)`` orthonormal.
-
-    Parameters
-    ----------
-    normals : (n, 3) float
-        Unit normals.
-
-    Returns
-    -------
-    u, v : (n, 3) float
-    """
-    N = np.asarray(normals, dtype=np.float64)
-    x, y, z = N.T
-    # u = N x e_x where |N_x| < 0.9, else N x e_y (written out: np.cross costs several times more)
-    near_x = np.abs(x) >= 0.9
-    u = np.stack([np.where(near_x, -z, 0.0), np.where(near_x, 0.0, z),
-                  np.where(near_x, x, -y)], axis=1)
-    u /= np.sqrt(np.einsum("ij,ij->i", u, u))[:, None]
-    return u, np.cross(N, u)
-
-
-def _check_mu(mu: ArrayLike, n: int) -> NDArray[np.float64]:
+def _check_mu(mu: ArrayLike, n: int, name: str = "mu") -> NDArray[np.float64]:
     mu_a = np.broadcast_to(np.asarray(mu, dtype=np.float64), (n,)) if np.ndim(mu) == 0 else (
         np.asarray(mu, dtype=np.float64)
     )
     if mu_a.shape != (n,) or not np.all(np.isfinite(mu_a)) or np.any(mu_a < 0):
         raise InputError(
-            f"mu must be a nonnegative finite scalar or one value per contact ({n}), got {mu!r}"
+            f"{name} must be a nonnegative finite scalar or one value per contact ({n}), got "
+            f"{mu!r}"
         )
     return np.array(mu_a)
 
@@ -171,6 +165,7 @@ def friction_cone_wrenches(
     mu: ArrayLike,
     center: ArrayLike | None = None,
     edges: int = 8,
+    torsion: ArrayLike = 0.0,
 ) -> NDArray[np.float64]:
     """Wrenches of the edges of each contact's linearised friction cone.
 
@@ -185,37 +180,46 @@ def friction_cone_wrenches(
         Moment reference (default: centroid of the points).
     edges : int
         Edges per cone in space (>= 3); the plane always uses 2.
+    torsion : float or (n,) float
+        Torsional coefficients (lengths) of soft contacts, in space only (default 0: point
+        contacts); see :mod:`synth.scores.cones`.
 
     Returns
     -------
     G : (m, n, E) float
-        ``G[:, i, j]`` is the unit-normal-intensity wrench of edge ``j`` of contact ``i``.
+        ``G[:, i, j]`` is the unit-normal-intensity wrench of generator ``j`` of contact ``i``
+        (``E = edges``, or ``3 edges + 2`` with torsion).
+
+    Examples
+    --------
+    >>> friction_cone_wrenches([[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]], 0.5).shape
+    (6, 2, 8)
     """
     P, N = check_contacts(points, normals)
     n, d = P.shape
     mu_a = _check_mu(mu, n)
+    gam = _check_mu(torsion, n, "torsion")
     o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
     if o.shape != (d,):
         raise InputError(f"center must be a ({d},) vector, got {o.shape}")
     if d == 2:
+        if np.any(gam > 0):
+            raise InputError("torsion (a moment about the contact normal) needs contacts in "
+                             "space, got planar (n, 2) contacts")
         R = P - o
         T = np.stack([-N[:, 1], N[:, 0]], axis=1)
         F = N[:, None, :] + mu_a[:, None, None] * np.stack([T, -T], axis=1)  # (n, 2, 2)
         tau = R[:, None, 0] * F[..., 1] - R[:, None, 1] * F[..., 0]
         return np.concatenate([F.transpose(2, 0, 1), tau[None]], axis=0)
-    if int(edges) != edges or edges < 3:
-        raise InputError(f"edges must be an integer >= 3, got {edges!r}")
-    from synth.scores.friction_batch import friction_edge_wrenches_batch
-
-    E = int(edges)
-    G = friction_edge_wrenches_batch(P[None], N[None], mu_a, o, E)[0]  # (6, n * E)
-    return G.reshape(6, n, E)
+    G = cone_wrenches_batch(P[None], N[None], mu_a, o, edges, gam)[0]  # (6, n * E)
+    return G.reshape(6, n, -1)
 
 
 def _edge_matrix(points: ArrayLike, normals: ArrayLike, mu: ArrayLike, center: ArrayLike | None,
-                 edges: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Edge wrenches (m, n * E) and the mu array (n,)."""
-    G3 = friction_cone_wrenches(points, normals, mu, center=center, edges=edges)
+                 edges: int, torsion: ArrayLike) -> tuple[NDArray[np.float64],
+                                                          NDArray[np.float64]]:
+    """Generator wrenches (m, n * E) and the mu array (n,)."""
+    G3 = friction_cone_wrenches(points, normals, mu, center=center, edges=edges, torsion=torsion)
     m, n, E = G3.shape
     return G3.reshape(m, n * E), _check_mu(mu, n)
 
@@ -226,6 +230,7 @@ def frictional_form_closure(
     mu: ArrayLike,
     center: ArrayLike | None = None,
     edges: int = 8,
+    torsion: ArrayLike = 0.0,
 ) -> FrictionalFormClosure:
     """Trinkle's frictional form-closure measure of point contacts with Coulomb friction.
 
@@ -240,6 +245,9 @@ def frictional_form_closure(
         Moment reference; d* does not depend on it.
     edges : int
         Edges of each linearised (inscribed) cone in space (default 8, at least 3).
+    torsion : float or (n,) float
+        Torsional coefficient gamma of soft contacts, a length in the points' unit (default
+        0: point contacts).
 
     Returns
     -------
@@ -251,31 +259,23 @@ def frictional_form_closure(
     >>> nrm = [[-1, 0, 0], [1, 0, 0], [0, -1, 0]]
     >>> frictional_form_closure(pts, nrm, mu=0.5).closure
     'force'
+    >>> pinch = [[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]]
+    >>> frictional_form_closure(*pinch, mu=0.5, torsion=0.1).closure
+    'frictional form'
     """
-    G, mu_a = _edge_matrix(points, normals, mu, center, edges)
+    G, mu_a = _edge_matrix(points, normals, mu, center, edges, torsion)
+    gam = _check_mu(torsion, len(mu_a), "torsion")
     m = G.shape[0]
     n = len(mu_a)
     E = G.shape[1] // n
-    Gb, _ = balance_rows(G)  # same null space, rows of one size
     t0 = time.perf_counter()
-    # x = [lam (n*E), d]; minimise -d
-    sums = np.kron(np.eye(n), np.ones((1, E)))  # c_in = sum_j lam_ij
-    cost = np.zeros(n * E + 1)
-    cost[-1] = -1.0
-    A_ub = np.block([[-sums, np.ones((n, 1))],  # d - c_in <= 0
-                     [sums, np.zeros((n, 1))]])  # c_in <= 1
-    b_ub = np.concatenate([np.zeros(n), np.ones(n)])
-    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=np.hstack([Gb, np.zeros((m, 1))]),
-                  b_eq=np.zeros(m), bounds=[(0.0, None)] * (n * E + 1), method="highs")
+    d, lam = solve_frictional_lp(G, n)
     solve_time = time.perf_counter() - t0
-    if res.status != 0:
-        raise SolverError(f"frictional form-closure LP failed: {res.message}")
-    d = float(res.x[-1])
     d_star = d if d > D_STAR_TOL else 0.0
-    lam = np.asarray(res.x[:-1]).reshape(n, E)
     rank = int(numerical_rank(G))
     ok = d_star > 0.0 and rank == m
-    closure = ("frictional form" if np.any(mu_a > 0) else "form") if ok else "force"
+    closure = ("frictional form" if np.any(mu_a > 0) or np.any(gam > 0) else "form") if ok \
+        else "force"
     esc = words = None
     if not ok:
         esc = escape_twist(G, (), rank_deficient=rank < m)
@@ -292,10 +292,11 @@ def frictional_form_closure(
         rank=rank,
         m=m,
         mu=mu_a,
-        edges=E,
+        edges=int(edges) if np.any(gam > 0) else E,
         escape=esc,
         escape_words=words,
         solve_time=solve_time,
+        torsion=gam,
     )
 
 
@@ -305,6 +306,7 @@ def frictional_squeezable(
     mu: ArrayLike,
     center: ArrayLike | None = None,
     edges: int = 8,
+    torsion: ArrayLike = 0.0,
 ) -> FrictionalSqueeze:
     """The contacts that can be squeezed without bound with friction, from one LP.
 
@@ -324,6 +326,8 @@ def frictional_squeezable(
     mu : float or (n,) float
     center : (3,) or (2,) float, optional
     edges : int
+    torsion : float or (n,) float
+        Torsional coefficients of soft contacts (default 0).
 
     Returns
     -------
@@ -336,7 +340,8 @@ def frictional_squeezable(
     >>> frictional_squeezable(pts, nrm, mu=0.5).squeezable.tolist()
     [True, True, False]
     """
-    G, mu_a = _edge_matrix(points, normals, mu, center, edges)
+    G, mu_a = _edge_matrix(points, normals, mu, center, edges, torsion)
+    gam = _check_mu(torsion, len(mu_a), "torsion")
     m = G.shape[0]
     n = len(mu_a)
     E = G.shape[1] // n
@@ -352,7 +357,7 @@ def frictional_squeezable(
     c_n = sums @ res.x[: n * E]
     if squeeze.any():
         c_n = c_n / c_n[squeeze].min()
-    cols = squeeze & (mu_a > 0)
+    cols = squeeze & ((mu_a > 0) | (gam > 0))
     # the test's matrix: every normal column, and the edges of the contacts with friction
     # (which span their normal and tangential columns)
     P, N = check_contacts(points, normals)

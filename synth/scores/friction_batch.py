@@ -10,7 +10,9 @@ the constraints ``d <= sum_j lam_ij <= 1`` into ``sum_j lam'_ij = s + g_i`` with
 with ``d* = s / (1 + s)``: 6 equality rows plus one row per contact and a zero right-hand
 side, so every basis is feasible at the origin and the bounded simplex of
 :mod:`synth.scores.simplex` starts from a crash basis for the whole batch at once; optima not
-verified are re-solved with HiGHS through :func:`synth.frictional_form_closure`.
+verified are re-solved with HiGHS (:func:`synth.scores.friction_lp.solve_frictional_lp`, the
+LP :func:`synth.frictional_form_closure` solves). Soft contacts (``torsion > 0``) only change
+the generators (:mod:`synth.scores.cones`).
 """
 
 from __future__ import annotations
@@ -18,62 +20,21 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
-from synth.scores.friction import frictional_form_closure, tangent_basis
+from synth.scores.cones import cone_wrenches_batch, generators_per_contact
+from synth.scores.friction_lp import solve_frictional_lp
 from synth.scores.gram import rank_of_balanced
 from synth.scores.simplex import UNBOUNDED, UNVERIFIED, compiled_for, solve_batch
 from synth.scores.wrench import balance_rows
 from synth.tolerances import D_STAR_TOL
 
-__all__ = ["frictional_form_closure_batch", "friction_edge_wrenches_batch"]
+__all__ = ["frictional_form_closure_batch"]
 
 #: Grasps per block of LPs: a block's matrices (about 8 kB a grasp at 7 contacts) stay in cache.
 _CHUNK = 512
-
-
-def friction_edge_wrenches_batch(
-    points: NDArray[np.float64],
-    normals: NDArray[np.float64],
-    mu: float | NDArray[np.float64],
-    center: NDArray[np.float64],
-    edges: int,
-) -> NDArray[np.float64]:
-    """Edge wrenches of linearised cones for a batch of spatial grasps.
-
-    Parameters
-    ----------
-    points, normals : (B, k, 3) float
-        Contacts and unit inward normals.
-    mu : float or (k,) float
-        Friction coefficient, shared or one per contact.
-    center : (3,) or (B, 3) float
-        Moment reference.
-    edges : int
-
-    Returns
-    -------
-    G : (B, 6, k * edges) float
-        Column ``i * edges + j`` is edge ``j`` of contact ``i`` (as in
-        :func:`synth.friction_cone_wrenches`).
-    """
-    B, k, _ = points.shape
-    N = normals / np.linalg.norm(normals, axis=2, keepdims=True)
-    u, v = tangent_basis(N.reshape(-1, 3))
-    mu_k = np.broadcast_to(np.asarray(mu, dtype=np.float64), (k,))[None, :, None]
-    Mu, Mv = mu_k * u.reshape(B, k, 3), mu_k * v.reshape(B, k, 3)
-    R = points - np.asarray(center, dtype=np.float64).reshape(-1, 1, 3)
-    # edge j of contact i is n + mu (cos a_j u + sin a_j v), its wrench linear in (n, mu u, mu v):
-    # basis[:, row, i] holds the wrenches of those three, and one matmul spreads them to edges
-    basis = np.empty((B, 6, k, 3))
-    for col, F in enumerate((N, Mu, Mv)):
-        basis[:, :3, :, col] = F.transpose(0, 2, 1)
-        basis[:, 3:, :, col] = np.cross(R, F).transpose(0, 2, 1)
-    a = 2.0 * np.pi * np.arange(edges) / edges
-    G = basis.reshape(-1, 3) @ np.stack([np.ones(edges), np.cos(a), np.sin(a)])  # one GEMM
-    return G.reshape(B, 6, k * edges)
 
 
 def frictional_form_closure_batch(
@@ -83,6 +44,7 @@ def frictional_form_closure_batch(
     center: ArrayLike | None = None,
     edges: int = 8,
     compiled: bool | None = None,
+    torsion: ArrayLike = 0.0,
 ) -> BatchScores:
     """Frictional d*, closure flag and rank of many spatial grasps.
 
@@ -92,9 +54,10 @@ def frictional_form_closure_batch(
     ----------
     points, normals : (B, k, 3) float
         Contacts and inward normals.
-    mu : float or (k,) float
-        Coulomb coefficient, shared or one per contact position (>= 0, some > 0; use
-        :func:`synth.form_closure_batch` without friction).
+    mu : float, (k,) or (B, k) float
+        Coulomb coefficient: shared, one per contact position, or one per contact of each
+        grasp (>= 0; some mu or torsion > 0: use :func:`synth.form_closure_batch` without
+        friction).
     center : (3,) float, optional
         Moment reference (default: each grasp's centroid); d* does not depend on it.
     edges : int
@@ -102,6 +65,9 @@ def frictional_form_closure_batch(
     compiled : bool, optional
         Simplex route (see :func:`synth.scores.simplex.compiled_for`, the default): True for
         the numba kernel, False for numpy.
+    torsion : float, (k,) or (B, k) float
+        Torsional coefficients of soft contacts, lengths in the points' unit (default 0:
+        point contacts); see :mod:`synth.scores.cones`.
 
     Returns
     -------
@@ -118,19 +84,26 @@ def frictional_form_closure_batch(
         raise InputError("points and normals must be finite")
     B, k, _ = P.shape
     mu_a = np.asarray(mu, dtype=np.float64)
-    if mu_a.shape not in ((), (k,)) or not np.all(np.isfinite(mu_a)) or np.any(mu_a < 0) or \
-            not np.any(mu_a > 0):
-        raise InputError(f"mu must be finite, >= 0 and somewhere > 0, one value or {k}, got "
-                         f"{mu!r}")
+    gam = np.asarray(torsion, dtype=np.float64)
+    for name, a in (("mu", mu_a), ("torsion", gam)):
+        if a.shape not in ((), (k,), (B, k)) or not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise InputError(f"{name} must be finite and >= 0: one value, {k} or ({B}, {k}), "
+                             f"got shape {a.shape}")
+    if not (np.any(mu_a > 0) or np.any(gam > 0)):
+        raise InputError("mu or torsion must be somewhere > 0 (use form_closure_batch "
+                         "without friction)")
     if int(edges) != edges or edges < 3:
         raise InputError(f"edges must be an integer >= 3, got {edges!r}")
-    E = int(edges)
+    mu_b = np.broadcast_to(mu_a, (B, k))
+    gam_b = np.broadcast_to(gam, (B, k))
     if B == 0:
         return BatchScores(np.zeros(0), np.zeros(0, bool), np.zeros(0, np.int64))
     o = P.mean(axis=1) if center is None else np.broadcast_to(
         np.asarray(center, dtype=np.float64), (B, 3))
     d = np.zeros(B)
     rank = np.zeros(B, dtype=np.int64)
+    soft = bool(np.any(gam_b > 0))
+    E = generators_per_contact(edges, soft)
     # columns: lam' (nE) | s | g (k) | artificials (6); rows: 6 wrench rows | k contact rows
     nE = k * E
     template = np.zeros((6 + k, nE + 1 + k + 6))
@@ -149,7 +122,7 @@ def frictional_form_closure_batch(
     A_all[:] = template
     for lo in range(0, B, _CHUNK):  # chunks keep the LP matrices in cache
         sl = slice(lo, min(lo + _CHUNK, B))
-        G = friction_edge_wrenches_batch(P[sl], N[sl], mu_a, o[sl], E)
+        G = cone_wrenches_batch(P[sl], N[sl], mu_b[sl], o[sl], edges, gam_b[sl], soft)
         rank[sl] = rank_of_balanced(balance_rows(G)[0])  # a Gram certificate, else the SVD
         A = A_all[: G.shape[0]]
         rowmax = np.abs(G).max(axis=2, keepdims=True)  # rows scaled to max-norm 1
@@ -161,7 +134,9 @@ def frictional_form_closure_batch(
         unverified.append(lo + np.nonzero(sol.status == UNVERIFIED)[0])
     bad = np.concatenate(unverified)
     for j in bad:
-        d[j] = frictional_form_closure(P[j], N[j], mu_a, center=None, edges=E).d_star
+        G = cone_wrenches_batch(P[j : j + 1], N[j : j + 1], mu_b[j : j + 1], o[j : j + 1],
+                                edges, gam_b[j : j + 1], soft)[0]
+        d[j] = solve_frictional_lp(G, k)[0]
     d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)
     closure = (d > 0) & (rank == 6)
     return BatchScores(d, closure, rank, int(bad.size), time.perf_counter() - t0)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
-from synth.scores.friction import friction_cone_wrenches
+from synth.scores.cones import cone_wrenches_batch
 
 __all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "conditioning_at_least",
            "epsilon_quality"]
@@ -74,13 +74,11 @@ def grasp_wrenches(
     """
     if mu == 0:
         return scaled_wrenches(points, normals, center, length)
-    from synth.scores.friction_batch import friction_edge_wrenches_batch
-
     P = np.asarray(points, dtype=np.float64)
     N = np.asarray(normals, dtype=np.float64)
     single = P.ndim == 2
-    G = friction_edge_wrenches_batch(P[None] if single else P, N[None] if single else N,
-                                     mu, np.asarray(center, dtype=np.float64), edges)
+    G = cone_wrenches_batch(P[None] if single else P, N[None] if single else N,
+                            mu, np.asarray(center, dtype=np.float64), edges)
     G[:, 3:] /= float(length)
     return G[0] if single else G
 
@@ -147,6 +145,7 @@ def epsilon_quality(
     length: float,
     mu: float = 0.0,
     edges: int = 8,
+    torsion: float = 0.0,
 ) -> float:
     """Ferrari-Canny epsilon of one grasp (unit forces, moments scaled by ``length``).
 
@@ -159,17 +158,27 @@ def epsilon_quality(
         Friction coefficient (0: the contact wrenches themselves).
     edges : int
         Cone edges with friction.
+    torsion : float
+        Torsional coefficient of soft contacts (a length, default 0): the hull is then that of
+        the soft cones' generators (:mod:`synth.scores.cones`), each scaled to a unit force.
 
     Returns
     -------
     float
         >= 0; 0 when the origin is not strictly inside the hull.
+
+    Examples
+    --------
+    >>> P = [[1.0, 0, 0], [-1.0, 0, 0]]; N = [[-1.0, 0, 0], [1.0, 0, 0]]
+    >>> epsilon_quality(P, N, [0, 0, 0], 2.0, mu=0.5) == 0.0  # two point contacts: no closure
+    True
     """
     P = np.asarray(points, dtype=np.float64)
     N = np.asarray(normals, dtype=np.float64)
-    if mu > 0:
-        G = friction_cone_wrenches(P, N, mu, center=center, edges=edges)  # (6, k, E)
-        G = G.reshape(6, -1) / np.sqrt(1.0 + mu**2)  # unit force along each edge
+    if mu > 0 or torsion > 0:
+        G = cone_wrenches_batch(P[None], N[None], mu, np.asarray(center, dtype=np.float64),
+                                edges, torsion)[0]
+        G = G / np.linalg.norm(G[:3], axis=0)  # unit force along each generator
         G[3:] /= float(length)
     else:
         G = scaled_wrenches(P, N, center, length)

@@ -109,9 +109,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    f"{lim.MAX_FINGERS}; 'auto' finds the fewest fingers, 2 to "
                    f"{lim.AUTO_MAX_FINGERS}, that hold the part, each count with the whole "
                    "budget (default: one fingertip per contact, see --contacts)")
-    p.add_argument("--mu", type=float, default=0.0, metavar="MU",
+    p.add_argument("--mu", type=float, default=None, metavar="MU",
                    help=f"Coulomb friction coefficient, in [0, {lim.MAX_MU:g}] (default 0: "
-                   "frictionless form closure)")
+                   "frictionless form closure; with --gripper 0.5)")
     p.add_argument("--top", type=int, default=d.top, metavar="N",
                    help=f"grasps to return, 1 to {lim.MAX_TOP} (default {d.top})")
     p.add_argument("--time", type=float, default=d.time, metavar="SECONDS",
@@ -126,10 +126,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--min-d-star", type=float, default=0.0, metavar="D",
                    help="return no grasp with a lower d*; in [0, 1], the range of d* "
                    "(default 0)")
-    p.add_argument("--rank-by", choices=lim.RANK_BY, default="d_star",
+    from synth.plan.gripper import GRIPPER_RANK_BY
+
+    p.add_argument("--rank-by", choices=lim.RANK_BY + tuple(
+                   r for r in GRIPPER_RANK_BY if r not in lim.RANK_BY), default=None,
                    help="order of the grasps returned (default d_star; d* values within 1e-6 "
                    "of each other, the LPs' accuracy, are ordered by conditioning; tolerance: "
-                   "the placement tolerance, largest first)")
+                   "the placement tolerance, largest first). With --gripper: margin "
+                   "(default: the least squeeze that holds the part's weight), d_star, "
+                   "mu_min or epsilon")
     p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
                    help="return no grasp whose placement tolerance (how far every contact may "
                    "slide on its face or edge and the grasp stays form closure) is below R, "
@@ -144,6 +149,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    f"|Z| at most {lim.MAX_LENGTH:g}")
     add_part_options(p)
     add_finger_options(p)
+    from synth.cli.gripper import add_gripper_options
+
+    add_gripper_options(p)
     o = p.add_argument_group("output")
     o.add_argument("--out", default=None, metavar="JSON",
                    help="grasp file, ending in .json (default: MESHNAME.grasps.json in the "
@@ -233,6 +241,15 @@ def run(args: argparse.Namespace) -> int:
     from synth.files import atomic_paths, writing
     from synth.plan import PlanParams, export_glb, plan_part, render_png
 
+    if args.gripper is not None:
+        from synth.cli.gripper import run_gripper
+
+        return run_gripper(args)
+    from synth.cli.gripper import refuse_gripper_options
+
+    refuse_gripper_options(args)
+    args.rank_by = args.rank_by or "d_star"
+    args.mu = 0.0 if args.mu is None else args.mu
     _check_options(args)
     params = PlanParams(
         contacts=args.contacts, fingers=_fingers(args.fingers), mu=args.mu, top=args.top,

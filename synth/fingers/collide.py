@@ -210,6 +210,22 @@ class FingerChecker:
         obj.setTranslation((translation - self.center) / self._scale)
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
 
+    def mesh_object(self, vertices: np.ndarray, faces: np.ndarray) -> Any:
+        """An FCL object of a rigid triangle mesh (vertices in its own frame, part units), to
+        place with :meth:`mesh_hits` (a gripper's palm or finger)."""
+        bvh = fcl.BVHModel()
+        bvh.beginModel(len(vertices), len(faces))
+        bvh.addSubModel(np.asarray(vertices, float) / self._scale, np.asarray(faces, np.int64))
+        bvh.endModel()
+        return fcl.CollisionObject(bvh, fcl.Transform())
+
+    def mesh_hits(self, obj: Any, rotation: np.ndarray, translation: np.ndarray) -> bool:
+        """Whether ``obj`` (from :meth:`mesh_object`), rotated (3 x 3) and moved in the
+        part's frame, intersects the part (any body)."""
+        obj.setRotation(np.asarray(rotation, float))
+        obj.setTranslation((np.asarray(translation, float) - self.center) / self._scale)
+        return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
+
     def _penetration(self, center: np.ndarray, radius: float) -> float:
         """Largest depth by which the ball (center, radius) sinks into the surface (FCL)."""
         obj = self._object("sphere", radius)

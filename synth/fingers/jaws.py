@@ -105,11 +105,11 @@ def _extreme(V: NDArray[np.float64], F: NDArray[np.int64], FN: NDArray[np.float6
     p0, e1, e2 = T[:, 0, 1:], T[:, 1, 1:] - T[:, 0, 1:], T[:, 2, 1:] - T[:, 0, 1:]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     ok = np.abs(det) > 1e-300
+    det = np.where(ok, det, 1.0)
     for c in corners:
         d = c - p0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u = (d[:, 0] * e2[:, 1] - d[:, 1] * e2[:, 0]) / det
-            v = (e1[:, 0] * d[:, 1] - e1[:, 1] * d[:, 0]) / det
+        u = (d[:, 0] * e2[:, 1] - d[:, 1] * e2[:, 0]) / det
+        v = (e1[:, 0] * d[:, 1] - e1[:, 1] * d[:, 0]) / det
         inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
         x = T[inside, 0, 0] + u[inside] * (T[inside, 1, 0] - T[inside, 0, 0]) + v[inside] * (
             T[inside, 2, 0] - T[inside, 0, 0])
@@ -175,13 +175,14 @@ def close_jaws(
     patch = np.zeros((B, 2))
     status = np.full(B, MISSES, np.int64)
     (py, pz), (pw, ph) = gripper.pad_center, gripper.pad_size
+    rounds = 1 if np.ptp(gripper.finger_z[:, 1]) == 0 else 3  # pads that do not rise: one
     for b in range(B):
         R, t = out_pose[b, :3, :3], out_pose[b, :3, 3]
         V = (Vp - t) @ R  # the part in the gripper frame
         Fg = FN @ R
         w = gripper.max_opening
         hit = None
-        for _ in range(3):
+        for _ in range(rounds):
             zc = pz + float(gripper.rise(w))
             plus = _extreme(V, F, Fg, py - pw / 2, py + pw / 2, zc - ph / 2, zc + ph / 2,
                             1.0, touch_tol)

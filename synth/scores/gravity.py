@@ -220,6 +220,7 @@ def gravity_hold_batch(
     gravity: ArrayLike | None = None,
     edges: int = 8,
     compiled: bool | None = None,
+    level: int = ICOSPHERE_LEVEL,
 ) -> GravityHold:
     """Least squeeze per weight that holds each grasp in every orientation (or one).
 
@@ -234,6 +235,9 @@ def gravity_hold_batch(
         orientation (a certified bound from the icosphere's directions, see the module).
     edges : int
     compiled : bool, optional
+    level : int
+        Icosphere subdivisions for every orientation: 2 (default) evaluates 162 directions
+        and bounds within 1.8% of the worst of them, 1 evaluates 42 within 7.1%.
 
     Returns
     -------
@@ -257,7 +261,7 @@ def gravity_hold_batch(
                                 compiled)[:, 0]
         worst = np.broadcast_to(g / np.linalg.norm(g), (len(P), 3)).copy()
         return GravityHold(f, f.copy(), worst, 1, name)
-    V, F, h = _icosphere(ICOSPHERE_LEVEL)
+    V, F, h = _icosphere(int(level))
     f = least_squeeze_batch(P, N, mu, gam, center_mass, length, V, edges, compiled)
     worst = f.argmax(axis=1) if f.size else np.zeros(0, np.int64)
     sampled = f.max(axis=1) if f.size else np.zeros(0)

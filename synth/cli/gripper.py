@@ -1,0 +1,142 @@
+"""``synth plan MESH --gripper NAME|FILE``: parallel-jaw grasps as gripper poses."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from synth.cli.checks import integer, output_path, real
+from synth.errors import InputError
+
+__all__ = ["add_gripper_options", "refuse_gripper_options", "run_gripper",
+           "format_gripper_table"]
+
+_ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
+
+
+def add_gripper_options(p: argparse.ArgumentParser) -> None:
+    """Options of the gripper route of ``synth plan``."""
+    from synth.fingers.gripper import BUILTIN_GRIPPERS
+    from synth.plan.gripper import GripperParams
+
+    d = GripperParams()
+    g = p.add_argument_group("gripper (parallel-jaw grasps as gripper poses)")
+    g.add_argument("--gripper", default=None, metavar="NAME|FILE",
+                   help=f"plan grasps of a parallel-jaw gripper: {', '.join(BUILTIN_GRIPPERS)} "
+                   "or a JSON description (see synth/fingers/grippers/README.md); needs the "
+                   "part's unit (--units)")
+    g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
+                   help="torsional friction of the pads, a length in the mesh's units "
+                   "(default 5 mm, MuJoCo's default torsional coefficient)")
+    g.add_argument("--mass", type=float, default=None, metavar="KG",
+                   help="the part's mass in kg: the grasps then say the least squeeze in "
+                   "newtons and the margin to the gripper's rated force")
+    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
+                   help="or its density, times the closed bodies' volume")
+    g.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                   help="hold against gravity in this direction of the part's frame only "
+                   "(default: in every orientation)")
+    g.add_argument("--samples", type=int, default=None, metavar="N",
+                   help=f"surface points drawn, each an antipodal pair tried at 8 approach "
+                   f"angles (default {d.samples})")
+
+
+def refuse_gripper_options(args: argparse.Namespace) -> None:
+    """Options that only mean something with ``--gripper`` are refused without it."""
+    from synth.plan import params as lim
+
+    for name in _ONLY_GRIPPER:
+        if getattr(args, name) is not None:
+            raise InputError(f"--{name} applies to gripper grasps: add --gripper NAME|FILE")
+    if args.rank_by is not None and args.rank_by not in lim.RANK_BY:
+        raise InputError(f"--rank-by {args.rank_by} applies to gripper grasps; point-finger "
+                         f"plans rank by {', '.join(lim.RANK_BY)}")
+
+
+def _gravity(text: str | None) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        v = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 3 or not all(math.isfinite(x) for x in v) or not any(v):
+        raise InputError(f"--gravity: expected three numbers X,Y,Z, not all 0, got {text[:40]!r}")
+    return v  # type: ignore[return-value]
+
+
+def format_gripper_table(plan: Any) -> str:
+    """Ranked table of a gripper plan's grasps."""
+    mm = 1000.0 / plan.gripper.unit_scale
+    lines = [f"{'#':>3}  {'width mm':>8}  {'margin':>7}  {'squeeze N':>9}  {'N/weight':>8}  "
+             f"{'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  contacts"]
+    for i, g in enumerate(plan.grasps, 1):
+        margin = "-" if g.margin is None else f"{g.margin:.2f}"
+        squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.3g}"
+        pts = "  ".join("(" + ", ".join(f"{c:.4g}" for c in p) + ")" for p in g.points)
+        lines.append(f"{i:>3}  {g.width * mm:>8.1f}  {margin:>7}  {squeeze:>9}  "
+                     f"{g.squeeze_per_weight:>8.3f}  {g.mu_min:>8.2g}  {g.epsilon:>8.4f}  "
+                     f"{g.d_star:>6.3f}  {pts}")
+    return "\n".join(lines)
+
+
+def run_gripper(args: argparse.Namespace) -> int:
+    """Run ``synth plan --gripper``; exit status 1 when no grasp was found."""
+    from synth.cli.plan import load_part_from_args, report_part
+    from synth.files import atomic_paths, writing
+    from synth.limits import MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP
+    from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams, plan_gripper
+    from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
+
+    mu = 0.5 if args.mu is None else args.mu
+    real("--mu", mu, 0, MAX_MU, open_lo=True)
+    integer("--top", args.top, 1, MAX_TOP)
+    integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
+    real("--table", args.table, -MAX_LENGTH, MAX_LENGTH)
+    real("--torsion", args.torsion, 0, MAX_LENGTH)
+    real("--mass", args.mass, 0, math.inf, open_lo=True, open_hi=True, unit=" kg")
+    real("--density", args.density, 0, math.inf, open_lo=True, open_hi=True, unit=" kg/m^3")
+    if args.mass is not None and args.density is not None:
+        raise InputError("give --mass or --density, not both")
+    samples = GripperParams().samples if args.samples is None else args.samples
+    integer("--samples", samples, 1, 1_000_000)
+    rank_by = args.rank_by or "margin"
+    if rank_by not in GRIPPER_RANK_BY:
+        raise InputError(f"--rank-by {rank_by}: gripper grasps rank by "
+                         f"{', '.join(GRIPPER_RANK_BY)}")
+    params = GripperParams(gripper=args.gripper, mu=mu, torsion=args.torsion, mass=args.mass,
+                           density=args.density, gravity=_gravity(args.gravity), top=args.top,
+                           samples=samples, seed=args.seed, rank_by=rank_by, table=args.table)
+    from synth.fingers.gripper import load_gripper
+
+    load_gripper(args.gripper)  # a bad description is refused before the mesh is read
+    paths = None
+    if not args.no_files:
+        stem = Path(args.mesh).name.rsplit(".", 1)[0]
+        out = output_path("--out", args.out or f"{stem}.grasps.json", ".json")
+        paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png"),
+                 output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb"))
+    part = load_part_from_args(args)
+    report_part(part, args.quiet or args.json)
+    plan = plan_gripper(part, params)
+    text = json.dumps(plan.to_json(), indent=1) + "\n"
+    if paths is not None:
+        with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):
+            with writing(paths[0]):
+                tmp_out.write_text(text, encoding="utf-8")
+            with writing(paths[1]):
+                render_gripper_png(part, plan, tmp_png)
+            with writing(paths[2]):
+                export_gripper_glb(part, plan, tmp_glb)
+    if args.json:
+        print(text, end="")
+    else:
+        if plan.grasps:
+            print(format_gripper_table(plan))
+        print(plan.message)
+        if paths is not None and not args.quiet:
+            print(f"wrote {', '.join(map(str, paths))}")
+    return 0 if plan.grasps else 1

@@ -1,0 +1,457 @@
+"""Parallel-jaw grasps of a part: gripper poses, ranked by whether they hold its weight.
+
+The gripper route of the planner (``synth plan --gripper``), in the data path's order:
+
+1. **contacts**: surface points drawn on the exposed surface (area-weighted, from the seed);
+   each shoots a ray along its inward normal to where the opposite pad would land (the
+   method Dex-Net samples antipodal grasps with), and the pair is kept when the line between
+   them lies inside both friction cones;
+2. **poses**: each pair gives the closing axis ``x`` (the bisector of the two outward normals),
+   and ``APPROACHES`` approach directions ``z`` about it; the tool centre point is put at the
+   pair's midpoint;
+3. **jaws** (:func:`synth.fingers.jaws.close_jaws`): the jaws close from the open width until
+   both pads touch; the contacts are where the pads land (patches on faces, the pad's
+   normal);
+4. **collisions** (:class:`synth.fingers.gripper_collide.GripperChecker`, FCL): palm and
+   fingers along the approach from the pre-grasp distance, and the closed fingers, against
+   every body of the part and the table;
+5. **scores** (soft contacts, :mod:`synth.scores`): frictional d* and closure, the least squeeze
+   against gravity in every orientation (or ``gravity``), ``mu_min`` and the Ferrari-Canny
+   epsilon;
+6. **ranking**: by the gravity margin (the least squeeze per weight, ascending) by default, and
+   the best poses kept pairwise distinct: their contact pairs at least ``DISTINCT_RTOL`` of the
+   part's size apart (Hausdorff distance of the unordered pairs, so a pose and its half-turn
+   about the approach axis are the same grasp).
+
+Lengths are in the part's unit (the gripper is converted from metres), so the part's unit
+must be known.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from synth.errors import InputError
+from synth.fingers.gripper import Gripper, load_gripper
+from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
+from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, close_jaws
+from synth.scores.cones import cone_name
+from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.scores.gravity import GRAVITY, gravity_hold_batch
+from synth.scores.mu_min import mu_min_batch
+from synth.scores.quality import epsilon_quality
+
+__all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "GripperGrasp",
+           "GripperPlan", "plan_gripper", "PREGRASP_M", "TORSION_M"]
+
+#: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
+APPROACHES: int = 8
+#: Contact pairs of two returned grasps are at least this fraction of the part's size apart.
+DISTINCT_RTOL: float = 0.05
+#: Pre-grasp distance along the approach, metres (as MoveIt's pick pipelines default to).
+PREGRASP_M: float = 0.1
+#: Default torsional coefficient of a pad, metres (MuJoCo's default torsional friction).
+TORSION_M: float = 0.005
+#: Poses whose contacts are this close (fraction of the part's size) are scored once.
+DEDUPE_RTOL: float = 0.005
+#: Grasps scored with the fine gravity bound: this many times ``top``, the best by the coarse.
+SHORTLIST: int = 4
+#: Orders gripper grasps can be ranked by.
+GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
+
+
+@dataclass(frozen=True)
+class GripperParams:
+    """What a gripper plan searches for.
+
+    Attributes
+    ----------
+    gripper : str
+        Built-in name or description file.
+    mu : float
+        Friction coefficient of the pads (> 0).
+    torsion : float or None
+        Torsional coefficient gamma in the part's unit (default ``TORSION_M`` metres).
+    mass : float or None
+        Part mass in kg; or ``density`` (kg/m^3) times the closed bodies' volume.
+    density : float or None
+    gravity : (3,) tuple or None
+        A gravity direction in the part's frame; None: every orientation.
+    top : int
+    samples : int
+        Surface points drawn (each a candidate pair, times ``APPROACHES`` poses).
+    seed : int
+    rank_by : str
+        One of ``GRIPPER_RANK_BY``.
+    table : float or None
+        Support plane z = table in the part's frame.
+    edges : int
+        Cone edges of the linearised contacts.
+    """
+
+    gripper: str = "franka"
+    mu: float = 0.5
+    torsion: float | None = None
+    mass: float | None = None
+    density: float | None = None
+    gravity: tuple[float, float, float] | None = None
+    top: int = 10
+    samples: int = 250
+    seed: int = 0
+    rank_by: str = "margin"
+    table: float | None = None
+    edges: int = 8
+
+
+@dataclass(frozen=True)
+class GripperGrasp:
+    """One gripper grasp, in the part's frame and unit.
+
+    Attributes
+    ----------
+    pose : (4, 4) float
+        The gripper's base frame (ACRONYM/GraspGen: approach +z, closing x) in the part frame.
+    tcp : (3,) float
+        Tool centre point.
+    width : float
+        Pad distance at the grasp.
+    points, normals : (2, 3) float
+        Contacts (the +x pad's first) and their inward normals.
+    patch : (2,) float
+        Size of each contact patch (0: a point).
+    d_star : float
+        Trinkle's frictional d* with soft contacts.
+    closure : str
+    mu_min : float
+    epsilon : float
+    squeeze_per_weight : float
+        Least squeeze / weight that holds the part (every orientation: a certified bound).
+    squeeze_sampled : float
+        The worst sampled direction's value (<= ``squeeze_per_weight``).
+    worst_gravity : (3,) float
+    least_squeeze : float or None
+        Newtons, when the mass is known.
+    margin : float or None
+        Rated grip force / least squeeze (>= 1: the rated force holds the part).
+    """
+
+    pose: NDArray[np.float64] = field(repr=False)
+    tcp: NDArray[np.float64] = field(repr=False)
+    width: float
+    points: NDArray[np.float64] = field(repr=False)
+    normals: NDArray[np.float64] = field(repr=False)
+    patch: NDArray[np.float64] = field(repr=False)
+    d_star: float
+    closure: str
+    mu_min: float
+    epsilon: float
+    squeeze_per_weight: float
+    squeeze_sampled: float
+    worst_gravity: NDArray[np.float64] = field(repr=False)
+    least_squeeze: float | None
+    margin: float | None
+
+    def to_json(self) -> dict[str, Any]:
+        """The grasp as a JSON object."""
+        def num(x: float | None) -> float | None:
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        return {"pose": self.pose.tolist(), "tcp": self.tcp.tolist(), "width": self.width,
+                "contacts": [{"point": p.tolist(), "normal": n.tolist(), "patch": float(s)}
+                             for p, n, s in zip(self.points, self.normals, self.patch)],
+                "measures": {"margin": num(self.margin), "least_squeeze": num(self.least_squeeze),
+                             "squeeze_per_weight": num(self.squeeze_per_weight),
+                             "squeeze_per_weight_sampled": num(self.squeeze_sampled),
+                             "worst_gravity": self.worst_gravity.tolist(),
+                             "d_star": self.d_star, "closure": self.closure,
+                             "mu_min": num(self.mu_min), "epsilon": self.epsilon}}
+
+
+@dataclass(frozen=True)
+class GripperPlan:
+    """Result of :func:`plan_gripper`.
+
+    Attributes
+    ----------
+    gripper : Gripper
+        In the part's unit.
+    grasps : tuple of GripperGrasp
+        Best first.
+    message : str
+    params : GripperParams
+    units : str
+    mass : float or None
+        kg.
+    cone : str
+    counts : dict
+        Pairs sampled, poses tried, landed, too wide, edge touches, collision-free, closure.
+    narrowest : float or None
+        Narrowest width found among poses whose pads touched (for parts too large).
+    seconds : float
+    """
+
+    gripper: Gripper
+    grasps: tuple[GripperGrasp, ...]
+    message: str
+    params: GripperParams
+    units: str
+    mass: float | None
+    cone: str
+    counts: dict[str, int]
+    narrowest: float | None
+    seconds: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``synth.gripper_grasps`` document."""
+        p = self.params
+        return {"format": "synth.gripper_grasps", "version": 1, "units": self.units,
+                "gripper": self.gripper.to_json(),
+                "model": {"mu": p.mu, "torsion": self.gripper.unit_scale * TORSION_M
+                          if p.torsion is None else p.torsion, "cone": self.cone,
+                    "contact": "soft (MuJoCo condim 4, inscribed linearisation)",
+                    "mass": self.mass, "gravity": None if p.gravity is None else list(p.gravity),
+                    "gravity_directions": "every orientation (certified bound over an "
+                    "icosphere's 162 directions)" if p.gravity is None else "given",
+                    "rank_by": p.rank_by},
+                "counts": self.counts, "seconds": self.seconds, "message": self.message,
+                "grasps": [g.to_json() for g in self.grasps]}
+
+
+def _unit_scale(part: Any) -> float:
+    import trimesh
+
+    if part.units is None:
+        raise InputError("--gripper: the part's length unit is unknown (the file does not say) "
+                         "and gripper sizes are physical: give --units (mm, cm, m, in, ...)")
+    return float(trimesh.units.unit_conversion("meters", part.units))
+
+
+def _mass(part: Any, params: GripperParams, scale: float) -> float | None:
+    if params.mass is not None:
+        return float(params.mass)
+    if params.density is None:
+        return None
+    if part.volume <= 0:
+        raise InputError("--density: the part has no closed body, so no volume; give --mass")
+    return float(params.density) * float(part.volume) / scale**3
+
+
+def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Antipodal pairs: points p, their ray's far hit q along the inward normal, axis x."""
+    import trimesh
+
+    mesh = part.mesh
+    pts, faces = trimesh.sample.sample_surface(mesh, n, seed=int(rng.integers(2**31)))
+    out = np.asarray(mesh.face_normals, float)[faces]
+    keep = part.exposed(pts, -out)
+    pts, out = pts[keep], out[keep]
+    reach = 2.0 * part.length
+    origins = pts - out * reach  # from beyond the part, back towards p along -out
+    hit = mesh.ray.intersects_first(origins, out)
+    ok = hit >= 0
+    pts, out, hit, origins = pts[ok], out[ok], hit[ok], origins[ok]
+    n_q = np.asarray(mesh.face_normals, float)[hit]
+    v0 = np.asarray(mesh.vertices, float)[np.asarray(mesh.faces)[hit, 0]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.einsum("ij,ij->i", v0 - origins, n_q) / np.einsum("ij,ij->i", out, n_q)
+    q = origins + s[:, None] * out
+    axis = out - n_q
+    norm = np.linalg.norm(axis, axis=1)
+    line = pts - q
+    ln = np.linalg.norm(line, axis=1)
+    good = np.isfinite(s) & (norm > 1e-9) & (ln > part.feature_tolerance)
+    pts, q, out, n_q, axis, line, ln = (a[good] for a in (pts, q, out, n_q, axis, line, ln))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    u = line / ln[:, None]
+    cos_cone = 1.0 / math.sqrt(1.0 + mu * mu)
+    inside = (np.einsum("ij,ij->i", u, out) > cos_cone) & (-np.einsum("ij,ij->i", u, n_q)
+                                                            > cos_cone)
+    return pts[inside], q[inside], axis[inside]
+
+
+def _poses(p: NDArray[np.float64], q: NDArray[np.float64], axis: NDArray[np.float64],
+           tcp: NDArray[np.float64], approaches: int) -> NDArray[np.float64]:
+    """Poses (n * approaches, 4, 4): x along ``axis``, z about it, the TCP at the midpoint."""
+    e = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    e1 = np.cross(axis, e)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(axis, e1)
+    ang = 2.0 * np.pi * np.arange(approaches) / approaches
+    z = np.cos(ang)[None, :, None] * e1[:, None] + np.sin(ang)[None, :, None] * e2[:, None]
+    x = np.broadcast_to(axis[:, None], z.shape)
+    y = np.cross(z, x)
+    T = np.zeros((len(p), approaches, 4, 4))
+    T[..., :3, 0], T[..., :3, 1], T[..., :3, 2] = x, y, z
+    mid = 0.5 * (p + q)
+    T[..., :3, 3] = mid[:, None] - np.einsum("naij,j->nai", T[..., :3, :3], tcp)
+    T[..., 3, 3] = 1.0
+    return T.reshape(-1, 4, 4)
+
+
+def _unique_contacts(points: NDArray[np.float64], cell: float) -> NDArray[np.int64]:
+    """Indices of the first of each group of contact pairs falling in the same two cells of
+    size ``cell`` (pairs unordered), in their original order."""
+    if not len(points):
+        return np.zeros(0, np.int64)
+    q = np.floor(points / cell).astype(np.int64)  # (n, 2, 3)
+    a, b = q[:, 0], q[:, 1]
+    diff = a - b
+    first = np.argmax(diff != 0, axis=1)  # first differing coordinate (0 when equal)
+    a_less = diff[np.arange(len(diff)), first] < 0
+    lo = np.where(a_less[:, None], a, b)
+    hi = np.where(a_less[:, None], b, a)
+    _, idx = np.unique(np.concatenate([lo, hi], axis=1), axis=0, return_index=True)
+    return np.sort(idx)
+
+
+def _hausdorff_pairs(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Hausdorff distance between the unordered pair ``a`` (2, 3) and each pair of ``b``."""
+    d = np.linalg.norm(a[None, :, None, :] - b[:, None, :, :], axis=3)  # (n, 2, 2)
+    return np.maximum(d.min(axis=2).max(axis=1), d.min(axis=1).max(axis=1))
+
+
+def _distinct(P: NDArray[np.float64], order: NDArray[np.int64], size: float, top: int
+              ) -> NDArray[np.int64]:
+    """The first ``top`` of ``order`` whose contact pairs are pairwise ``size`` apart."""
+    chosen: list[int] = []
+    for i in order:
+        if len(chosen) == top:
+            break
+        if not chosen or _hausdorff_pairs(P[i], P[chosen]).min() >= size:
+            chosen.append(int(i))
+    return np.array(chosen, np.int64)
+
+
+def _order(rank_by: str, spw: NDArray[np.float64], d: NDArray[np.float64],
+           mumin: NDArray[np.float64], eps: NDArray[np.float64]) -> NDArray[np.int64]:
+    if rank_by == "margin":
+        return np.lexsort((-d, spw))
+    if rank_by == "d_star":
+        return np.lexsort((spw, -d))
+    if rank_by == "mu_min":
+        return np.lexsort((spw, mumin))
+    return np.lexsort((spw, -eps))
+
+
+def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
+    """Plan parallel-jaw grasps of a part (see the module for the steps).
+
+    Parameters
+    ----------
+    part : Part
+        With a known unit.
+    params : GripperParams
+
+    Returns
+    -------
+    GripperPlan
+    """
+    t0 = time.perf_counter()
+    if params.rank_by not in GRIPPER_RANK_BY:
+        raise InputError(f"--rank-by: {params.rank_by!r} is not a gripper measure; expected one "
+                         f"of {', '.join(GRIPPER_RANK_BY)}")
+    if not params.mu > 0:
+        raise InputError(f"--mu: jaw grasps need friction, expected mu > 0, got {params.mu!r}")
+    scale = _unit_scale(part)
+    gripper = load_gripper(params.gripper).scaled(scale)
+    mass = _mass(part, params, scale)
+    gamma = TORSION_M * scale if params.torsion is None else float(params.torsion)
+    rng = np.random.default_rng(params.seed)
+    p, q, axis = _sample_pairs(part, params.samples, params.mu, rng)
+    poses = _poses(p, q, axis, gripper.tcp, APPROACHES)
+    counts = {"pairs": len(p), "poses": len(poses)}
+    mesh = part.mesh
+    touch = max(1e-4 * part.length, 10.0 * part.precision)
+    jaws = close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                      np.asarray(mesh.face_normals), poses, gripper, touch)
+    landed = np.flatnonzero(jaws.status == LANDED)
+    counts.update(landed=len(landed), too_wide=int((jaws.status == TOO_WIDE).sum()),
+                  edge_touch=int((jaws.status == EDGE_TOUCH).sum()))
+    widths = jaws.width[np.isfinite(jaws.width)]
+    narrowest = float(widths.min()) if len(widths) else None
+    checker = GripperChecker(part, gripper, PREGRASP_M * scale,
+                             max(1e-3 * part.length, 10.0 * part.precision), params.table)
+    status = checker.check(jaws.poses[landed], jaws.width[landed])
+    clear = landed[status == CLEAR]
+    counts["collision_free"] = len(clear)
+    # the measures depend on the contacts only: poses landing on the same contacts (to
+    # DEDUPE_RTOL of the part's size) are scored once, the first one standing for them
+    clear = clear[_unique_contacts(jaws.points[clear], DEDUPE_RTOL * part.length)]
+    counts["distinct_contacts"] = len(clear)
+    P, N = jaws.points[clear], jaws.normals[clear]
+    cone = cone_name(params.edges, gamma > 0)
+    empty = np.zeros(0)
+    spw = d = empty
+    closure = np.zeros(0, bool)
+    if len(clear):
+        fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
+                                           edges=params.edges, compiled=False, torsion=gamma)
+        d, closure = fc.d_star, fc.closure
+        # screen with the coarse icosphere's certified bound, then the fine one on a shortlist
+        coarse = gravity_hold_batch(P, N, params.mu, gamma, part.center_mass, part.length,
+                                    params.gravity, params.edges, compiled=False, level=1)
+        spw = np.where(closure, coarse.squeeze_per_weight, np.inf)
+        ranked = np.argsort(spw, kind="stable")
+        ranked = ranked[np.isfinite(spw[ranked])]
+        short = _distinct(P, ranked, DISTINCT_RTOL * part.length, SHORTLIST * params.top)
+        hold = gravity_hold_batch(P[short], N[short], params.mu, gamma, part.center_mass,
+                                  part.length, params.gravity, params.edges, compiled=False)
+        P, N, d, closure, clear = P[short], N[short], d[short], closure[short], clear[short]
+        spw = hold.squeeze_per_weight
+    counts["closure"] = int(closure.sum())
+    keep = np.flatnonzero(closure & np.isfinite(spw))
+    order = keep[_order("margin" if params.rank_by in ("mu_min", "epsilon") else params.rank_by,
+                        spw[keep], d[keep], empty, empty)] if len(keep) else keep
+    if params.rank_by in ("mu_min", "epsilon") and len(keep):
+        # these need every candidate's value: computed for the closure grasps only
+        mm = mu_min_batch(P[keep], N[keep], gamma, params.edges, compiled=False).mu_min
+        ee = np.array([epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
+                                       params.edges, gamma) for i in keep])
+        order = keep[_order(params.rank_by, spw[keep], d[keep], mm, ee)]
+    sel = _distinct(P, order, DISTINCT_RTOL * part.length, params.top)
+    grasps: list[GripperGrasp] = []
+    if len(sel):
+        mm = mu_min_batch(P[sel], N[sel], gamma, params.edges, compiled=False).mu_min
+        hold_w = hold.worst_direction[sel]
+        for j, i in enumerate(sel):
+            pose = jaws.poses[clear[i]]
+            least = None if mass is None else float(spw[i]) * mass * GRAVITY
+            grasps.append(GripperGrasp(
+                pose=pose, tcp=pose[:3, :3] @ gripper.tcp + pose[:3, 3],
+                width=float(jaws.width[clear[i]]), points=P[i], normals=N[i],
+                patch=jaws.patch[clear[i]], d_star=float(d[i]), closure="frictional form",
+                mu_min=float(mm[j]),
+                epsilon=epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
+                                        params.edges, gamma),
+                squeeze_per_weight=float(spw[i]), squeeze_sampled=float(hold.sampled[i]),
+                worst_gravity=hold_w[j], least_squeeze=least,
+                margin=None if least is None else gripper.grip_force / least))
+    message = _message(gripper, grasps, counts, narrowest, mass, part.units)
+    return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
+                       counts, narrowest, time.perf_counter() - t0)
+
+
+def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int],
+             narrowest: float | None, mass: float | None, units: str) -> str:
+    mm = 1000.0 / gripper.unit_scale  # part units -> millimetres
+    if grasps:
+        g = grasps[0]
+        hold = (f"; best holds {mass:g} kg with {g.least_squeeze:.3g} N of "
+                f"{gripper.grip_force:g} N (margin {g.margin:.2f})") if mass is not None else (
+            f"; best needs a squeeze of {g.squeeze_per_weight:.3g} times the part's weight")
+        return (f"{len(grasps)} {gripper.title} grasps ({counts['collision_free']} "
+                f"collision-free of {counts['poses']} poses){hold}")
+    if counts["landed"] == 0 and counts["too_wide"] > 0 and narrowest is not None:
+        return (f"no grasp: the part is too large for the {gripper.title}'s "
+                f"{gripper.max_opening * mm:.0f} mm opening (the narrowest width found is "
+                f"{narrowest * mm:.0f} mm)")
+    why = ", ".join(f"{v} {GRIPPER_STATUS.get(k, k) if isinstance(k, int) else k}"
+                    for k, v in counts.items())
+    return f"no {gripper.title} grasp found ({why})"

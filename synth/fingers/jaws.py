@@ -177,7 +177,7 @@ def close_jaws(
     (py, pz), (pw, ph) = gripper.pad_center, gripper.pad_size
     rounds = 1 if np.ptp(gripper.finger_z[:, 1]) == 0 else 3  # pads that do not rise: one
     for b in range(B):
-        R, t = out_pose[b, :3, :3], out_pose[b, :3, 3]
+        R, t = out_pose[b, :3, :3].copy(), out_pose[b, :3, 3].copy()
         V = (Vp - t) @ R  # the part in the gripper frame
         Fg = FN @ R
         w = gripper.max_opening

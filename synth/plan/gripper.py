@@ -368,7 +368,7 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     poses = _poses(p, q, axis, gripper.tcp, APPROACHES)
     counts = {"pairs": len(p), "poses": len(poses)}
     mesh = part.mesh
-    touch = max(1e-4 * part.length, 10.0 * part.precision)
+    touch = part.surface_tolerance  # follows the part's size and coordinate precision
     jaws = close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
                       np.asarray(mesh.face_normals), poses, gripper, touch)
     landed = np.flatnonzero(jaws.status == LANDED)

@@ -1,0 +1,135 @@
+"""Gripper grasps (``synth plan --gripper``), checked by tests/gripper_check.py, which shares
+no code with synth, over corpus parts and the sample cube."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth.cli import main
+from synth.part import load_part
+from synth.plan.gripper import DISTINCT_RTOL, GripperParams, plan_gripper
+from tests.gripper_check import check_grasp, gripper_shapes
+
+ROOT = Path(__file__).resolve().parents[1]
+CORPUS = ROOT / "meshes" / "corpus"
+DATA = ROOT / "synth" / "fingers" / "grippers"
+UNITS = {r["file"]: r["units"] for r in json.loads((CORPUS / "corpus.json").read_text())}
+
+
+@pytest.mark.parametrize("name, gripper", [
+    ("robosuite_bread.stl", "franka"),
+    ("pybullet_lego_vhacd.obj", "franka"),
+    ("robosuite_models_yumi_link7_coarse.stl", "robotiq_2f85"),
+    ("metaworld_coffee_mug.stl", "robotiq_2f140"),
+])
+def test_corpus_grasps_pass_the_independent_check(name, gripper):
+    path = CORPUS / name
+    part = load_part(path, units=UNITS[name])
+    plan = plan_gripper(part, GripperParams(gripper=gripper, samples=60, top=4, mass=0.2))
+    assert plan.grasps, plan.message
+    doc = plan.to_json()
+    scale = float(trimesh.units.unit_conversion("meters", UNITS[name]))
+    clear = 1e-3 * part.length
+    for g in doc["grasps"]:
+        assert check_grasp(g, path, DATA / f"{gripper}.json", scale, doc["model"]["mu"],
+                           clear) == []
+        m = g["measures"]
+        assert m["least_squeeze"] == pytest.approx(m["squeeze_per_weight"] * 0.2 * 9.80665)
+        assert m["margin"] == pytest.approx(doc["gripper"]["grip_force"] / m["least_squeeze"])
+    margins = [g["measures"]["squeeze_per_weight"] for g in doc["grasps"]]
+    assert margins == sorted(margins)  # ranked by the least squeeze
+    pts = [np.array([c["point"] for c in g["contacts"]]) for g in doc["grasps"]]
+    for i in range(len(pts)):
+        for j in range(i):
+            d = np.linalg.norm(pts[i][:, None] - pts[j][None], axis=2)
+            hausdorff = max(d.min(1).max(), d.min(0).max())
+            assert hausdorff >= DISTINCT_RTOL * part.length
+
+
+def test_cli_files_glb_matches_the_json(tmp_path, capsys):
+    out = tmp_path / "cube.json"
+    assert main(["plan", str(ROOT / "meshes" / "cube.stl"), "--units", "cm", "--gripper",
+                 "franka", "--mass", "0.02", "--samples", "40", "--top", "3", "--out",
+                 str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "margin" in text and "Franka Hand" in text
+    doc = json.loads(out.read_text())
+    assert doc["format"] == "synth.gripper_grasps" and doc["gripper"]["name"] == "franka"
+    assert "approach +z" in doc["gripper"]["frame"]
+    g = doc["grasps"][0]
+    T = np.array(g["pose"])
+    scene = trimesh.load(out.with_suffix(".glb"))
+    geoms = scene.dump(concatenate=False) if hasattr(scene, "dump") else []
+    named = {m.metadata.get("name", ""): m for m in geoms}
+    want = gripper_shapes(DATA / "franka.json", g["width"], 100.0)  # metres to cm
+    assert len([k for k in named if k.startswith("gripper_")]) == len(want)
+    for k, (V, _) in enumerate(want):
+        got = np.asarray(named[f"gripper_{k}"].vertices)
+        posed = V @ T[:3, :3].T + T[:3, 3]
+        assert got.shape == posed.shape
+        assert np.abs(got - posed).max() < 1e-5  # GLB stores float32
+    # the TCP is the pose applied to the description's tool centre point
+    tcp = np.array(json.loads((DATA / "franka.json").read_text())["tcp"]) * 100.0
+    assert np.allclose(g["tcp"], T[:3, :3] @ tcp + T[:3, 3])
+    assert out.with_suffix(".png").stat().st_size > 10_000
+
+
+def test_units_are_required_and_a_large_part_is_told_so(tmp_path, capsys):
+    cube = str(ROOT / "meshes" / "cube.stl")
+    assert main(["plan", cube, "--gripper", "franka", "--no-files"]) == 2
+    assert "--units" in capsys.readouterr().err
+    assert main(["plan", cube, "--units", "m", "--gripper", "franka", "--no-files",
+                 "--samples", "20"]) == 1
+    assert "too large for the Franka Hand" in capsys.readouterr().out
+    assert main(["plan", cube, "--units", "dm", "--gripper", "franka", "--no-files",
+                 "--samples", "20"]) == 1
+    assert "narrowest width found is 100 mm" in capsys.readouterr().out
+    assert main(["plan", cube, "--units", "cm", "--mass", "1", "--no-files"]) == 2
+    bad = tmp_path / "g.json"
+    bad.write_text('{"format": "synth.gripper", "version": 1, "name": "x", "max_opening": 0}')
+    assert main(["plan", cube, "--units", "cm", "--gripper", str(bad), "--no-files"]) == 2
+    assert "max_opening" in capsys.readouterr().err
+
+
+def test_table_and_rank_orders():
+    part = load_part(ROOT / "meshes" / "cube.stl", units="cm")
+    table = float(part.mesh.bounds[0, 2])
+    plan = plan_gripper(part, GripperParams(samples=40, top=4, table=table, rank_by="epsilon"))
+    assert plan.grasps
+    for g in plan.grasps:
+        for V, _ in plan.gripper.meshes_at(g.width):
+            assert (V @ g.pose[:3, :3].T + g.pose[:3, 3])[:, 2].min() >= table - 1e-9
+    eps = [g.epsilon for g in plan.grasps]
+    assert eps == sorted(eps, reverse=True)
+    by_mu = plan_gripper(part, GripperParams(samples=40, top=4, rank_by="mu_min"))
+    mus = [g.mu_min for g in by_mu.grasps]
+    assert mus == sorted(mus)
+
+
+def test_the_independent_check_catches_broken_grasps():
+    path = CORPUS / "robosuite_bread.stl"
+    part = load_part(path, units="meters")
+    doc = plan_gripper(part, GripperParams(samples=40, top=1)).to_json()
+    g = doc["grasps"][0]
+    desc = DATA / "franka.json"
+
+    def errors(**change):
+        return check_grasp(dict(g, **change), path, desc, 1.0, 0.5, 1e-3 * part.length)
+
+    assert errors() == []
+    T = np.array(g["pose"])
+    sunk = T.copy()
+    sunk[:3, 3] += 0.3 * part.length * T[:3, 2]  # pushed further along the approach
+    assert any("intersects" in e for e in errors(pose=sunk.tolist()))
+    skew = T.copy()
+    skew[:3, 0] *= 1.01
+    assert "pose is not a rigid transform" in errors(pose=skew.tolist())
+    moved = [dict(c) for c in g["contacts"]]
+    moved[0]["point"] = (np.array(moved[0]["point"]) + 0.01 * part.length * T[:3, 0]).tolist()
+    assert any("off the surface" in e or "not on its pad" in e for e in errors(contacts=moved))
+    assert any("friction cone" in e for e in check_grasp(g, path, desc, 1.0, 1e-4, 0.0))

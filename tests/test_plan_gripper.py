@@ -132,4 +132,7 @@ def test_the_independent_check_catches_broken_grasps():
     moved = [dict(c) for c in g["contacts"]]
     moved[0]["point"] = (np.array(moved[0]["point"]) + 0.01 * part.length * T[:3, 0]).tolist()
     assert any("off the surface" in e or "not on its pad" in e for e in errors(contacts=moved))
-    assert any("friction cone" in e for e in check_grasp(g, path, desc, 1.0, 1e-4, 0.0))
+    slid = [dict(c) for c in g["contacts"]]  # slid along its pad: the line tilts
+    slid[0]["point"] = (np.array(slid[0]["point"]) + 0.01 * part.length * T[:3, 1]).tolist()
+    assert any("friction cone" in e for e in check_grasp(dict(g, contacts=slid), path, desc,
+                                                         1.0, 1e-4, 0.0))

@@ -6,7 +6,9 @@ joint at 0), every collision geom (meshes with their scale, boxes) is put into t
 base link's mesh (z along the approach, x along the closing direction), and boxes are fitted:
 the palm to the base link, and per side one box to the inner finger with its fingertip and pad
 (the part that moves with the pad) and one to the outer knuckle, outer finger and inner knuckle
-(the linkage, held fixed at its open pose). The pad is robosuite's pad box.
+(the linkage, held fixed at its open pose). The pad is robosuite's pad box. The script prints every collision geom's bounds in the base
+link's frame at the open pose; the boxes of the JSON files are read off those bounds (robosuite's
+y, the closing direction, is synth's x).
 
 Usage: ``python scripts/fit_gripper_boxes.py ROBOSUITE_GRIPPERS_DIR`` (the folder
 ``robosuite/models/assets/grippers`` of an unpacked robosuite 1.5.2 wheel).
@@ -67,13 +69,9 @@ def main(folder: str) -> None:
         B = G["hand_collision"]
         # the base link's frame: its axis of symmetry is z, the knuckles lie along the closing axis
         lo, hi = B.min(0), B.max(0)
-        c = (lo + hi) / 2
-        pad = G[f"{side}_fingerpad_collision"]
-        axis_z = np.argmax(np.abs(pad.mean(0) - c) * [0, 0, 1] + np.abs(pad.mean(0) - c)
-                           * 0)  # z of the mesh
-        del axis_z
         print(xml)
         print("  base link bounds", lo.round(4), hi.round(4))
+        print(f"  (z is the approach; the {side} side's pad is the +x finger's, its y our x)")
         for name in G:
             print(f"  {name:40s}", G[name].min(0).round(4), G[name].max(0).round(4))
 

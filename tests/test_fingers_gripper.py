@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from synth import InputError
-from synth.cli import main
 from synth.fingers.gripper import BUILTIN_GRIPPERS, load_gripper
 
 DATA = Path(__file__).resolve().parents[1] / "synth" / "fingers" / "grippers"

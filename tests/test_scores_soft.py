@@ -105,7 +105,8 @@ def test_soft_forces_lie_in_the_elliptic_cone_and_balance():
     assert np.abs(G @ lam).max() < 1e-7  # an internal force
     for i, (p, n) in enumerate(zip(P, N)):
         u, v = _frame(n)
-        w = G[:, i * M : (i + 1) * M] @ r.lam[i] - np.r_[np.zeros(3), np.cross(p - P.mean(0), G[:3, i * M : (i + 1) * M] @ r.lam[i])]
+        cols = G[:, i * M : (i + 1) * M]
+        w = cols @ r.lam[i] - np.r_[np.zeros(3), np.cross(p - P.mean(0), cols[:3] @ r.lam[i])]
         f, tau = w[:3], w[3:] @ n
         fn = f @ n
         assert fn >= r.d_star - 1e-9

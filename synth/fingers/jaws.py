@@ -20,7 +20,8 @@ pad's too. A pad whose touch lies only on the rim of its rectangle against a fac
 parallel to it (the pad's own edge digging into a slope) makes no trustworthy contact: such
 poses are reported as ``EDGE_TOUCH`` and dropped. A Robotiq pad rises as the jaws close
 (``finger_z``): its rectangle is placed at the rise of the width found, and the search is
-repeated until the width no longer changes (three rounds at most).
+repeated until the width no longer changes (three rounds at most). Poses are processed in
+chunks, every pose of a chunk at once in numpy.
 """
 
 from __future__ import annotations
@@ -42,6 +43,9 @@ JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                               EDGE_TOUCH: "a pad's rim digs into a slope"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
+#: Poses per chunk times faces: a chunk's triangles in its poses' frames take about
+#: 72 bytes times this (about 30 MB).
+_CHUNK_ENTRIES = 400_000
 
 
 @dataclass(frozen=True)
@@ -78,63 +82,68 @@ class JawContacts:
         return self.status == LANDED
 
 
-def _extreme(V: NDArray[np.float64], F: NDArray[np.int64], FN: NDArray[np.float64],
-             y0: float, y1: float, z0: float, z1: float, sign: float, tol: float
-             ) -> tuple[float, NDArray[np.float64], float, bool] | None:
-    """Largest ``sign * x`` of the mesh (gripper frame) inside the prism, the patch centre
-    (y, z), the patch diagonal, and whether the touch is trustworthy; None if it misses."""
-    T = V[F]  # (f, 3, 3)
-    ty, tz = T[..., 1], T[..., 2]
-    near = (ty.max(1) >= y0) & (ty.min(1) <= y1) & (tz.max(1) >= z0) & (tz.min(1) <= z1)
-    if not near.any():
-        return None
-    T, fn = T[near], FN[near]
-    nf = len(T)
-    pts = [T.reshape(-1, 3)]  # vertices (filtered below)
-    owner = [np.repeat(np.arange(nf), 3)]  # the face each candidate lies on
-    A, B = T, np.roll(T, -1, axis=1)  # the three edges of every triangle
-    A, B = A.reshape(-1, 3), B.reshape(-1, 3)
+def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
+              n: int, rect: tuple[float, float, float, float], sign: float, tol: float
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.bool_]]:
+    """For ``n`` poses at once: the largest ``sign * x`` of the mesh inside a pad's prism.
+
+    ``Tg`` (K, 3, 3) are triangles in their pose's gripper frame, ``kb`` (K,) their pose,
+    ``FNg`` (K, 3) their outward normals there. Returns per pose the extreme ``x`` (NaN where
+    the pad misses), the touched patch's centre ``(y, z)`` (n, 2) and diagonal (n,), and
+    whether the touch is trustworthy (n,).
+    """
+    y0, y1, z0, z1 = rect
+    A = Tg
+    Bv = np.roll(Tg, -1, axis=1)  # the three edges of every triangle: A[:, i] -> Bv[:, i]
+    cands = [A]  # (K, 3, 3): vertices
     for axis, value in ((1, y0), (1, y1), (2, z0), (2, z1)):
-        da, db = A[:, axis] - value, B[:, axis] - value
-        cross = (da * db < 0)
-        t = da[cross] / (da[cross] - db[cross])
-        pts.append(A[cross] + t[:, None] * (B[cross] - A[cross]))
-        owner.append(np.flatnonzero(cross) // 3)
-    corners = np.array([[y0, z0], [y0, z1], [y1, z0], [y1, z1]])
-    # barycentric coordinates of each corner in each triangle's (y, z) projection
-    p0, e1, e2 = T[:, 0, 1:], T[:, 1, 1:] - T[:, 0, 1:], T[:, 2, 1:] - T[:, 0, 1:]
+        da, db = A[..., axis] - value, Bv[..., axis] - value
+        cross = da * db < 0
+        t = np.where(cross, da / np.where(cross, da - db, 1.0), np.nan)
+        cands.append(A + t[..., None] * (Bv - A))  # NaN where the edge does not cross
+    p0 = Tg[:, 0, 1:]
+    e1, e2 = Tg[:, 1, 1:] - p0, Tg[:, 2, 1:] - p0
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     ok = np.abs(det) > 1e-300
     det = np.where(ok, det, 1.0)
-    for c in corners:
-        d = c - p0
-        u = (d[:, 0] * e2[:, 1] - d[:, 1] * e2[:, 0]) / det
-        v = (e1[:, 0] * d[:, 1] - e1[:, 1] * d[:, 0]) / det
+    corners = []
+    for cy, cz in ((y0, z0), (y0, z1), (y1, z0), (y1, z1)):
+        dy, dz = cy - p0[:, 0], cz - p0[:, 1]
+        u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
+        v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
         inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
-        x = T[inside, 0, 0] + u[inside] * (T[inside, 1, 0] - T[inside, 0, 0]) + v[inside] * (
-            T[inside, 2, 0] - T[inside, 0, 0])
-        pts.append(np.column_stack([x, np.full(len(x), c[0]), np.full(len(x), c[1])]))
-        owner.append(np.flatnonzero(inside))
-    P = np.concatenate(pts)
-    K = np.concatenate(owner)
-    eps = 1e-12 * max(1.0, float(np.abs(V).max()))
-    inside = (P[:, 1] >= y0 - eps) & (P[:, 1] <= y1 + eps) & (P[:, 2] >= z0 - eps) & (
-        P[:, 2] <= z1 + eps)
-    P, K = P[inside], K[inside]
-    if not len(P):
-        return None
-    sx = sign * P[:, 0]
-    top = sx.max()
-    touch = sx >= top - tol
-    Q = P[touch]
-    lo, hi = Q[:, 1:].min(0), Q[:, 1:].max(0)
-    # trustworthy: a touching point strictly inside the rectangle (a part vertex or edge
-    # pressed into the pad, or a patch), or a touched face parallel to the pad
-    interior = (Q[:, 1] > y0 + tol) & (Q[:, 1] < y1 - tol) & (Q[:, 2] > z0 + tol) & (
-        Q[:, 2] < z1 - tol)
-    facing = sign * fn[:, 0] >= _PARALLEL_COS  # outward normal towards the pad
-    good = bool(interior.any() or facing[K[touch]].any())
-    return float(sign * top), (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)), good
+        x = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+        corners.append(np.stack([np.where(inside, x, np.nan), np.full(len(x), cy),
+                                 np.full(len(x), cz)], axis=1))
+    P = np.concatenate(cands + [np.stack(corners, axis=1)], axis=1)  # (K, 19, 3)
+    eps = 1e-12 * max(1.0, float(np.nanmax(np.abs(Tg))) if Tg.size else 1.0)
+    valid = np.isfinite(P[..., 0]) & (P[..., 1] >= y0 - eps) & (P[..., 1] <= y1 + eps) & (
+        P[..., 2] >= z0 - eps) & (P[..., 2] <= z1 + eps)
+    sx = np.where(valid, sign * P[..., 0], -np.inf)
+    top = np.full(n, -np.inf)
+    np.maximum.at(top, kb, sx.max(axis=1))
+    touch = valid & (sx >= (top[kb] - tol)[:, None])
+    big = np.inf
+    lo_y, hi_y = np.full(n, big), np.full(n, -big)
+    lo_z, hi_z = np.full(n, big), np.full(n, -big)
+    Y = np.where(touch, P[..., 1], np.nan)
+    Z = np.where(touch, P[..., 2], np.nan)
+    has = touch.any(axis=1)
+    np.minimum.at(lo_y, kb[has], np.nanmin(Y[has], axis=1))
+    np.maximum.at(hi_y, kb[has], np.nanmax(Y[has], axis=1))
+    np.minimum.at(lo_z, kb[has], np.nanmin(Z[has], axis=1))
+    np.maximum.at(hi_z, kb[has], np.nanmax(Z[has], axis=1))
+    interior = touch & (P[..., 1] > y0 + tol) & (P[..., 1] < y1 - tol) & (P[..., 2] > z0 + tol) \
+        & (P[..., 2] < z1 - tol)
+    facing = (sign * FNg[:, 0] >= _PARALLEL_COS) & has
+    good = np.zeros(n, bool)
+    np.logical_or.at(good, kb, interior.any(axis=1) | facing)
+    hit = np.isfinite(top)
+    x = np.where(hit, sign * top, np.nan)
+    centre = np.stack([(lo_y + hi_y) / 2, (lo_z + hi_z) / 2], axis=1)
+    diag = np.hypot(hi_y - lo_y, hi_z - lo_z)
+    return x, centre, np.where(hit, diag, 0.0), good & hit
 
 
 def close_jaws(
@@ -176,46 +185,49 @@ def close_jaws(
     status = np.full(B, MISSES, np.int64)
     (py, pz), (pw, ph) = gripper.pad_center, gripper.pad_size
     rounds = 1 if np.ptp(gripper.finger_z[:, 1]) == 0 else 3  # pads that do not rise: one
-    for b in range(B):
-        R, t = out_pose[b, :3, :3].copy(), out_pose[b, :3, 3].copy()
-        V = (Vp - t) @ R  # the part in the gripper frame
-        Fg = FN @ R
-        w = gripper.max_opening
-        hit = None
+    reach = abs(py) + pw / 2
+    plus_rect = (py - pw / 2, py + pw / 2, -ph / 2, ph / 2)
+    minus_rect = (-py - pw / 2, -py + pw / 2, -ph / 2, ph / 2)  # the half-turn of the +x pad
+    step = max(1, _CHUNK_ENTRIES // max(1, len(F)))
+    for lo in range(0, B, step):
+        idx = np.arange(lo, min(lo + step, B))
+        n = len(idx)
+        R, t = poses[idx, :3, :3], poses[idx, :3, 3]
+        Vg = np.einsum("bvi,bij->bvj", Vp[None] - t[:, None], R)  # the part in each frame
+        Tall = Vg[:, F]  # (n, f, 3, 3)
+        FNall = np.einsum("fi,bij->bfj", FN, R)
+        ty, tz = Tall[..., 1], Tall[..., 2]
+        ylo, yhi, zlo, zhi = ty.min(-1), ty.max(-1), tz.min(-1), tz.max(-1)
+        w = np.full(n, gripper.max_opening)
         for _ in range(rounds):
-            zc = pz + float(gripper.rise(w))
-            plus = _extreme(V, F, Fg, py - pw / 2, py + pw / 2, zc - ph / 2, zc + ph / 2,
-                            1.0, touch_tol)
-            # the -x pad is the half-turn of the +x one: y mirrored
-            minus = _extreme(V, F, Fg, -py - pw / 2, -py + pw / 2, zc - ph / 2, zc + ph / 2,
-                             -1.0, touch_tol)
-            if plus is None or minus is None:
-                hit = None
+            zc = pz + gripper.rise(w)
+            near = (yhi >= -reach) & (ylo <= reach) & (zhi >= (zc - ph / 2)[:, None]) & (
+                zlo <= (zc + ph / 2)[:, None])
+            kb, kf = np.nonzero(near)
+            Tg = Tall[kb, kf] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
+                                         axis=1)[:, None, :]  # pad centre at z = 0
+            FNg = FNall[kb, kf]
+            xp, cp, dp, gp = _extremes(Tg, FNg, kb, n, plus_rect, 1.0, touch_tol)
+            xm, cm, dm, gm = _extremes(Tg, FNg, kb, n, minus_rect, -1.0, touch_tol)
+            new_w = xp - xm
+            done = ~np.isfinite(new_w) | (np.abs(new_w - w) <= touch_tol)
+            w = np.where(np.isfinite(new_w), new_w, w)
+            if done.all():
                 break
-            new_w = plus[0] - minus[0]
-            hit = (plus, minus, zc)
-            if abs(new_w - w) <= touch_tol:
-                break
-            w = new_w
-        if hit is None:
-            continue
-        plus, minus, _ = hit
-        w = plus[0] - minus[0]
-        if w <= 0:
-            continue
-        if w > gripper.max_opening:
-            status[b] = TOO_WIDE
-            width[b] = w
-            continue
-        if not (plus[3] and minus[3]):
-            status[b] = EDGE_TOUCH
-            continue
-        shift = 0.5 * (plus[0] + minus[0])
-        out_pose[b, :3, 3] = t + R[:, 0] * shift
-        cg = np.array([[plus[0], *plus[1]], [minus[0], *minus[1]]])
-        points[b] = cg @ R.T + t
-        normals[b] = np.array([-R[:, 0], R[:, 0]])
-        patch[b] = plus[2], minus[2]
-        width[b] = w
-        status[b] = LANDED
+        hit = np.isfinite(xp) & np.isfinite(xm) & (xp - xm > 0)
+        wide = hit & (w > gripper.max_opening)
+        edge = hit & ~wide & ~(gp & gm)
+        ok = hit & ~wide & ~edge
+        width[idx[hit]] = w[hit]
+        status[idx[wide]] = TOO_WIDE
+        status[idx[edge]] = EDGE_TOUCH
+        width[idx[edge]] = np.nan
+        status[idx[ok]] = LANDED
+        shift = 0.5 * (xp + xm)
+        out_pose[idx[ok], :3, 3] = t[ok] + R[ok, :, 0] * shift[ok, None]
+        cg = np.stack([np.column_stack([xp, cp[:, 0], cp[:, 1] + zc]),
+                       np.column_stack([xm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
+        points[idx[ok]] = (np.einsum("bij,bkj->bki", R, cg) + t[:, None])[ok]
+        normals[idx[ok]] = np.stack([-R[:, :, 0], R[:, :, 0]], axis=1)[ok]
+        patch[idx[ok]] = np.column_stack([dp, dm])[ok]
     return JawContacts(out_pose, width, points, normals, patch, status)

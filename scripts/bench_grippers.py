@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from synth.errors import SynthError
 from synth.fingers.gripper import load_gripper
 from synth.fingers.gripper_collide import CLEAR, GripperChecker
 from synth.fingers.jaws import LANDED, close_jaws
@@ -73,7 +74,11 @@ def main() -> None:
           f"{'margin':>7} | {'sampler':>7} {'grasps/s':>8} {'best N/W':>8}")
     times, rows = [], 0
     for name in names:
-        part = load_part(CORPUS / name, units=units[name])
+        try:
+            part = load_part(CORPUS / name, units=units[name])
+        except SynthError as e:
+            print(f"{name:<44} not a part: {str(e)[-60:]}")
+            continue
         t0 = time.perf_counter()
         plan = plan_gripper(part, GripperParams(top=100, samples=400, mass=MASS))
         dt = time.perf_counter() - t0

@@ -18,7 +18,9 @@ The gripper route of the planner (``synth plan --gripper``), in the data path's 
 5. **scores** (soft contacts, :mod:`synth.scores`): frictional d* and closure, the least squeeze
    against gravity in every orientation (or ``gravity``), ``mu_min`` and the Ferrari-Canny
    epsilon;
-6. **ranking**: by the gravity margin (the least squeeze per weight, ascending) by default, and
+6. **refinement** (:mod:`synth.plan.gripper_refine`): the ``REFINE_TOP`` best grasps by
+   margin try small moves of their pose and keep the one needing the least squeeze;
+7. **ranking**: by the gravity margin (the least squeeze per weight, ascending) by default, and
    the best poses kept pairwise distinct: their contact pairs at least ``DISTINCT_RTOL`` of the
    part's size apart (Hausdorff distance of the unordered pairs, so a pose and its half-turn
    about the approach axis are the same grasp).
@@ -41,6 +43,7 @@ from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
 from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, close_jaws
+from synth.plan.gripper_refine import Scored, refine
 from synth.scores.cones import cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import GRAVITY, gravity_hold_batch
@@ -62,6 +65,8 @@ TORSION_M: float = 0.005
 DEDUPE_RTOL: float = 0.005
 #: Grasps scored with the fine gravity bound: this many times ``top``, the best by the coarse.
 SHORTLIST: int = 4
+#: The best grasps refined by small moves of the pose (:mod:`synth.plan.gripper_refine`).
+REFINE_TOP: int = 10
 #: Orders gripper grasps can be ranked by.
 GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
 
@@ -415,27 +420,46 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
         ee = np.array([epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
                                        params.edges, gamma) for i in keep])
         order = keep[_order(params.rank_by, spw[keep], d[keep], mm, ee)]
-    sel = _distinct(P, order, DISTINCT_RTOL * part.length, params.top)
     grasps: list[GripperGrasp] = []
-    if len(sel):
-        mm = mu_min_batch(P[sel], N[sel], gamma, params.edges, compiled=False).mu_min
-        hold_w = hold.worst_direction[sel]
-        for j, i in enumerate(sel):
-            pose = jaws.poses[clear[i]]
-            least = None if mass is None else float(spw[i]) * mass * GRAVITY
-            grasps.append(GripperGrasp(
-                pose=pose, tcp=pose[:3, :3] @ gripper.tcp + pose[:3, 3],
-                width=float(jaws.width[clear[i]]), points=P[i], normals=N[i],
-                patch=jaws.patch[clear[i]], d_star=float(d[i]), closure="frictional form",
-                mu_min=float(mm[j]),
-                epsilon=epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
-                                        params.edges, gamma),
-                squeeze_per_weight=float(spw[i]), squeeze_sampled=float(hold.sampled[i]),
-                worst_gravity=hold_w[j], least_squeeze=least,
-                margin=None if least is None else gripper.grip_force / least))
+    if len(order):
+        idx = clear[order]
+        pool = Scored(jaws.poses[idx], jaws.width[idx], P[order], N[order], jaws.patch[idx],
+                      d[order], spw[order], hold.sampled[order], hold.worst_direction[order])
+        if params.rank_by == "margin":  # refine the best; the originals stay in the pool
+            head = pool.take(_distinct(pool.points, np.arange(len(order)),
+                                       DISTINCT_RTOL * part.length, REFINE_TOP))
+            moved = refine(head, part, gripper, checker, params.mu, gamma, params.gravity,
+                           params.edges)
+            pool = Scored(*(np.concatenate([getattr(moved, f), getattr(pool, f)])
+                            for f in Scored.__dataclass_fields__))
+            ranked = np.argsort(pool.spw, kind="stable")
+        else:
+            ranked = np.arange(len(order))
+        best = pool.take(_distinct(pool.points, ranked, DISTINCT_RTOL * part.length,
+                                   params.top))
+        grasps = _grasps(best, part, gripper, params, gamma, mass)
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
                        counts, narrowest, time.perf_counter() - t0)
+
+
+def _grasps(best: Scored, part: Any, gripper: Gripper, params: GripperParams, gamma: float,
+            mass: float | None) -> list[GripperGrasp]:
+    """The result objects, with mu_min and epsilon computed for them."""
+    mm = mu_min_batch(best.points, best.normals, gamma, params.edges, compiled=False).mu_min
+    out = []
+    for j, pose in enumerate(best.poses):
+        least = None if mass is None else float(best.spw[j]) * mass * GRAVITY
+        out.append(GripperGrasp(
+            pose=pose, tcp=pose[:3, :3] @ gripper.tcp + pose[:3, 3], width=float(best.width[j]),
+            points=best.points[j], normals=best.normals[j], patch=best.patch[j],
+            d_star=float(best.d_star[j]), closure="frictional form", mu_min=float(mm[j]),
+            epsilon=epsilon_quality(best.points[j], best.normals[j], part.center_mass,
+                                    part.length, params.mu, params.edges, gamma),
+            squeeze_per_weight=float(best.spw[j]), squeeze_sampled=float(best.sampled[j]),
+            worst_gravity=best.worst[j], least_squeeze=least,
+            margin=None if least is None else gripper.grip_force / least))
+    return out
 
 
 def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int],

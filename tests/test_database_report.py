@@ -71,7 +71,7 @@ def _expected_report(path: Path) -> dict[str, Any]:
 def test_real_build_stores_what_loading_did(real: tuple[Path, Path]) -> None:
     mesh_dir, out = real
     with GraspDatabase(out) as db:
-        assert db.schema_version == SCHEMA_VERSION == 3
+        assert db.schema_version == SCHEMA_VERSION == 4
         by_name = {m.name: m for m in db.meshes()}
         assert {n: m.status for n, m in by_name.items()} == {
             "two.stl": "done", "clean.stl": "done", "flip.stl": "done", "ball.stl": "failed",
@@ -245,9 +245,9 @@ def test_build_migrates_a_v1_file_in_place(v1: tuple[Path, Path, Path]) -> None:
     trimesh.creation.box(extents=(0.5, 1.0, 2.0)).export(mesh_dir / "new.stl")
     report = build_database([mesh_dir], old, PARAMS, workers=0, planner=PLANNER, quiet=True)
     assert (report.planned, report.done) == (1, 1)
-    assert _versions(old) == ("3", 3, True)
+    assert _versions(old) == ("4", 4, True)
     with GraspDatabase(old) as db:
-        assert db.schema_version == 3 and db.meta["schema_version"] == "3"
+        assert db.schema_version == 4 and db.meta["schema_version"] == "4"
         meshes = {m.id: m for m in db.meshes()}
         new = next(m for m in meshes.values() if m.name == "new.stl")
         assert new.status == "done" and new.report == {"length": 2.0, "units": "unknown"}
@@ -281,19 +281,19 @@ def test_failed_migration_leaves_the_v1_file_whole(v1: tuple[Path, Path, Path]) 
 
 def test_newer_schema_is_refused(v1: tuple[Path, Path, Path], tmp_path: Path) -> None:
     mesh_dir, v2, _ = v1
-    newer = tmp_path / "v4.sqlite"
+    newer = tmp_path / "v5.sqlite"
     shutil.copyfile(v2, newer)
     conn = sqlite3.connect(newer)
-    conn.execute("UPDATE meta SET value = '4' WHERE key = 'schema_version'")
-    conn.execute("PRAGMA user_version = 4")
+    conn.execute("UPDATE meta SET value = '5' WHERE key = 'schema_version'")
+    conn.execute("PRAGMA user_version = 5")
     conn.commit()
     conn.close()
     data = newer.read_bytes()
     for mode in ("r", "w"):
-        with pytest.raises(DatabaseError, match="schema version 4, this synth reads versions 1 "
-                           "to 3") as err:  # fmt: skip
+        with pytest.raises(DatabaseError, match="schema version 5, this synth reads versions 1 "
+                           "to 4") as err:  # fmt: skip
             GraspDatabase(newer, mode=mode)
         assert str(newer) in str(err.value)
-    with pytest.raises(DatabaseError, match="schema version 4"):
+    with pytest.raises(DatabaseError, match="schema version 5"):
         build_database([mesh_dir], newer, PARAMS, workers=0, planner=PLANNER)
     assert newer.read_bytes() == data

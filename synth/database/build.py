@@ -182,6 +182,8 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     ...
     synth.errors.InputError: contacts: frictionless form closure in space needs at least 7 ...
     """
+    if params and "gripper" in params:
+        return _gripper_params(params)
     out = dict(DEFAULT_PARAMS)
     for key, value in (params or {}).items():
         if key not in DEFAULT_PARAMS:
@@ -201,6 +203,32 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
                 raise InputError(f"planner parameter {key!r} must be a number, got "
                                  f"{out[key]!r}") from e  # fmt: skip
     PlanParams(**out)
+    return out
+
+
+def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
+    """Parameters of a gripper build (``synth db build --gripper``), checked the same way:
+    :class:`synth.plan.gripper.GripperParams` fields and ``units``, defaults filled in."""
+    from dataclasses import asdict
+
+    from synth.fingers.gripper import load_gripper
+    from synth.plan.gripper import GripperParams
+
+    fields = set(asdict(GripperParams())) | {"units"}
+    for key in params:
+        if key not in fields:
+            raise InputError(f"unknown gripper planner parameter {key!r}; valid: "
+                             f"{sorted(fields)}")
+    out = {**asdict(GripperParams()), "units": None, **params}
+    load_gripper(out["gripper"])
+    for key in ("top", "seed", "samples"):
+        if isinstance(out[key], bool) or not isinstance(out[key], int) or out[key] < 1 - (
+                key == "seed"):
+            raise InputError(f"planner parameter {key!r} must be a positive integer, got "
+                             f"{out[key]!r}")
+    if isinstance(out["mu"], bool) or not isinstance(out["mu"], (int, float)) or not (
+            0 < out["mu"] < float("inf")):
+        raise InputError(f"planner parameter 'mu' must be a number > 0, got {out['mu']!r}")
     return out
 
 

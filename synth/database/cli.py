@@ -150,6 +150,11 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--scheduler", default=None,
                    help="Dask scheduler address (engine dask; default: a local Dask cluster)")
     b.add_argument("--planner", default=None, help="planner 'module:function'")
+    b.add_argument("--gripper", default=None, metavar="NAME|FILE",
+                   help="store gripper grasps of this parallel-jaw gripper (as synth plan "
+                   "--gripper, with --mu 0.5 unless given) in the table gripper_grasps")
+    b.add_argument("--units", default=None, metavar="UNIT",
+                   help="with --gripper: the unit of meshes whose file does not say")
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
     b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
                    metavar="SECONDS",
@@ -186,9 +191,14 @@ def _build(args: argparse.Namespace) -> int:
         "contacts": args.contacts, "mu": args.mu, "top": args.top, "seed": args.seed,
         "finger_radius": args.finger_radius, "evals": args.evals, "regions": args.regions,
     }  # fmt: skip
+    planner = args.planner
+    if args.gripper is not None:
+        params = {"gripper": args.gripper, "units": args.units, "top": args.top,
+                  "seed": args.seed, "mu": args.mu if args.mu > 0 else 0.5}
+        planner = planner or "synth.plan:plan_gripper_file"
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
-        scheduler=args.scheduler, planner=args.planner, retry_failed=args.retry_failed,
+        scheduler=args.scheduler, planner=planner, retry_failed=args.retry_failed,
         timeout=args.timeout, quiet=args.quiet,
     )  # fmt: skip
     if not args.quiet:

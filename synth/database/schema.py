@@ -1,7 +1,8 @@
-"""The SQLite schema of a synth grasp database (schema version 2) and its record types.
+"""The SQLite schema of a synth grasp database (schema version 4) and its record types.
 
 A grasp database is one SQLite file in WAL mode, written by ``synth db build`` (one writer, the
-parent process) and readable by anyone while it is written. It holds three tables.
+parent process) and readable by anyone while it is written. It holds four tables: ``grasps``
+for point-finger plans, ``gripper_grasps`` for gripper plans (``synth db build --gripper``).
 
 ``meta`` -- one row per key, text values:
 
@@ -79,6 +80,29 @@ contact_regions TEXT      canonical JSON of the grasp's ``contact_regions`` obje
                           kinds, tolerance, limited_by, d_star_min, certified); NULL as above
 =============  =========  ======================================================================
 
+``gripper_grasps`` -- one row per gripper grasp, ``PRIMARY KEY (mesh_id, rank)``,
+``WITHOUT ROWID`` (new in version 4):
+
+==================  =========  =================================================================
+column              type       meaning
+==================  =========  =================================================================
+mesh_id             INTEGER    ``meshes.id``
+rank                INTEGER    1 = best, in the planner's order
+gripper             TEXT       the gripper's name
+pose                BLOB       (4, 4) float64 little-endian: the gripper's base frame in the
+                               part's frame (ACRONYM/GraspGen: approach +z, closing x)
+tcp                 BLOB       (3,) float64: tool centre point in the part's frame
+width               REAL       pad distance at the grasp, in the mesh's units
+points              BLOB       (2, 3) float64: contacts, the +x pad's first
+normals             BLOB       (2, 3) float64: their inward normals
+squeeze_per_weight  REAL       least squeeze holding the part against gravity, over its weight
+least_squeeze       REAL       in newtons, NULL without a mass
+margin              REAL       rated grip force over the least squeeze, NULL without a mass
+mu_min              REAL       least closing friction coefficient, NULL if none closes
+epsilon             REAL       Ferrari-Canny epsilon with soft contacts
+d_star              REAL       Trinkle's frictional d* with soft contacts
+==================  =========  =================================================================
+
 Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)``,
 ``grasps(d_star)`` and ``grasps(tolerance)``; the primary key of ``grasps`` serves "the best k grasps of a mesh".
 
@@ -86,11 +110,12 @@ A mesh's grasps are written in the same transaction as its ``done`` status, so a
 sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``done``.
 
 Versions: schema version 1 lacks ``meshes.mesh_report``; versions 1 and 2 lack
-``grasps.tolerance`` and ``grasps.contact_regions``. An older file is read as it is (the missing
-fields read as None) and is migrated in place to version 3 -- the missing columns added with
-``ALTER TABLE`` (NULL in existing rows), the ``grasps(tolerance)`` index created,
-``meta.schema_version`` and ``PRAGMA user_version`` set to 3, in one transaction -- the first
-time a build writes to it (:func:`migrate_schema`). A file of a newer version than this synth's
+``grasps.tolerance`` and ``grasps.contact_regions``; versions 1 to 3 lack the
+``gripper_grasps`` table. An older file is read as it is (the missing fields read as None, the
+missing table as no gripper grasps) and is migrated in place to version 4 -- the missing
+columns added with ``ALTER TABLE`` (NULL in existing rows), the ``grasps(tolerance)`` index and
+the ``gripper_grasps`` table created, ``meta.schema_version`` and ``PRAGMA user_version`` set
+to 4, in one transaction -- the first time a build writes to it (:func:`migrate_schema`). A file of a newer version than this synth's
 is refused.
 """
 
@@ -113,6 +138,8 @@ __all__ = [
     "MESH_STATUSES",
     "MeshRecord",
     "GraspRecord",
+    "GripperGraspRecord",
+    "GRIPPER_GRASPS_DDL",
     "canonical_json",
     "create_schema",
     "check_schema",
@@ -122,9 +149,9 @@ __all__ = [
     "unpack_array",
 ]
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 #: Schema versions this synth reads; the older ones are migrated by :func:`migrate_schema`.
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 APPLICATION = "synth.grasps.db"
 APPLICATION_ID = 0x53594E54  # "SYNT"
 MESH_STATUSES = ("pending", "done", "failed", "duplicate")
@@ -183,6 +210,26 @@ CREATE TABLE grasps (
 ) WITHOUT ROWID;
 CREATE INDEX grasps_d_star ON grasps(d_star);
 CREATE INDEX grasps_tolerance ON grasps(tolerance);
+"""
+#: The table of gripper grasps (schema version 4), created by new files and by the migration.
+GRIPPER_GRASPS_DDL = """
+CREATE TABLE gripper_grasps (
+    mesh_id            INTEGER NOT NULL REFERENCES meshes(id),
+    rank               INTEGER NOT NULL,
+    gripper            TEXT NOT NULL,
+    pose               BLOB NOT NULL,
+    tcp                BLOB NOT NULL,
+    width              REAL NOT NULL,
+    points             BLOB NOT NULL,
+    normals            BLOB NOT NULL,
+    squeeze_per_weight REAL NOT NULL,
+    least_squeeze      REAL,
+    margin             REAL,
+    mu_min             REAL,
+    epsilon            REAL NOT NULL,
+    d_star             REAL NOT NULL,
+    PRIMARY KEY (mesh_id, rank)
+) WITHOUT ROWID;
 """
 
 
@@ -389,6 +436,52 @@ class GraspRecord:
         )
 
 
+@dataclass(frozen=True, eq=False)
+class GripperGraspRecord:
+    """One stored gripper grasp (a row of ``gripper_grasps``), arrays decoded.
+
+    Attributes
+    ----------
+    mesh_id, rank : int
+    gripper : str
+    pose : (4, 4) float
+    tcp : (3,) float
+    width : float
+    points, normals : (2, 3) float
+    squeeze_per_weight : float
+    least_squeeze, margin, mu_min : float or None
+    epsilon, d_star : float
+    """
+
+    mesh_id: int
+    rank: int
+    gripper: str
+    pose: np.ndarray
+    tcp: np.ndarray
+    width: float
+    points: np.ndarray
+    normals: np.ndarray
+    squeeze_per_weight: float
+    least_squeeze: float | None
+    margin: float | None
+    mu_min: float | None
+    epsilon: float
+    d_star: float
+
+    @classmethod
+    def from_row(cls, row: sqlite3.Row) -> GripperGraspRecord:
+        """Build a record from a ``SELECT * FROM gripper_grasps`` row."""
+        return cls(
+            mesh_id=row["mesh_id"], rank=row["rank"], gripper=row["gripper"],
+            pose=unpack_array(row["pose"], (4, 4)), tcp=unpack_array(row["tcp"], (3,)),
+            width=row["width"], points=unpack_array(row["points"], (2, 3)),
+            normals=unpack_array(row["normals"], (2, 3)),
+            squeeze_per_weight=row["squeeze_per_weight"], least_squeeze=row["least_squeeze"],
+            margin=row["margin"], mu_min=row["mu_min"], epsilon=row["epsilon"],
+            d_star=row["d_star"],
+        )  # fmt: skip
+
+
 def canonical_json(value: Any) -> str:
     """JSON text with sorted keys and no spaces, so equal parameters give equal text."""
     return json.dumps(value, sort_keys=True, separators=(",", ":"))
@@ -434,7 +527,7 @@ def create_schema(conn: sqlite3.Connection, meta: dict[str, str]) -> None:
     conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
     conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
     rows = {"application": APPLICATION, "schema_version": str(SCHEMA_VERSION), **meta}
-    conn.executescript("BEGIN IMMEDIATE;" + _DDL)
+    conn.executescript("BEGIN IMMEDIATE;" + _DDL + GRIPPER_GRASPS_DDL)
     try:
         conn.executemany("INSERT INTO meta(key, value) VALUES (?, ?)", sorted(rows.items()))
         conn.execute("COMMIT")
@@ -492,8 +585,8 @@ def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
 
     Version 1 to 2: ``ALTER TABLE meshes ADD COLUMN mesh_report TEXT``; 2 to 3: ``grasps``
     gains ``tolerance REAL`` and ``contact_regions TEXT`` and the ``grasps(tolerance)`` index
-    (NULL in every existing row); then ``meta.schema_version`` and ``PRAGMA user_version`` are
-    set to 3. The version is read
+    (NULL in every existing row); 3 to 4: the ``gripper_grasps`` table; then
+    ``meta.schema_version`` and ``PRAGMA user_version`` are set to 4. The version is read
     again inside the transaction, so a file another process has just migrated is left alone.
     Either the whole migration is committed or nothing is.
 
@@ -523,6 +616,8 @@ def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
                 conn.execute("ALTER TABLE grasps ADD COLUMN tolerance REAL")
                 conn.execute("ALTER TABLE grasps ADD COLUMN contact_regions TEXT")
                 conn.execute("CREATE INDEX grasps_tolerance ON grasps(tolerance)")
+            if before < 4:
+                conn.execute(GRIPPER_GRASPS_DDL)
             if before != SCHEMA_VERSION:
                 conn.execute(
                     "UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),)

@@ -20,6 +20,7 @@ from synth.database.access import open_reader, open_writer, release, rest
 from synth.database.schema import (
     SCHEMA_VERSION,
     GraspRecord,
+    GripperGraspRecord,
     MeshRecord,
     canonical_json,
     check_schema,
@@ -249,6 +250,8 @@ class GraspDatabase:
         """Counts, failures and parameters of the database."""
         counts = dict(self._query("SELECT status, count(*) FROM meshes GROUP BY status"))
         n_grasps = self._query("SELECT count(*) FROM grasps")[0][0]
+        if self.schema_version >= 4:
+            n_grasps += self._query("SELECT count(*) FROM gripper_grasps")[0][0]
         plan_s = self._query("SELECT total(plan_s) FROM meshes WHERE status = 'done'")[0][0]
         failures = self._query(
             "SELECT path, error_kind, error FROM meshes WHERE status = 'failed' ORDER BY path"
@@ -330,6 +333,19 @@ class GraspDatabase:
             )
         for row in rows:
             yield GraspRecord.from_row(row)
+
+    def gripper_grasps(self, mesh: str | int | None = None) -> Iterator[GripperGraspRecord]:
+        """Iterate over gripper grasps by (mesh id, rank): all, or those of one mesh (none in
+        a file older than schema version 4)."""
+        if self.schema_version < 4:
+            return
+        if mesh is None:
+            rows = self._conn.execute("SELECT * FROM gripper_grasps ORDER BY mesh_id, rank")
+        else:
+            rows = self._conn.execute("SELECT * FROM gripper_grasps WHERE mesh_id = ? ORDER BY "
+                                      "rank", (self._grasp_owner(mesh),))
+        for row in rows:
+            yield GripperGraspRecord.from_row(row)
 
     def top(self, mesh: str | int, k: int = 5, rank_by: str = "rank") -> list[GraspRecord]:
         """The best ``k`` grasps of a mesh, following duplicates to their original.
@@ -459,14 +475,15 @@ class GraspDatabase:
     ) -> None:
         """Write one mesh's grasps, its final status and its loading report in one transaction."""
         self._require_write()
-        cols = ", ".join(("mesh_id",) + PlanOutcome.GRASP_COLUMNS)
-        marks = ", ".join("?" * (len(PlanOutcome.GRASP_COLUMNS) + 1))
+        cols = ", ".join(("mesh_id",) + outcome.columns)
+        marks = ", ".join("?" * (len(outcome.columns) + 1))
         try:
             with self._conn:
                 self._conn.execute("BEGIN IMMEDIATE")
                 self._conn.execute("DELETE FROM grasps WHERE mesh_id = ?", (mesh_id,))
+                self._conn.execute("DELETE FROM gripper_grasps WHERE mesh_id = ?", (mesh_id,))
                 self._conn.executemany(
-                    f"INSERT INTO grasps({cols}) VALUES ({marks})",
+                    f"INSERT INTO {outcome.table}({cols}) VALUES ({marks})",
                     [(mesh_id,) + row for row in outcome.rows],
                 )
                 self._conn.execute(

@@ -35,6 +35,7 @@ __all__ = [
     "PLANNER_ENV",
     "DEFAULT_PLANNER",
     "PlanOutcome",
+    "GRIPPER_GRASP_COLUMNS",
     "resolve_planner",
     "load_planner",
     "plan_one",
@@ -51,6 +52,13 @@ _GRASP_COLUMNS = (
     "features", "regions", "n_fingers", "tip_centers", "tip_radius", "approach", "body_length",
     "body_radius", "tolerance", "contact_regions",
 )  # fmt: skip
+#: Columns of ``gripper_grasps`` rows, for documents of format ``synth.gripper_grasps``.
+GRIPPER_GRASP_COLUMNS = (
+    "rank", "gripper", "pose", "tcp", "width", "points", "normals", "squeeze_per_weight",
+    "least_squeeze", "margin", "mu_min", "epsilon", "d_star",
+)  # fmt: skip
+#: Document formats a planner may return, and the table their grasps go to.
+_FORMATS = {"synth.grasps": "grasps", "synth.gripper_grasps": "gripper_grasps"}
 
 
 class _Timeout(BaseException):
@@ -91,6 +99,9 @@ class PlanOutcome:
         What loading did to the mesh, for ``meshes.mesh_report``: canonical JSON of the
         document's ``mesh`` object without ``path`` and ``sha256`` (see :func:`mesh_report`);
         None when the planner returned no document or no ``mesh`` object.
+    table : str
+        Where ``rows`` go: ``"grasps"`` (columns ``GRASP_COLUMNS``) or ``"gripper_grasps"``
+        (columns ``GRIPPER_GRASP_COLUMNS``, from a ``synth.gripper_grasps`` document).
     """
 
     path: str
@@ -105,8 +116,14 @@ class PlanOutcome:
     plan_s: float | None
     worker_s: float
     report: str | None = None
+    table: str = "grasps"
 
     GRASP_COLUMNS = _GRASP_COLUMNS
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The columns of ``rows``, in order."""
+        return GRIPPER_GRASP_COLUMNS if self.table == "gripper_grasps" else _GRASP_COLUMNS
 
 
 def resolve_planner(spec: str | None = None) -> str:
@@ -250,6 +267,21 @@ def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
     )
 
 
+def _pack_gripper_grasp(rank: int, g: dict[str, Any], gripper: str) -> tuple[Any, ...]:
+    m = g["measures"]
+
+    def opt(value: Any) -> float | None:
+        return None if value is None else float(value)
+
+    return (
+        rank, gripper, pack_array(g["pose"], (4, 4)), pack_array(g["tcp"], (3,)),
+        float(g["width"]), pack_array([c["point"] for c in g["contacts"]], (2, 3)),
+        pack_array([c["normal"] for c in g["contacts"]], (2, 3)),
+        float(m["squeeze_per_weight"]), opt(m["least_squeeze"]), opt(m["margin"]),
+        opt(m["mu_min"]), float(m["epsilon"]), float(m["d_star"]),
+    )  # fmt: skip
+
+
 def _failure(
     path: str, kind: str, error: str, start: float, report: str | None = None
 ) -> PlanOutcome:
@@ -358,12 +390,17 @@ def run_one(
         return _failure(path, "timeout", f"timed out: the mesh exceeded --timeout {timeout:g} s",
                         start)  # fmt: skip
     try:
-        if not isinstance(doc, dict) or doc.get("format") != "synth.grasps":
-            raise ValueError("not a 'synth.grasps' document")
+        if not isinstance(doc, dict) or doc.get("format") not in _FORMATS:
+            raise ValueError("not a 'synth.grasps' or 'synth.gripper_grasps' document")
         if doc.get("version") != 1:
             raise ValueError(f"format version {doc.get('version')!r}, expected 1")
         grasps = doc["grasps"]
-        rows = tuple(_pack_grasp(i + 1, g) for i, g in enumerate(grasps))
+        table = _FORMATS[doc["format"]]
+        if table == "gripper_grasps":
+            name = str(doc["gripper"]["name"])
+            rows = tuple(_pack_gripper_grasp(i + 1, g, name) for i, g in enumerate(grasps))
+        else:
+            rows = tuple(_pack_grasp(i + 1, g) for i, g in enumerate(grasps))
         mesh = doc.get("mesh")
         report = mesh_report(mesh)
         mesh = mesh or {}
@@ -393,9 +430,9 @@ def run_one(
         reason = "no grasp found" + (f": {message}" if message else "")
         return PlanOutcome(
             path, False, "no_grasp", reason, outcome_meta[0], outcome_meta[1], outcome_meta[2],
-            outcome_meta[3], (), outcome_meta[4], time.perf_counter() - start, report,
+            outcome_meta[3], (), outcome_meta[4], time.perf_counter() - start, report, table,
         )  # fmt: skip
     return PlanOutcome(
         path, True, None, None, outcome_meta[0], outcome_meta[1], outcome_meta[2],
-        outcome_meta[3], rows, outcome_meta[4], time.perf_counter() - start, report,
+        outcome_meta[3], rows, outcome_meta[4], time.perf_counter() - start, report, table,
     )  # fmt: skip

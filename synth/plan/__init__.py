@@ -12,7 +12,8 @@ from synth.plan.result import FORMAT, FORMAT_VERSION, Plan, PlannedGrasp
 # The search and the renderers pull in trimesh, FCL and matplotlib; they are imported on
 # first use (PEP 562), so that reading parameters or results does not pay for them.
 _LAZY = {"export_glb": "synth.plan.render", "render_png": "synth.plan.render",
-         "Progress": "synth.plan.search", "plan_part": "synth.plan.search"}
+         "Progress": "synth.plan.search", "plan_part": "synth.plan.search",
+         "plan_gripper_file": "synth.plan.gripper"}
 
 
 def __getattr__(name: str) -> object:
@@ -32,6 +33,7 @@ __all__ = [
     "Progress",
     "export_glb",
     "plan_mesh_file",
+    "plan_gripper_file",
     "plan_part",
     "render_png",
 ]

@@ -51,7 +51,7 @@ from synth.scores.mu_min import mu_min_batch
 from synth.scores.quality import epsilon_quality
 
 __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "GripperGrasp",
-           "GripperPlan", "plan_gripper", "PREGRASP_M", "TORSION_M"]
+           "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M"]
 
 #: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
 APPROACHES: int = 8
@@ -199,6 +199,8 @@ class GripperPlan:
     narrowest : float or None
         Narrowest width found among poses whose pads touched (for parts too large).
     seconds : float
+    length : float
+        The part's characteristic length (bounding-box diagonal), in ``units``.
     """
 
     gripper: Gripper
@@ -211,11 +213,18 @@ class GripperPlan:
     counts: dict[str, int]
     narrowest: float | None
     seconds: float
+    length: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
         """The ``synth.gripper_grasps`` document."""
+        from dataclasses import asdict
+
+        from synth import __version__
+
         p = self.params
-        return {"format": "synth.gripper_grasps", "version": 1, "units": self.units,
+        return {"format": "synth.gripper_grasps", "version": 1, "synth_version": __version__,
+                "units": self.units, "mesh": {"units": self.units, "length": self.length},
+                "params": asdict(p), "timing": {"total_s": self.seconds},
                 "gripper": self.gripper.to_json(),
                 "model": {"mu": p.mu, "torsion": self.gripper.unit_scale * TORSION_M
                           if p.torsion is None else p.torsion, "cone": self.cone,
@@ -440,7 +449,23 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
         grasps = _grasps(best, part, gripper, params, gamma, mass)
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
-                       counts, narrowest, time.perf_counter() - t0)
+                       counts, narrowest, time.perf_counter() - t0, float(part.length))
+
+
+def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Load a mesh file and plan gripper grasps; the ``synth.gripper_grasps`` document.
+
+    The planner ``synth db build --gripper`` calls for every mesh: ``params`` holds
+    :class:`GripperParams` fields and ``units``, the unit of meshes whose file does not say.
+    """
+    from synth.part import load_part
+
+    prm = dict(params)
+    units = prm.pop("units", None)
+    if isinstance(prm.get("gravity"), list):
+        prm["gravity"] = tuple(prm["gravity"])
+    part = load_part(path, units=units)
+    return plan_gripper(part, GripperParams(**prm)).to_json()
 
 
 def _grasps(best: Scored, part: Any, gripper: Gripper, params: GripperParams, gamma: float,

@@ -49,7 +49,7 @@ def baseline(part, seconds: float, seed: int) -> tuple[int, float]:
         if not len(p):
             continue
         poses = _poses(p, q, axis, g.tcp, 8)
-        pick = np.arange(len(p)) * 8 + rng.integers(0, 8, len(p))  # one random approach
+        pick = np.arange(len(p)) * 8 + rng.integers(0, 8, len(p))  # one of 8 approaches
         jaws = close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
                           np.asarray(mesh.face_normals), poses[pick], g, part.surface_tolerance)
         ok = np.flatnonzero(jaws.status == LANDED)
@@ -80,7 +80,7 @@ def main() -> None:
             print(f"{name:<44} not a part: {str(e)[-60:]}")
             continue
         t0 = time.perf_counter()
-        plan = plan_gripper(part, GripperParams(top=100, samples=400, mass=MASS))
+        plan = plan_gripper(part, GripperParams(top=100, samples=800, mass=MASS))
         dt = time.perf_counter() - t0
         n = len(plan.grasps)
         bn, bbest = baseline(part, dt, 1)

@@ -20,7 +20,7 @@ _ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
 def add_gripper_options(p: argparse.ArgumentParser) -> None:
     """Options of the gripper route of ``synth plan``."""
     from synth.fingers.gripper import BUILTIN_GRIPPERS
-    from synth.plan.gripper import GripperParams
+    from synth.plan.gripper import APPROACHES, GripperParams
 
     d = GripperParams()
     g = p.add_argument_group("gripper (parallel-jaw grasps as gripper poses)")
@@ -40,8 +40,8 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
                    help="hold against gravity in this direction of the part's frame only "
                    "(default: in every orientation)")
     g.add_argument("--samples", type=int, default=None, metavar="N",
-                   help=f"surface points drawn, each an antipodal pair tried at 8 approach "
-                   f"angles (default {d.samples})")
+                   help=f"surface points drawn, each an antipodal pair tried at {APPROACHES} "
+                   f"approach angles (default {d.samples})")
 
 
 def refuse_gripper_options(args: argparse.Namespace) -> None:

@@ -7,17 +7,19 @@ The gripper route of the planner (``synth plan --gripper``), in the data path's 
    method Dex-Net samples antipodal grasps with), and the pair is kept when the line between
    them lies inside both friction cones;
 2. **poses**: each pair gives the closing axis ``x`` (the bisector of the two outward normals),
-   and ``APPROACHES`` approach directions ``z`` about it; the tool centre point is put at the
-   pair's midpoint;
+   and ``APPROACHES`` approach directions ``z`` about it (every 90 degrees); the tool centre
+   point is put at the pair's midpoint;
 3. **jaws** (:func:`synth.fingers.jaws.close_jaws`): the jaws close from the open width until
    both pads touch; the contacts are where the pads land (patches on faces, the pad's
    normal);
 4. **collisions** (:class:`synth.fingers.gripper_collide.GripperChecker`, FCL): palm and
    fingers along the approach from the pre-grasp distance, and the closed fingers, against
    every body of the part and the table;
-5. **scores** (soft contacts, :mod:`synth.scores`): frictional d* and closure, the least squeeze
-   against gravity in every orientation (or ``gravity``), ``mu_min`` and the Ferrari-Canny
-   epsilon;
+5. **scores** (soft contacts, :mod:`synth.scores`): frictional d* and closure, and the least
+   squeeze against gravity in every orientation (or ``gravity``): first the coarse icosphere's
+   bound (42 directions) on every distinct contact pair, then the fine one (162) on the best
+   ``SHORTLIST`` times ``top``; ``mu_min`` and the Ferrari-Canny epsilon of the grasps
+   returned;
 6. **refinement** (:mod:`synth.plan.gripper_refine`): the ``REFINE_TOP`` best grasps by
    margin try small moves of their pose and keep the one needing the least squeeze;
 7. **ranking**: by the gravity margin (the least squeeze per weight, ascending) by default, and
@@ -54,7 +56,7 @@ __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "G
            "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M"]
 
 #: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
-APPROACHES: int = 8
+APPROACHES: int = 4
 #: Contact pairs of two returned grasps are at least this fraction of the part's size apart.
 DISTINCT_RTOL: float = 0.05
 #: Pre-grasp distance along the approach, metres (as MoveIt's pick pipelines default to).
@@ -64,7 +66,7 @@ TORSION_M: float = 0.005
 #: Poses whose contacts are this close (fraction of the part's size) are scored once.
 DEDUPE_RTOL: float = 0.005
 #: Grasps scored with the fine gravity bound: this many times ``top``, the best by the coarse.
-SHORTLIST: int = 4
+SHORTLIST: int = 2
 #: The best grasps refined by small moves of the pose (:mod:`synth.plan.gripper_refine`).
 REFINE_TOP: int = 10
 #: Orders gripper grasps can be ranked by.
@@ -107,7 +109,7 @@ class GripperParams:
     density: float | None = None
     gravity: tuple[float, float, float] | None = None
     top: int = 10
-    samples: int = 250
+    samples: int = 500
     seed: int = 0
     rank_by: str = "margin"
     table: float | None = None

@@ -379,10 +379,38 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     gripper = load_gripper(params.gripper).scaled(scale)
     mass = _mass(part, params, scale)
     gamma = TORSION_M * scale if params.torsion is None else float(params.torsion)
+    counts: dict[str, int] = {}
+    checker = GripperChecker(part, gripper, PREGRASP_M * scale,
+                             max(1e-3 * part.length, 10.0 * part.precision), params.table)
+    jaws, clear, narrowest = _land(part, gripper, checker, params, counts)
+    pool = _score(part, jaws, clear, params, gamma, counts)
+    grasps: list[GripperGrasp] = []
+    if len(pool.spw):
+        size = DISTINCT_RTOL * part.length
+        ranked = np.arange(len(pool.spw))
+        if params.rank_by == "margin":  # refine the best; the originals stay in the pool
+            head = pool.take(_distinct(pool.points, ranked, size, REFINE_TOP))
+            moved = refine(head, part, gripper, checker, params.mu, gamma, params.gravity,
+                           params.edges)
+            pool = Scored(*(np.concatenate([getattr(moved, f), getattr(pool, f)])
+                            for f in Scored.__dataclass_fields__))
+            ranked = np.argsort(pool.spw, kind="stable")
+        best = pool.take(_distinct(pool.points, ranked, size, params.top))
+        grasps = _grasps(best, part, gripper, params, gamma, mass)
+    message = _message(gripper, grasps, counts, narrowest, mass, part.units)
+    cone = cone_name(params.edges, gamma > 0)
+    return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
+                       counts, narrowest, time.perf_counter() - t0, float(part.length))
+
+
+def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperParams,
+          counts: dict[str, int]) -> tuple[Any, NDArray[np.int64], float | None]:
+    """Steps 1 to 4: the jaws of every pose, the collision-free ones landing on distinct
+    contacts, and the narrowest width found."""
     rng = np.random.default_rng(params.seed)
     p, q, axis = _sample_pairs(part, params.samples, params.mu, rng)
     poses = _poses(p, q, axis, gripper.tcp, APPROACHES)
-    counts = {"pairs": len(p), "poses": len(poses)}
+    counts.update(pairs=len(p), poses=len(poses))
     mesh = part.mesh
     touch = part.surface_tolerance  # follows the part's size and coordinate precision
     jaws = close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
@@ -392,66 +420,57 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
                   edge_touch=int((jaws.status == EDGE_TOUCH).sum()))
     widths = jaws.width[np.isfinite(jaws.width)]
     narrowest = float(widths.min()) if len(widths) else None
-    checker = GripperChecker(part, gripper, PREGRASP_M * scale,
-                             max(1e-3 * part.length, 10.0 * part.precision), params.table)
-    status = checker.check(jaws.poses[landed], jaws.width[landed])
-    clear = landed[status == CLEAR]
+    clear = landed[checker.check(jaws.poses[landed], jaws.width[landed]) == CLEAR]
     counts["collision_free"] = len(clear)
     # the measures depend on the contacts only: poses landing on the same contacts (to
     # DEDUPE_RTOL of the part's size) are scored once, the first one standing for them
     clear = clear[_unique_contacts(jaws.points[clear], DEDUPE_RTOL * part.length)]
     counts["distinct_contacts"] = len(clear)
+    return jaws, clear, narrowest
+
+
+def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams,
+           gamma: float, counts: dict[str, int]) -> Scored:
+    """Step 5: the closure grasps among ``clear``, scored and in ``rank_by`` order."""
     P, N = jaws.points[clear], jaws.normals[clear]
-    cone = cone_name(params.edges, gamma > 0)
-    empty = np.zeros(0)
-    spw = d = empty
-    closure = np.zeros(0, bool)
-    if len(clear):
-        fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
-                                           edges=params.edges, compiled=False, torsion=gamma)
-        d, closure = fc.d_star, fc.closure
-        # screen with the coarse icosphere's certified bound, then the fine one on a shortlist
-        coarse = gravity_hold_batch(P, N, params.mu, gamma, part.center_mass, part.length,
-                                    params.gravity, params.edges, compiled=False, level=1)
-        spw = np.where(closure, coarse.squeeze_per_weight, np.inf)
-        ranked = np.argsort(spw, kind="stable")
-        ranked = ranked[np.isfinite(spw[ranked])]
-        short = _distinct(P, ranked, DISTINCT_RTOL * part.length, SHORTLIST * params.top)
-        hold = gravity_hold_batch(P[short], N[short], params.mu, gamma, part.center_mass,
-                                  part.length, params.gravity, params.edges, compiled=False)
-        P, N, d, closure, clear = P[short], N[short], d[short], closure[short], clear[short]
-        spw = hold.squeeze_per_weight
-    counts["closure"] = int(closure.sum())
-    keep = np.flatnonzero(closure & np.isfinite(spw))
-    order = keep[_order("margin" if params.rank_by in ("mu_min", "epsilon") else params.rank_by,
-                        spw[keep], d[keep], empty, empty)] if len(keep) else keep
-    if params.rank_by in ("mu_min", "epsilon") and len(keep):
-        # these need every candidate's value: computed for the closure grasps only
-        mm = mu_min_batch(P[keep], N[keep], gamma, params.edges, compiled=False).mu_min
+    if not len(clear):
+        counts["closure"] = 0
+        return _pool(jaws, clear, P, N, np.zeros(0), None)
+    fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
+                                       edges=params.edges, compiled=False, torsion=gamma)
+    # screen with the coarse icosphere's certified bound, then the fine one on a shortlist
+    coarse = gravity_hold_batch(P, N, params.mu, gamma, part.center_mass, part.length,
+                                params.gravity, params.edges, compiled=False, level=1)
+    spw = np.where(fc.closure, coarse.squeeze_per_weight, np.inf)
+    ranked = np.argsort(spw, kind="stable")
+    ranked = ranked[np.isfinite(spw[ranked])]
+    short = _distinct(P, ranked, DISTINCT_RTOL * part.length, SHORTLIST * params.top)
+    counts["closure"] = int(fc.closure.sum())
+    if not len(short):
+        return _pool(jaws, clear[:0], P[:0], N[:0], np.zeros(0), None)
+    hold = gravity_hold_batch(P[short], N[short], params.mu, gamma, part.center_mass,
+                              part.length, params.gravity, params.edges, compiled=False)
+    spw, d = hold.squeeze_per_weight, fc.d_star[short]
+    P, N, clear = P[short], N[short], clear[short]
+    if params.rank_by in ("mu_min", "epsilon"):
+        mm = mu_min_batch(P, N, gamma, params.edges, compiled=False).mu_min
         ee = np.array([epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
-                                       params.edges, gamma) for i in keep])
-        order = keep[_order(params.rank_by, spw[keep], d[keep], mm, ee)]
-    grasps: list[GripperGrasp] = []
-    if len(order):
-        idx = clear[order]
-        pool = Scored(jaws.poses[idx], jaws.width[idx], P[order], N[order], jaws.patch[idx],
-                      d[order], spw[order], hold.sampled[order], hold.worst_direction[order])
-        if params.rank_by == "margin":  # refine the best; the originals stay in the pool
-            head = pool.take(_distinct(pool.points, np.arange(len(order)),
-                                       DISTINCT_RTOL * part.length, REFINE_TOP))
-            moved = refine(head, part, gripper, checker, params.mu, gamma, params.gravity,
-                           params.edges)
-            pool = Scored(*(np.concatenate([getattr(moved, f), getattr(pool, f)])
-                            for f in Scored.__dataclass_fields__))
-            ranked = np.argsort(pool.spw, kind="stable")
-        else:
-            ranked = np.arange(len(order))
-        best = pool.take(_distinct(pool.points, ranked, DISTINCT_RTOL * part.length,
-                                   params.top))
-        grasps = _grasps(best, part, gripper, params, gamma, mass)
-    message = _message(gripper, grasps, counts, narrowest, mass, part.units)
-    return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
-                       counts, narrowest, time.perf_counter() - t0, float(part.length))
+                                       params.edges, gamma) for i in range(len(P))])
+        order = _order(params.rank_by, spw, d, mm, ee)
+    else:
+        order = _order(params.rank_by, spw, d, spw, spw)
+    order = order[np.isfinite(spw[order])]
+    return _pool(jaws, clear[order], P[order], N[order], d[order], hold, order)
+
+
+def _pool(jaws: Any, idx: NDArray[np.int64], P: NDArray[np.float64], N: NDArray[np.float64],
+          d: NDArray[np.float64], hold: Any, rows: NDArray[np.int64] | None = None) -> Scored:
+    """Scored grasps from the jaws' poses ``idx`` and the scores (``hold`` rows ``rows``)."""
+    if hold is None:
+        return Scored(jaws.poses[idx], jaws.width[idx], P, N, jaws.patch[idx], d, np.zeros(0),
+                      np.zeros(0), np.zeros((0, 3)))
+    return Scored(jaws.poses[idx], jaws.width[idx], P, N, jaws.patch[idx], d,
+                  hold.squeeze_per_weight[rows], hold.sampled[rows], hold.worst_direction[rows])
 
 
 def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:

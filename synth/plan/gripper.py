@@ -16,9 +16,10 @@ The gripper route of the planner (``synth plan --gripper``), in the data path's 
    fingers along the approach from the pre-grasp distance, and the closed fingers, against
    every body of the part and the table;
 5. **scores** (soft contacts, :mod:`synth.scores`): frictional d* and closure, and the least
-   squeeze against gravity in every orientation (or ``gravity``): first the coarse icosphere's
-   bound (42 directions) on every distinct contact pair, then the fine one (162) on the best
-   ``SHORTLIST`` times ``top``; ``mu_min`` and the Ferrari-Canny epsilon of the grasps
+   squeeze against gravity in every orientation (or ``gravity``): coarse icosphere bounds (12,
+   then 42 directions) screen the distinct contact pairs, dropping those certainly outside the
+   best ``SCREEN * SHORTLIST * top``, and the fine one (162) ranks the best ``SHORTLIST``
+   times ``top``; ``mu_min`` and the Ferrari-Canny epsilon of the grasps
    returned;
 6. **refinement** (:mod:`synth.plan.gripper_refine`): the ``REFINE_TOP`` best grasps by
    margin try small moves of their pose and keep the one needing the least squeeze;
@@ -67,6 +68,8 @@ TORSION_M: float = 0.005
 DEDUPE_RTOL: float = 0.005
 #: Grasps scored with the fine gravity bound: this many times ``top``, the best by the coarse.
 SHORTLIST: int = 2
+#: The coarse screens keep every grasp that may be among this many times the shortlist.
+SCREEN: int = 4
 #: The best grasps refined by small moves of the pose (:mod:`synth.plan.gripper_refine`).
 REFINE_TOP: int = 10
 #: Orders gripper grasps can be ranked by.
@@ -438,14 +441,11 @@ def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams
         return _pool(jaws, clear, P, N, np.zeros(0), None)
     fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
                                        edges=params.edges, compiled=False, torsion=gamma)
-    # screen with the coarse icosphere's certified bound, then the fine one on a shortlist
-    coarse = gravity_hold_batch(P, N, params.mu, gamma, part.center_mass, part.length,
-                                params.gravity, params.edges, compiled=False, level=1)
-    spw = np.where(fc.closure, coarse.squeeze_per_weight, np.inf)
-    ranked = np.argsort(spw, kind="stable")
-    ranked = ranked[np.isfinite(spw[ranked])]
-    short = _distinct(P, ranked, DISTINCT_RTOL * part.length, SHORTLIST * params.top)
     counts["closure"] = int(fc.closure.sum())
+    alive, spw = _screen(P, N, np.flatnonzero(fc.closure), part, params, gamma,
+                         SCREEN * SHORTLIST * params.top)
+    ranked = alive[np.argsort(spw, kind="stable")]
+    short = _distinct(P, ranked, DISTINCT_RTOL * part.length, SHORTLIST * params.top)
     if not len(short):
         return _pool(jaws, clear[:0], P[:0], N[:0], np.zeros(0), None)
     hold = gravity_hold_batch(P[short], N[short], params.mu, gamma, part.center_mass,
@@ -461,6 +461,25 @@ def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams
         order = _order(params.rank_by, spw, d, spw, spw)
     order = order[np.isfinite(spw[order])]
     return _pool(jaws, clear[order], P[order], N[order], d[order], hold, order)
+
+
+def _screen(P: NDArray[np.float64], N: NDArray[np.float64], alive: NDArray[np.int64],
+            part: Any, params: GripperParams, gamma: float, keep: int
+            ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The grasps ``alive`` that may be among the ``keep`` needing the least squeeze, and their
+    bounds: icosphere levels 0 (12 directions) then 1 (42), each dropping the grasps whose
+    sampled worst case (a lower bound) exceeds the ``keep``-th least certified bound."""
+    spw = np.zeros(0)
+    for level in (0, 1) if params.gravity is None else (0,):
+        h = gravity_hold_batch(P[alive], N[alive], params.mu, gamma, part.center_mass,
+                               part.length, params.gravity, params.edges, compiled=False,
+                               level=level)
+        up, low = h.squeeze_per_weight, h.sampled
+        finite = np.sort(up[np.isfinite(up)])
+        limit = finite[keep - 1] if len(finite) >= keep else np.inf
+        stay = np.isfinite(low) & (low <= limit)
+        alive, spw = alive[stay], up[stay]
+    return alive, spw
 
 
 def _pool(jaws: Any, idx: NDArray[np.int64], P: NDArray[np.float64], N: NDArray[np.float64],

@@ -3,9 +3,10 @@
 Each of the best grasps is moved a little: rotated about its closing axis through the tool
 centre point by +-``REFINE_ANGLE`` degrees, and its tool centre point shifted along the pad's
 width (y) and height (z) by a third of the pad's size. Each move closes the jaws again, is
-checked for collisions, and is scored (closure and the squeeze against gravity); the grasp
-takes the best move that needs less squeeze, and a second round tries moves half as large
-around it. A move is a new pose: its contacts are where its own pads land.
+checked for collisions, and is scored (closure and the squeeze against gravity, the coarse
+icosphere's bound picking each grasp's best move and the fine bound confirming it); the grasp
+takes that move if it needs less squeeze, and a second round tries moves half as large around
+it. A move is a new pose: its contacts are where its own pads land.
 """
 
 from __future__ import annotations
@@ -125,19 +126,29 @@ def refine(best: Scored, part: Any, gripper: Gripper, checker: GripperChecker, m
         ok, P, N, d = ok[fc.closure], P[fc.closure], N[fc.closure], fc.d_star[fc.closure]
         if not len(ok):
             break
-        hold = gravity_hold_batch(P, N, mu, gamma, part.center_mass, part.length, gravity,
-                                  edges, compiled=False)
+        # the coarse icosphere picks each grasp's best move; the fine bound must confirm it
+        coarse = gravity_hold_batch(P, N, mu, gamma, part.center_mass, part.length, gravity,
+                                    edges, compiled=False, level=1).squeeze_per_weight
+        pick = []
+        for s in range(len(cur.spw)):
+            mine = np.flatnonzero(owner[ok] == s)
+            if len(mine) and np.isfinite(coarse[mine]).any():
+                pick.append(mine[np.argmin(coarse[mine])])
+        if not pick:
+            break
+        pick = np.array(pick)
+        hold = gravity_hold_batch(P[pick], N[pick], mu, gamma, part.center_mass, part.length,
+                                  gravity, edges, compiled=False)
         fields = {f: np.array(getattr(cur, f)) for f in cur.__dataclass_fields__}
-        for j in np.argsort(hold.squeeze_per_weight, kind="stable"):
-            s = owner[ok[j]]
-            if hold.squeeze_per_weight[j] < fields["spw"][s]:
-                i = ok[j]
+        for k, j in enumerate(pick):
+            s, i = owner[ok[j]], ok[j]
+            if hold.squeeze_per_weight[k] < fields["spw"][s]:
                 for name, value in (("poses", jaws.poses[i]), ("width", jaws.width[i]),
                                     ("points", P[j]), ("normals", N[j]),
                                     ("patch", jaws.patch[i]), ("d_star", d[j]),
-                                    ("spw", hold.squeeze_per_weight[j]),
-                                    ("sampled", hold.sampled[j]),
-                                    ("worst", hold.worst_direction[j])):
+                                    ("spw", hold.squeeze_per_weight[k]),
+                                    ("sampled", hold.sampled[k]),
+                                    ("worst", hold.worst_direction[k])):
                     fields[name][s] = value
         cur = replace(cur, **fields)
     return cur

@@ -14,14 +14,15 @@ furthest along -x. That extreme is exact on a triangle mesh: it is the largest `
 The jaws close symmetrically about the hand, so the pose is moved along its x axis until both
 pads touch at once (the arm places the hand; the part does not move): the grasp width is the
 distance between the two extremes. A pad lying flat on a face touches a patch (every candidate
-within ``touch_tol`` of the extreme): the contact is the centre of the patch's bounding box,
-and its normal is the pad's. At a part's edge or vertex pressed into the pad the normal is the
-pad's too. A pad whose touch lies only on the rim of its rectangle against a face that is not
-parallel to it (the pad's own edge digging into a slope) makes no trustworthy contact: such
-poses are reported as ``EDGE_TOUCH`` and dropped. A Robotiq pad rises as the jaws close
-(``finger_z``): its rectangle is placed at the rise of the width found, and the search is
-repeated until the width no longer changes (three rounds at most). Poses are processed in
-chunks, every pose of a chunk at once in numpy.
+within ``touch_tol`` of the extreme): the contact is the centre of the patch's bounding box
+when that lies on the touched surface, else (a patch of several pieces, such as two ridges)
+the touching point nearest to it; its normal is the pad's. At a part's edge or vertex pressed
+into the pad the normal is the pad's too. A pad whose touch lies only on the rim of its
+rectangle against a face that is not parallel to it (the pad's own edge digging into a slope)
+makes no trustworthy contact: such poses are reported as ``EDGE_TOUCH`` and dropped. A
+Robotiq pad rises as the jaws close (``finger_z``): its rectangle is placed at the rise of the
+width found, and the search is repeated until the width no longer changes (three rounds at
+most). Poses are processed in chunks, every pose of a chunk at once in numpy.
 """
 
 from __future__ import annotations
@@ -143,6 +144,31 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     x = np.where(hit, sign * top, np.nan)
     centre = np.stack([(lo_y + hi_y) / 2, (lo_z + hi_z) / 2], axis=1)
     diag = np.hypot(hi_y - lo_y, hi_z - lo_z)
+    # the centre must lie on the touched surface: inside a touching triangle's projection,
+    # where that triangle reaches the extreme; else (a patch of several pieces) the touching
+    # point nearest to it stands for the patch
+    c = centre[kb]
+    dy, dz = c[:, 0] - p0[:, 0], c[:, 1] - p0[:, 1]
+    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
+    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
+    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+    on = has & ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
+        sign * xc >= top[kb] - tol)
+    centred = np.zeros(n, bool)
+    np.logical_or.at(centred, kb, on)
+    off = has & ~centred[kb]
+    if off.any():
+        d2 = np.where(touch, (P[..., 1] - c[:, None, 0]) ** 2 + (P[..., 2] - c[:, None, 1]) ** 2,
+                      np.inf)
+        rows = np.flatnonzero(off)
+        near = d2[rows].argmin(axis=1)
+        dist = d2[rows, near]
+        best = np.full(n, np.inf)
+        np.minimum.at(best, kb[rows], dist)
+        first = rows[dist == best[kb[rows]]]
+        _, pick = np.unique(kb[first], return_index=True)
+        sel = first[pick]
+        centre[kb[sel]] = P[sel, d2[sel].argmin(axis=1), 1:]
     return x, centre, np.where(hit, diag, 0.0), good & hit
 
 

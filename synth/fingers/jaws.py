@@ -222,19 +222,26 @@ def close_jaws(
         Vg = np.einsum("bvi,bij->bvj", Vp[None] - t[:, None], R)  # the part in each frame
         Tall = Vg[:, F]  # (n, f, 3, 3)
         FNall = np.einsum("fi,bij->bfj", FN, R)
-        ty, tz = Tall[..., 1], Tall[..., 2]
+        ty, tz, tx = Tall[..., 1], Tall[..., 2], Tall[..., 0]
         ylo, yhi, zlo, zhi = ty.min(-1), ty.max(-1), tz.min(-1), tz.max(-1)
+        xlo, xhi = tx.min(-1), tx.max(-1)
         w = np.full(n, gripper.max_opening)
         for _ in range(rounds):
             zc = pz + gripper.rise(w)
             near = (yhi >= -reach) & (ylo <= reach) & (zhi >= (zc - ph / 2)[:, None]) & (
                 zlo <= (zc + ph / 2)[:, None])
-            kb, kf = np.nonzero(near)
-            Tg = Tall[kb, kf] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
-                                         axis=1)[:, None, :]  # pad centre at z = 0
-            FNg = FNall[kb, kf]
-            xp, cp, dp, gp = _extremes(Tg, FNg, kb, n, plus_rect, 1.0, touch_tol)
-            xm, cm, dm, gm = _extremes(Tg, FNg, kb, n, minus_rect, -1.0, touch_tol)
+            found = []
+            for rect, sign, far in ((plus_rect, 1.0, xhi), (minus_rect, -1.0, -xlo)):
+                # a vertex inside the pad's rectangle bounds the extreme from below: triangles
+                # lying wholly behind it cannot reach it
+                inside = (Vg[..., 1] >= rect[0]) & (Vg[..., 1] <= rect[1]) & (
+                    np.abs(Vg[..., 2] - zc[:, None]) <= ph / 2)
+                floor = np.where(inside, sign * Vg[..., 0], -np.inf).max(axis=1)
+                kb, kf = np.nonzero(near & (far >= (floor - touch_tol)[:, None]))
+                Tg = Tall[kb, kf] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
+                                             axis=1)[:, None, :]  # pad centre at z = 0
+                found.append(_extremes(Tg, FNall[kb, kf], kb, n, rect, sign, touch_tol))
+            (xp, cp, dp, gp), (xm, cm, dm, gm) = found
             new_w = xp - xm
             done = ~np.isfinite(new_w) | (np.abs(new_w - w) <= touch_tol)
             w = np.where(np.isfinite(new_w), new_w, w)

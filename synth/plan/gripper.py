@@ -2,8 +2,9 @@
 
 The gripper route of the planner (``synth plan --gripper``), in the data path's order:
 
-1. **contacts**: surface points drawn on the exposed surface (area-weighted, from the seed);
-   each shoots a ray along its inward normal to where the opposite pad would land (the
+1. **contacts**: surface points drawn on the exposed surface from the seed, half by area and
+   half region by region (every face region as likely, so small faces get their share); each
+   shoots a ray along its inward normal to where the opposite pad would land (the
    method Dex-Net samples antipodal grasps with), and the pair is kept when the line between
    them lies inside both friction cones;
 2. **poses**: each pair gives the closing axis ``x`` (the bisector of the two outward normals),
@@ -267,7 +268,18 @@ def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
     import trimesh
 
     mesh = part.mesh
-    pts, faces = trimesh.sample.sample_surface(mesh, n, seed=int(rng.integers(2**31)))
+    area = np.asarray(mesh.area_faces, float) * (part.face_exposure > 0)
+    region = np.asarray(part.face_region)
+    per_region = np.bincount(np.maximum(region, 0), weights=area)
+    balanced = np.where(region >= 0, area / np.maximum(per_region[np.maximum(region, 0)],
+                                                       1e-300), 0.0)
+    draws = [trimesh.sample.sample_surface(mesh, k, face_weight=w,
+                                           seed=int(rng.integers(2**31)))
+             for k, w in ((n - n // 2, area), (n // 2, balanced)) if k and w.sum() > 0]
+    if not draws:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+    pts = np.concatenate([d[0] for d in draws])
+    faces = np.concatenate([d[1] for d in draws])
     out = np.asarray(mesh.face_normals, float)[faces]
     keep = part.exposed(pts, -out)
     pts, out = pts[keep], out[keep]

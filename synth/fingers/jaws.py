@@ -142,8 +142,9 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     np.logical_or.at(good, kb, interior.any(axis=1) | facing)
     hit = np.isfinite(top)
     x = np.where(hit, sign * top, np.nan)
-    centre = np.stack([(lo_y + hi_y) / 2, (lo_z + hi_z) / 2], axis=1)
-    diag = np.hypot(hi_y - lo_y, hi_z - lo_z)
+    with np.errstate(invalid="ignore"):  # inf - inf where a pad misses: NaN, unused
+        centre = np.stack([(lo_y + hi_y) / 2, (lo_z + hi_z) / 2], axis=1)
+        diag = np.hypot(hi_y - lo_y, hi_z - lo_z)
     # the centre must lie on the touched surface: inside a touching triangle's projection,
     # where that triangle reaches the extreme; else (a patch of several pieces) the touching
     # point nearest to it stands for the patch

@@ -347,6 +347,23 @@ def test_a_lost_alarm_is_raised_again(tmp_path: Path, mesh_dir: Path,
     assert report.elapsed_s < 4  # the lost alarm was followed by another
 
 
+def test_a_worker_that_crashes_fails_its_mesh_with_the_signal(tmp_path: Path,
+                                                               mesh_dir: Path) -> None:
+    """A worker killed by SIGSEGV while planning a mesh: that mesh is recorded as failed,
+    kind "crashed", with the signal; the other meshes are planned."""
+    out = tmp_path / "c.sqlite"
+    report = build_database([mesh_dir / "box.stl", mesh_dir / "ico.stl"], out, PARAMS,
+                            workers=1, quiet=True,
+                            planner="tests.db_fakeplanner:plan_crashing_on_ico")
+    with GraspDatabase(out) as db:
+        ico = db.mesh("ico")
+        box = db.mesh("box")
+    assert (ico.status, ico.error_kind) == ("failed", "crashed")
+    assert "killed by SIGSEGV (segmentation fault)" in ico.error
+    assert box.status == "done" and (report.done, report.failed) == (1, 1)
+    assert any("ico.stl" in path and "SIGSEGV" in why for path, why in report.failures)
+
+
 def test_tiny_timeout_with_the_synth_planner(tmp_path: Path, mesh_dir: Path) -> None:
     out = tmp_path / "t.sqlite"
     build_database([mesh_dir / "box.stl", mesh_dir / "ico.stl"], out, {"evals": 2000},

@@ -28,7 +28,8 @@ sha256         TEXT       SHA-256 of the file's bytes (hex), NULL if the file co
 size           INTEGER    file size in bytes, NULL if unknown
 status         TEXT       ``pending``, ``done``, ``failed`` or ``duplicate``
 error_kind     TEXT       for ``failed``: ``mesh``, ``not_mesh``, ``unreadable``, ``no_grasp``,
-                          ``planner``, ``invalid_result``, ``timeout`` or ``crash``; else NULL
+                          ``planner``, ``invalid_result``, ``timeout``, ``time_cap`` or
+                          ``crashed`` (the worker died: the error names the signal); else NULL
 error          TEXT       readable reason of a failure, or the note of a duplicate
 duplicate_of   INTEGER    for ``duplicate``: id of the mesh with the same SHA-256 that is planned
 units          TEXT       units reported by the planner (``mm``, ``m``, ...)

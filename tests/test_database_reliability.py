@@ -412,9 +412,11 @@ def test_numeric_options_are_checked_up_front(
 ) -> None:
     huge = "1" * 22
     cases = [
-        (["top", str(reference), "box", "-k", huge], "-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "-k", "0"], "-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "-k", "two"], "-k: expected an integer"),
+        (["top", str(reference), "box", "-k", huge],
+         "--top/-k: expected an integer from 1 to 10,000"),
+        (["top", str(reference), "box", "--top", "0"],
+         "--top/-k: expected an integer from 1 to 10,000"),
+        (["top", str(reference), "box", "-k", "two"], "--top/-k: expected an integer"),
         (["build", str(mesh_dir), "--out", str(reference), "--workers", huge], "--workers"),
         (["build", str(mesh_dir), "--out", str(reference), "--seed", "-1"], "--seed"),
         (["build", str(mesh_dir), "--out", str(reference), "--timeout", "0"], "--timeout"),
@@ -433,8 +435,9 @@ def test_numeric_options_are_checked_up_front(
     top_help = " ".join(_cli(["db", "top", "--help"], capsys)[1].split())
     assert "number of grasps, 1 to 10,000" in top_help
     build_help = " ".join(_cli(["db", "build", "--help"], capsys)[1].split())
-    for text in ("contacts per grasp, 2 to 64", "grasps kept per mesh, 1 to 1000",
-                 "evaluations per mesh, 100 to 10,000,000", "worker processes, 0 to 1024",
+    for text in ("contacts per grasp, one fingertip each: 7 to 64 without friction, 3 to 64 "
+                 "with", "grasps to return, 1 to 1000", "budget of grasp evaluations, 100 to "
+                 "10,000,000", "worker processes, 0 to 1024",
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k

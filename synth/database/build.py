@@ -36,6 +36,7 @@ from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
 from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
 from synth.errors import InputError
+from synth.plan import LOAD_KEYS
 from synth.plan.params import PlanParams
 
 __all__ = [
@@ -50,19 +51,17 @@ __all__ = [
 ]
 
 MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
-DEFAULT_PARAMS: dict[str, Any] = {
-    "contacts": 7,
-    "mu": 0.0,
-    "top": 10,
-    "seed": 0,
-    "finger_radius": None,
-    "evals": PlanParams().evals,  # the same search effort as 'synth plan'
-    # the planner's wall-clock cap; far above a normal plan, so the evaluation budget (not the
-    # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
-    "time": 600.0,
-    # contact regions and placement tolerance of every grasp (synth plan --regions)
-    "regions": False,
-}
+#: A build's planner parameters when none are given: every field of
+#: :class:`synth.plan.PlanParams` (the same search effort as ``synth plan``) and the mesh
+#: options of :data:`synth.plan.LOAD_KEYS` (``sharp_angle`` in degrees), except the
+#: wall-clock cap: far above a normal plan, so the evaluation budget (not the machine's
+#: speed) decides the result; a plan the cap cuts is recorded as failed.
+DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
+                                  "body": "largest", "sharp_angle": 30.0}
+#: Parameters that are numbers (stored as floats, so 1 and 1.0 are one parameter set).
+_REAL_PARAMS = ("mu", "time", "finger_radius", "body_length", "body_radius", "approach_cone",
+                "support_z", "min_d_star", "min_conditioning", "diversity", "min_tolerance",
+                "sharp_angle")
 
 
 @dataclass(frozen=True)
@@ -187,21 +186,44 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
         if key not in DEFAULT_PARAMS:
             raise InputError(f"unknown planner parameter {key!r}; valid: {sorted(DEFAULT_PARAMS)}")
         out[key] = value
-    for key in ("contacts", "top", "seed", "evals"):
+    for key in ("contacts", "top", "seed", "evals", "edges"):
         if isinstance(out[key], bool) or not isinstance(out[key], int):
             raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
     if not isinstance(out["regions"], bool):
         raise InputError(f"planner parameter 'regions' must be true or false, got "
                          f"{out['regions']!r}")
-    for key in ("time", "mu", "finger_radius"):
+    for key in _REAL_PARAMS:
         if out[key] is not None:
             try:
                 out[key] = float(out[key])
             except (TypeError, ValueError) as e:
                 raise InputError(f"planner parameter {key!r} must be a number, got "
                                  f"{out[key]!r}") from e  # fmt: skip
-    PlanParams(**out)
+    _check_load_options(out)
+    PlanParams(**{k: v for k, v in out.items() if k not in LOAD_KEYS})
     return out
+
+
+def _check_load_options(params: dict[str, Any]) -> None:
+    """The mesh options of a parameter set, as :func:`synth.load_part` will check them."""
+    from synth.part.load import UNIT_ALIASES
+
+    units, body, angle = params["units"], params["body"], params["sharp_angle"]
+    if units is not None:
+        try:
+            import trimesh
+
+            trimesh.units.to_inch(UNIT_ALIASES.get(str(units).strip().lower(), str(units)))
+        except Exception as e:  # noqa: BLE001 - trimesh raises several kinds
+            raise InputError(f"planner parameter 'units': unknown length unit {units!r}; use "
+                             "mm, cm, dm, m, um, in, ft or a trimesh unit name such as "
+                             "'millimeters'") from e
+    if isinstance(body, bool) or not isinstance(body, (int, str)):
+        raise InputError(f"planner parameter 'body' must be 'largest', 'all', an index or a "
+                         f"body name, got {body!r}")
+    if angle is None or not 0 < angle < 180:
+        raise InputError(f"planner parameter 'sharp_angle' must be in (0, 180) degrees, got "
+                         f"{angle!r}")
 
 
 def _is_mesh(path: str) -> bool:
@@ -582,7 +604,7 @@ def build_database(
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]
         with GraspDatabase(out, mode="w") as db:
-            db.bind(run_params, planner_name)
+            db.bind(run_params, planner_name, DEFAULT_PARAMS)
             tasks, hashes, skipped, duplicates, failures = _prepare(
                 db, inputs, params_text, planner_name, retry_failed
             )

@@ -104,7 +104,7 @@ from typing import Any
 
 import numpy as np
 
-from synth.errors import DatabaseError
+from synth.errors import DatabaseError, DatabaseFileError
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -459,27 +459,27 @@ def check_schema(conn: sqlite3.Connection, path: str) -> dict[str, str]:
     try:
         tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     except sqlite3.DatabaseError as e:
-        raise DatabaseError(f"{path}: not a synth grasp database (not SQLite: {e})") from e
+        raise DatabaseFileError(f"{path}: not a synth grasp database (not SQLite: {e})") from e
     if "meta" not in tables:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: not a synth grasp database (an SQLite file without a 'meta' table; "
             f"tables found: {sorted(tables) or 'none'})"
         )
     meta = dict(conn.execute("SELECT key, value FROM meta").fetchall())
     if meta.get("application") != APPLICATION:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: not a synth grasp database (meta.application is "
             f"{meta.get('application')!r}, expected {APPLICATION!r})"
         )
     if meta.get("schema_version") not in {str(v) for v in READABLE_VERSIONS}:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: grasp database of schema version {meta.get('schema_version')}, this synth "
             f"reads versions {READABLE_VERSIONS[0]} to {SCHEMA_VERSION}; rebuild it with this "
             "version of synth or use the version that wrote it"
         )
     missing = {"meshes", "grasps"} - tables
     if missing:
-        raise DatabaseError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
+        raise DatabaseFileError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
     return meta
 
 

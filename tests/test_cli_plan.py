@@ -19,7 +19,7 @@ def synth(*args, cwd=None):
                           capture_output=True, text=True, cwd=cwd)
 
 
-def test_plan_writes_json_png_glb(tmp_path):
+def test_plan_writes_json_png_glb(tmp_path, capsys):
     proc = synth("plan", MESHES / "bracket.stl", "--evals", "3000", "--top", "3", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "form" in proc.stdout and "d*" in proc.stdout
@@ -30,6 +30,27 @@ def test_plan_writes_json_png_glb(tmp_path):
     scene = trimesh.load(tmp_path / "bracket.grasps.glb")
     assert "part" in scene.geometry and "tip_0" in scene.geometry
     _fingers_drawn_as_planned(scene, doc["grasps"][0]["fingers"], MESHES / "bracket.stl")
+    _outputs_are_not_parts(tmp_path, doc["run_id"], capsys)
+
+
+def _outputs_are_not_parts(folder, run_id, capsys):
+    """synth's own outputs are not parts: db build on the folder plans the mesh beside them
+    but not the scene (a part with its fingers), and plan refuses the scene by name."""
+    import shutil
+
+    from synth.cli import main
+    from synth.database import build_database
+    from tests.db_support import PLANNER
+
+    shutil.copy(MESHES / "bracket.stl", folder / "bracket.stl")
+    report = build_database([folder], folder / "g.sqlite", {"evals": 100}, workers=0,
+                            planner=PLANNER, quiet=True)
+    assert (report.found, report.done) == (1, 1)
+    assert [Path(p).name for p in report.scenes] == ["bracket.grasps.glb"]
+    assert "not planned: 1 scenes synth plan wrote" in report.summary()
+    assert main(["plan", str(folder / "bracket.grasps.glb"), "--no-files"]) == 2
+    line = capsys.readouterr().err.strip()
+    assert f"a scene synth plan wrote (run {run_id})" in line and "not a part" in line
 
 
 def _fingers_drawn_as_planned(scene, fingers, mesh_path):

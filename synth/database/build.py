@@ -81,6 +81,9 @@ class MeshInputs:
     revisited : tuple of str
         Folders met again through a symbolic link (a link cycle, or a second link to a folder
         already searched): not searched twice.
+    scenes : tuple of str
+        GLB files met in folders that ``synth plan`` wrote (a part with its fingers, not a
+        part; see :func:`synth.plan.result.scene_run_id`): not planned.
     """
 
     paths: tuple[str, ...]
@@ -88,6 +91,7 @@ class MeshInputs:
     not_mesh: tuple[str, ...]
     missing: tuple[str, ...]
     revisited: tuple[str, ...] = ()
+    scenes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -114,6 +118,8 @@ class BuildReport:
         Non-mesh files met in directories.
     revisited : tuple of str
         Folders met again through a symbolic link, not searched twice.
+    scenes : tuple of str
+        Scenes ``synth plan`` wrote, met in folders and not planned.
     failures : tuple of (str, str)
         ``(path, reason)`` of the meshes that failed in this run.
     elapsed_s : float
@@ -138,6 +144,7 @@ class BuildReport:
     engine: str
     workers: int
     revisited: tuple[str, ...] = ()
+    scenes: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """A few readable lines for the end of a run."""
@@ -154,6 +161,10 @@ class BuildReport:
         if self.ignored:
             shown = ", ".join(self.ignored[:5]) + (", ..." if len(self.ignored) > 5 else "")
             lines.append(f"  ignored {len(self.ignored)} non-mesh files: {shown}")
+        if self.scenes:
+            shown = ", ".join(self.scenes[:5]) + (", ..." if len(self.scenes) > 5 else "")
+            lines.append(f"  not planned: {len(self.scenes)} scenes synth plan wrote (a part "
+                         f"with its fingers, not a part): {shown}")
         if self.revisited:
             shown = ", ".join(self.revisited[:5]) + (", ..." if len(self.revisited) > 5 else "")
             lines.append(f"  searched once: {len(self.revisited)} folders met again through "
@@ -269,6 +280,7 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     missing: set[str] = set()
     seen: set[str] = set()  # real paths of the folders searched
     revisited: list[str] = []
+    scenes: list[str] = []
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
     for src in map(os.fspath, sources):
@@ -278,7 +290,12 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
                     revisited.append(os.path.abspath(root))  # met again through a link
                 for name in files:
                     full = os.path.abspath(os.path.join(root, name))
-                    (paths.add(full) if _is_mesh(name) else ignored.append(full))
+                    if not _is_mesh(name):
+                        ignored.append(full)
+                    elif _is_scene(full):
+                        scenes.append(full)
+                    else:
+                        paths.add(full)
         elif not os.path.exists(src):
             raise InputError(f"{src}: no such file or folder")
         elif _is_mesh(src):
@@ -308,13 +325,30 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
                 else:
                     paths.add(full)
     if not paths and not not_mesh and not missing:
+        also = f" (only {len(scenes)} scenes synth plan wrote)" if scenes else ""
         raise InputError(
-            f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in {', '.join(map(str, sources))}"
+            f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in "
+            f"{', '.join(map(str, sources))}{also}"
         )
     return MeshInputs(
         tuple(sorted(paths)), tuple(sorted(ignored)), tuple(sorted(not_mesh)),
-        tuple(sorted(missing)), tuple(revisited),
+        tuple(sorted(missing)), tuple(revisited), tuple(sorted(scenes)),
     )  # fmt: skip
+
+
+def _is_scene(path: str) -> bool:
+    """Whether a file is a GLB scene ``synth plan`` wrote (its header and JSON chunk)."""
+    from synth.plan.result import scene_run_id
+
+    if not path.lower().endswith(".glb"):
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(20)
+            size = int.from_bytes(head[12:16], "little") if len(head) == 20 else 0
+            return scene_run_id(head + fh.read(min(size, 1 << 24))) is not None
+    except OSError:
+        return False  # planned, and recorded as unreadable
 
 
 def _hash_file(path: str) -> tuple[str, int]:
@@ -652,4 +686,5 @@ def build_database(
             engine=engine,
             workers=seen_workers[0],
             revisited=inputs.revisited,
+            scenes=inputs.scenes,
         )

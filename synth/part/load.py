@@ -67,6 +67,13 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     if len(data) == 0:
         raise _fail(name, "file is empty")
     digest = hashlib.sha256(data).hexdigest()
+    if ext == "glb":
+        from synth.plan.result import scene_run_id
+
+        run = scene_run_id(data)
+        if run is not None:
+            raise _fail(name, f"a scene synth plan wrote (run {run}): the part together with "
+                        "its fingers, not a part; plan the mesh it was made from")
     if ext == "stl" and not data[:5].lower().startswith(b"solid") and len(data) >= 84:
         count = int(np.frombuffer(data[80:84], "<u4")[0])
         if len(data) < 84 + 50 * count:

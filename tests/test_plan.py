@@ -172,12 +172,28 @@ def test_support_plane_keeps_fingers_above_the_table():
         assert (ends[:, 2] - f["body_radius"] >= -3.0 - 1e-9).all()
 
 
-def test_ranking_ties_by_conditioning_and_rank_by():
-    """d* within 1e-6 are equal for ranking; the better-conditioned grasp comes first, and
-    --rank-by orders by conditioning or epsilon instead."""
+def test_rows_that_print_the_same_d_star_are_in_conditioning_order():
+    """0.5000004 and 0.4999988 both print 0.50000: the reader sees a tie, so the tie is
+    broken by conditioning, whatever the digits the table does not show (issue 22)."""
     from types import SimpleNamespace
 
-    from synth.plan.search import rank_grasps
+    from synth.plan.ranking import rank_grasps, shown_d_star
+
+    g = [SimpleNamespace(name=n, d_star=d, conditioning=c, epsilon=0.0) for n, d, c in [
+        ("a", 0.5000004, 0.01), ("b", 0.4999988, 0.2), ("c", 0.500002, 0.05),
+        ("d", 0.499994, 0.9), ("e", 0.6, 0.001)]]
+    ranked = rank_grasps(g)
+    assert [x.name for x in ranked] == ["e", "b", "c", "a", "d"]
+    shown = [(shown_d_star(x.d_star), x.conditioning) for x in ranked]
+    assert shown == sorted(shown, reverse=True)  # what the table prints is in order
+
+
+def test_ranking_ties_by_conditioning_and_rank_by():
+    """d* that print the same are equal for ranking; the better-conditioned grasp comes
+    first, and --rank-by orders by conditioning or epsilon instead."""
+    from types import SimpleNamespace
+
+    from synth.plan.ranking import rank_grasps
 
     g = [SimpleNamespace(name=n, d_star=d, conditioning=c, epsilon=e) for n, d, c, e in [
         ("a", 0.5000000004, 0.01, 0.3), ("b", 0.5, 0.2, 0.1), ("c", 0.4999999998, 0.05, 0.2),

@@ -50,6 +50,7 @@ from synth.fingers.model import (
     part_mesh,
     tip_centers,
 )
+from synth.native import bvh_model, mesh_problem
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -167,19 +168,16 @@ class FingerChecker:
         mesh = part_mesh(part)
         vertices = np.asarray(mesh.vertices, dtype=float)
         faces = np.asarray(mesh.faces, dtype=np.int64)
+        problem = mesh_problem(vertices, faces)
+        if problem is not None:  # FCL would crash or answer nonsense
+            raise InputError(f"part: a mesh FCL cannot check: {problem}")
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.center: np.ndarray = (lo + hi) / 2.0
         self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
         # FCL works with absolute tolerances: give it the part centred and of unit size, so
         # a part of 1 mm in metres or 1 km far from the origin is checked like one of 1 m
         self._scale = self.radius if self.radius > 0 else 1.0
-        try:
-            bvh = fcl.BVHModel()
-            bvh.beginModel(len(vertices), len(faces))
-            bvh.addSubModel((vertices - self.center) / self._scale, faces)
-            bvh.endModel()
-        except Exception as e:  # pragma: no cover - FCL rejects malformed arrays
-            raise InputError(f"part: FCL could not build a BVH of the mesh: {e}") from e
+        bvh = bvh_model((vertices - self.center) / self._scale, faces)
         self.mesh = mesh
         self._bvh = bvh
         self._part = fcl.CollisionObject(bvh, fcl.Transform())

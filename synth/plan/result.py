@@ -33,6 +33,8 @@ drawn from the same plan carry it too, so the files of one run can be matched.
 
 from __future__ import annotations
 
+import json
+import struct
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -41,7 +43,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part", "new_run_id"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part", "new_run_id",
+           "scene_run_id"]
 
 FORMAT = "synth.grasps"
 FORMAT_VERSION = 1
@@ -219,3 +222,37 @@ class Plan:
                 "stopped_by_time": self.stopped_by_time,
             },
         }
+
+
+#: Most bytes of a GLB's JSON chunk :func:`scene_run_id` reads (a synth scene's is a few kB).
+_SCENE_JSON_MAX = 1 << 24
+
+
+def scene_run_id(head: bytes) -> str | None:
+    """The run id of a GLB scene synth wrote (``synth plan``'s part-and-fingers picture,
+    :func:`synth.plan.export_glb`), from the file's first bytes; None for any other file.
+
+    Parameters
+    ----------
+    head : bytes
+        The start of the file: its 20-byte header and JSON chunk (read
+        ``20 + json_length`` bytes, or the whole file).
+
+    Examples
+    --------
+    >>> scene_run_id(b"solid cube") is None
+    True
+    """
+    if len(head) < 20 or head[:4] != b"glTF":
+        return None
+    size, kind = struct.unpack("<I4s", head[12:20])
+    if kind != b"JSON" or size > _SCENE_JSON_MAX or len(head) < 20 + size:
+        return None
+    try:
+        doc = json.loads(head[20:20 + size])
+        scene = doc["scenes"][doc.get("scene", 0)]
+        run = scene["extras"]["synth"]["run_id"]
+    except (ValueError, KeyError, IndexError, TypeError):
+        return None
+    return run if isinstance(run, str) else None
+

@@ -45,6 +45,7 @@ from synth.plan.placements import (
     placement_pool,
     placement_seeds,
 )
+from synth.plan.ranking import rank_grasps
 from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
@@ -52,7 +53,7 @@ from synth.scores.quality import conditioning, epsilon_quality
 from synth.scores.surface import surface_scores, worst_reading
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
-           "PLACEMENT_SHARE", "SWAP_COST", "D_STAR_TIE"]
+           "PLACEMENT_SHARE", "SWAP_COST"]
 
 Progress = Callable[[float, str], None]
 
@@ -79,8 +80,6 @@ _SWEEPS = 6
 _KEEP = 400
 #: Ranking by conditioning or epsilon chooses among this many times ``top`` of the best grasps.
 _CHOICE = 4
-#: d* values closer than this are equal for ranking (the LPs' accuracy is 1e-7).
-D_STAR_TIE = 1e-6
 #: Seeds drawn and scored at a time: bounds the memory of the seed stage whatever ``evals``.
 _SEED_CHUNK = 32_768
 #: Share of ``PlanParams.time`` the search may use; the finger checks of the selection have
@@ -503,31 +502,6 @@ def _features(part: Part, P: NDArray[np.float64], faces: NDArray[np.int64]) -> t
         own = rows[c.faces[rows] == faces[j]]
         out.append(str(c.features[own[0] if len(own) else rows[0]]))
     return tuple(out)
-
-
-def rank_grasps(grasps: list[PlannedGrasp], rank_by: str = "d_star") -> list[PlannedGrasp]:
-    """Order grasps (anything with ``d_star``, ``conditioning`` and ``epsilon``) best first.
-
-    ``"d_star"``: by d*, where d* values within ``D_STAR_TIE`` of each other (the LPs'
-    accuracy) count as equal and the better-conditioned grasp comes first; ``"conditioning"``,
-    ``"epsilon"`` or ``"tolerance"`` (placement tolerance): by that measure, then by d*.
-    """
-    if rank_by == "conditioning":
-        return sorted(grasps, key=lambda g: (-g.conditioning, -g.d_star))
-    if rank_by == "epsilon":
-        return sorted(grasps, key=lambda g: (-g.epsilon, -g.d_star))
-    if rank_by == "tolerance":
-        return sorted(grasps, key=lambda g: (-np.nan_to_num(g.tolerance, nan=-1.0), -g.d_star))
-    out = sorted(grasps, key=lambda g: -g.d_star)
-    # ties: a run of d* within D_STAR_TIE of the run's best is ordered by conditioning
-    i = 0
-    while i < len(out):
-        j = i + 1
-        while j < len(out) and out[i].d_star - out[j].d_star <= D_STAR_TIE:
-            j += 1
-        out[i:j] = sorted(out[i:j], key=lambda g: -g.conditioning)
-        i = j
-    return out
 
 
 def _why_none(archive: GraspBatch, prm: PlanParams, score: Scorer) -> str | None:

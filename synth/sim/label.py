@@ -158,9 +158,15 @@ def _unit(mo: NDArray[np.float64], size: float) -> NDArray[np.float64] | None:
 
 
 def _words(mo: NDArray[np.float64], scene: Scene) -> str:
-    """A finite motion (displacement, rotation vector) in words, in mesh coordinates."""
-    twist = np.concatenate([mo[:3] / scene.scale, mo[3:]])
-    text = describe_twist(twist, scene.origin, length=scene.settings.size / scene.scale)
+    """A finite motion (displacement, rotation vector) in words, in mesh coordinates; a
+    rotation that moves the part's surface less than a tenth of its displacement is left out
+    (a translation with a little wobble is a translation)."""
+    v, w = mo[:3] / scene.scale, mo[3:]
+    length = scene.settings.size / scene.scale
+    if np.linalg.norm(w) * length / 2 < 0.1 * np.linalg.norm(v):
+        w = np.zeros(3)
+    twist = np.concatenate([v, w])
+    text = describe_twist(twist, scene.origin, length=length)
     return text.replace("free to ", "")
 
 

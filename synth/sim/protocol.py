@@ -21,10 +21,13 @@
 The grasp *holds* when the part stays within the motion thresholds of
 :class:`~synth.sim.settings.SimSettings` through the squeeze, gravity and the shake.
 
-Divergence: after every ``CHECK_STEPS`` steps the state must be finite, MuJoCo must not have
-flagged a bad acceleration (it then resets the state, which would look like a held part), and
-no fingertip may have sunk into the part by more than ``PENETRATION_LIMIT`` of its radius (the
-contact solver is losing). Otherwise the run stops and reports the reason.
+Divergence: after every ``CHECK_STEPS`` steps, and whenever the part seems to have moved, the
+state must be finite, MuJoCo must not have flagged a bad acceleration (it then resets the
+state, which would look like a held part), the part may not be moving faster than
+``SPEED_LIMIT`` sizes per second (a grasp that gives way lets the part go at a fraction of
+that), and no fingertip may have sunk into the part by more than ``PENETRATION_LIMIT`` of its
+radius (the contact solver is losing). Otherwise the run stops and reports the reason.
+MuJoCo's own warnings are not printed (they are read from its counters).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ from numpy.typing import NDArray
 from synth.sim.scene import GRAVITY, Scene
 
 __all__ = ["SimRun", "run_protocol", "DIRECTIONS", "CLOSE_S", "HOLD_S", "RAMP_S",
-           "DETECT_S", "CHECK_STEPS", "PENETRATION_LIMIT"]
+           "DETECT_S", "CHECK_STEPS", "PENETRATION_LIMIT", "SPEED_LIMIT"]
 
 #: Time over which the fingers close and gravity is turned on, s.
 CLOSE_S: float = 0.05
@@ -53,6 +56,9 @@ DETECT_S: float = 0.2
 CHECK_STEPS: int = 50
 #: Deepest allowed penetration of a fingertip into the part, as a fraction of its radius.
 PENETRATION_LIMIT: float = 0.5
+#: Fastest a part may move (its centre, or a point half its size from it), in sizes per second:
+#: falling freely for the whole protocol it would reach about 60.
+SPEED_LIMIT: float = 1000.0
 #: Names of the twelve pushes, in order: forces, then torques, along +x, -x, +y, -y, +z, -z.
 DIRECTIONS: tuple[str, ...] = tuple(f"{kind} {sign}{axis}" for kind in ("force", "torque")
                                     for axis in "xyz" for sign in "+-")
@@ -136,7 +142,13 @@ class _Runner:
         return np.concatenate([q[:3] - ref[0], mat.reshape(3, 3) @ rot])
 
     def moved(self, mo: NDArray[np.float64]) -> bool:
-        return bool(np.linalg.norm(mo[:3]) > self.x_lim or np.linalg.norm(mo[3:]) > self.th_lim)
+        """Whether the motion ``mo`` passes a threshold; a simulation that has diverged raises
+        first, so that a blown-up state is never reported as a motion."""
+        if np.linalg.norm(mo[:3]) > self.x_lim or np.linalg.norm(mo[3:]) > self.th_lim \
+                or not np.isfinite(mo).all():
+            self.check()
+            return True
+        return False
 
     def save(self) -> NDArray[np.float64]:
         out = np.zeros_like(self.state)
@@ -162,6 +174,11 @@ class _Runner:
             raise _Diverged("MuJoCo found the accelerations unstable and reset the state")
         if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
             raise _Diverged("the state became NaN or infinite")
+        size = self.scene.settings.size
+        speed = max(float(np.linalg.norm(d.qvel[:3])),
+                    float(np.linalg.norm(d.qvel[3:6])) * size / 2) / size
+        if speed > SPEED_LIMIT:
+            raise _Diverged(f"the part flew off at {speed:.3g} sizes per second")
         if d.ncon:
             deepest = -float(d.contact.dist[: d.ncon].min())
             if deepest > self.pen_lim:
@@ -258,6 +275,8 @@ def run_protocol(scene: Scene, *, pushes: bool = True) -> SimRun:
     -------
     SimRun
     """
+    import mujoco
+
     t0 = time.perf_counter()
     r = _Runner(scene)
     st = scene.settings
@@ -267,6 +286,8 @@ def run_protocol(scene: Scene, *, pushes: bool = True) -> SimRun:
     failed: str | None = None
     diverged: str | None = None
     saved_gravity = np.array(scene.model.opt.gravity)
+    saved_warning = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda text: None)  # divergence is read from the counters
     try:
         r.mj.mj_forward(r.m, r.d)
         start = r.pose()
@@ -301,4 +322,5 @@ def run_protocol(scene: Scene, *, pushes: bool = True) -> SimRun:
         diverged = str(e)
     finally:
         scene.model.opt.gravity[:] = saved_gravity
+        mujoco.set_mju_user_warning(saved_warning)
     return SimRun(failed, diverged, loads, motions, r.steps, time.perf_counter() - t0)

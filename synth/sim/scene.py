@@ -14,7 +14,10 @@ a push along +x of the file.
   limited to the grip force (``forcerange``). Its weight is compensated (``gravcomp``).
   Fingers collide with the part only.
 * Contacts use the grasp's own model on both geoms of each pair (:class:`ContactModel`),
-  with a time constant of two steps, the stiffest MuJoCo allows.
+  with a time constant of two steps, the stiffest MuJoCo allows. Friction is made as hard as
+  the normal force (``impratio`` = ``IMPRATIO``): with MuJoCo's default of 1 a frictional
+  grasp creeps under a steady load (measured: a 3-finger cube grasp at mu = 0.8 slid 2% of
+  its size within 1.5 s under its own weight; with 10 it holds).
 """
 
 from __future__ import annotations
@@ -30,10 +33,12 @@ from synth.sim.contact import ContactModel
 from synth.sim.pieces import ConvexPieces
 from synth.sim.settings import SimSettings
 
-__all__ = ["Scene", "build_scene", "GRAVITY"]
+__all__ = ["Scene", "build_scene", "GRAVITY", "IMPRATIO"]
 
 #: Standard gravity, m/s^2.
 GRAVITY: float = 9.81
+#: MuJoCo's ratio of frictional to normal constraint impedance (elliptic cones).
+IMPRATIO: float = 10.0
 
 _PART_BITS, _FINGER_BITS = 1, 2  # contype / conaffinity: fingers touch the part only
 
@@ -122,6 +127,7 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
     spec.option.timestep = settings.dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = IMPRATIO
     spec.option.gravity = [0.0, 0.0, -GRAVITY]
     solref = [2.0 * settings.dt, 1.0]
     common = {"condim": contact.condim, "friction": contact.friction, "solref": solref}

@@ -23,7 +23,7 @@ from typing import Any
 from synth.errors import InputError, shown
 from synth.limits import MAX_SEED
 
-__all__ = ["SimSettings", "TRANSLATION_RTOL", "MAX_TIMESTEP"]
+__all__ = ["SimSettings", "TRANSLATION_RTOL", "MAX_TIMESTEP", "RANGES"]
 
 #: A part held still moves less than this fraction of its size (plus the fingers' stroke).
 TRANSLATION_RTOL: float = 0.02
@@ -31,6 +31,14 @@ TRANSLATION_RTOL: float = 0.02
 #: steps, allows; 2e-4 s keeps a fingertip's penetration under 10 N near 1e-4 m (0.1% of
 #: the default size).
 MAX_TIMESTEP: float = 2e-4
+
+
+#: Accepted range of each setting (beyond them MuJoCo's numbers stop meaning anything: a part
+#: of 1e-10 kg is refused by its compiler, a servo of 1e10 N/m needs steps of 1e-7 s).
+RANGES: dict[str, tuple[float, float]] = {
+    "stiffness": (1.0, 1e9), "grip": (1e-3, 1e6), "size": (1e-3, 1e3),
+    "density": (1.0, 1e5), "finger_mass": (1e-9, 1e3), "shake_hz": (0.1, 100.0),
+}
 
 
 @dataclass(frozen=True)
@@ -74,11 +82,11 @@ class SimSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("stiffness", "grip", "size", "density", "finger_mass", "shake_hz"):
+        for name, (lo, hi) in RANGES.items():
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or \
-                    not (math.isfinite(v) and 0 < v <= 1e12):
-                raise InputError(f"{name}: expected a positive number up to 1e12, got "
+                    not (math.isfinite(v) and lo <= v <= hi):
+                raise InputError(f"{name}: expected a number from {lo:g} to {hi:g}, got "
                                  f"{shown(v)}")
         if isinstance(self.shake, bool) or not isinstance(self.shake, (int, float)) or \
                 not (math.isfinite(self.shake) and 0 <= self.shake <= 100):

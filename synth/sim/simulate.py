@@ -24,7 +24,7 @@ from synth.sim.protocol import run_protocol
 from synth.sim.scene import build_scene
 from synth.sim.settings import SimSettings
 
-__all__ = ["SimReport", "simulate_file", "labelled_document", "check_mesh"]
+__all__ = ["SimReport", "simulate_file", "labelled_document", "check_mesh", "require_sim"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +63,24 @@ class SimReport:
             "held": sum(lab.held for lab in self.labels),
             "seconds": self.seconds,
         }
+
+
+def require_sim() -> None:
+    """Refuse to simulate without the optional packages (mujoco, coacd).
+
+    Raises
+    ------
+    InputError
+        Naming the missing package and the extra that installs it.
+    """
+    import importlib
+
+    for name in ("mujoco", "coacd"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise InputError(f"simulation needs the packages mujoco and coacd, and {name} is "
+                             "not installed: pip install 'synth[sim]'") from None
 
 
 def check_mesh(file: GraspFile) -> None:

@@ -22,7 +22,11 @@ def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
         lo, hi = RANGES[name]
         return f"{lo:g} to {hi:g}"
 
-    g = p.add_argument_group("simulation (MuJoCo; the part scaled to --size, see the README)")
+    g = p.add_argument_group(f"simulation (MuJoCo; the part scaled to --{prefix}size)")
+    if prefix:
+        g.add_argument("--sim", action="store_true",
+                       help="simulate every grasp found in MuJoCo, as 'synth sim' does, and "
+                       "store its label in the JSON ('sim'); needs pip install 'synth[sim]'")
     g.add_argument(f"--{prefix}stiffness", type=float, default=d.stiffness, metavar="N/M",
                    help=f"gain of each finger's position servo, N/m, {rng('stiffness')} "
                    f"(default {d.stiffness:g})")
@@ -115,10 +119,11 @@ def summary(doc: dict) -> str:
     s = doc["sim"]
     n = len(doc["grasps"])
     st = s["settings"]
+    bodies = f"{s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'}"
     dec = "" if not s["decomposed"] else (
-        f"; {s['decomposed']} non-convex bodies decomposed into convex pieces (volume "
+        f"; {bodies} decomposed into {s['pieces']} convex pieces with the others (volume "
         f"error {s['decomposition_error']:.1%})" if s["decomposition_error"] is not None
-        else f"; {s['decomposed']} open bodies decomposed into convex pieces")
+        else f"; {bodies} (open) decomposed into {s['pieces']} convex pieces with the others")
     return (f"{s['held']} of {n} grasps held (fingers {st['stiffness']:g} N/m, grip "
             f"{st['grip']:g} N, shake {st['shake']:g} g; force and torque: the weakest push "
             f"held, over the grip force and grip force x size){dec} in {s['seconds']:.1f} s")

@@ -22,7 +22,8 @@ Usage:
 
     python scripts/bench_sim.py [--files a.obj b.stl] [--evals N] [--top N]
     python scripts/bench_sim.py --part 1/2 --dump a.json &  # two processes, then
-    python scripts/bench_sim.py --part 2/2 --dump b.json; python scripts/bench_sim.py --merge a.json b.json
+    python scripts/bench_sim.py --part 2/2 --dump b.json
+    python scripts/bench_sim.py --merge a.json b.json
 
 Convex decompositions are cached (see ``synth.sim.cache_dir``); the first run decomposes
 every non-convex body with CoACD, which takes minutes.

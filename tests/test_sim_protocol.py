@@ -14,8 +14,7 @@ pytest.importorskip("mujoco")
 
 from synth.scores import form_closure, frictional_form_closure, wrench_matrix  # noqa: E402
 from synth.sim import ContactModel, SimSettings, read_grasp_file, simulate_file  # noqa: E402
-from tests.sim_support import (CUBE3, CUBE6, CUBE7, push_bounds, rotation, write_cube,  # noqa: E402
-                               write_grasps)
+from tests.sim_support import CUBE3, CUBE6, CUBE7, push_bounds, rotation, write_cube, write_grasps  # noqa: E402
 
 FAR = np.array([1500.0, -2500.0, 800.0])  # a thousand sizes from the origin
 

@@ -134,8 +134,13 @@ def run(args: argparse.Namespace) -> int:
     from synth.cli.progress import LineProgress
     from synth.files import write_atomic
     from synth.limits import MAX_MU, MAX_SEED
-    from synth.sim import (ContactModel, labelled_document, read_grasp_file, require_sim,
-                           simulate_file)
+    from synth.sim import (
+        ContactModel,
+        labelled_document,
+        read_grasp_file,
+        require_sim,
+        simulate_file,
+    )
 
     real("--mu", args.mu, 0, MAX_MU)
     integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")

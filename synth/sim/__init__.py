@@ -18,8 +18,7 @@ from synth.sim.pieces import ConvexPieces, cache_dir, convex_pieces
 from synth.sim.protocol import DIRECTIONS, SimRun, run_protocol
 from synth.sim.scene import Scene, build_scene
 from synth.sim.settings import SimSettings
-from synth.sim.simulate import (SimReport, check_mesh, labelled_document, require_sim,
-                                simulate_file)
+from synth.sim.simulate import SimReport, check_mesh, labelled_document, require_sim, simulate_file
 
 __all__ = [
     "ContactModel",

@@ -116,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.merge:
         dumps = [json.loads(Path(f).read_text()) for f in args.merge]
+        print(f"{sum(len({r['part'] for r in d['rows'][SETTINGS[0][0]]}) for d in dumps)} parts")
         _summary({name: [r for d in dumps for r in d["rows"][name]] for name, _ in SETTINGS},
                  {name: [sum(d["held"][name][k] for d in dumps) for k in (0, 1)]
                   for name, _ in SETTINGS},
@@ -170,12 +171,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{c['file']:<44} {len(file.grasps):>6} {len(p.pieces):>6} {dec:>10}  "
               + "  ".join(f"{cell:>13}" for cell in cells)
               + f"   {np.mean([lab.seconds for lab in report.labels]):7.2f}", flush=True)
+        if args.dump:  # after every part, so that a run cut short still counts
+            Path(args.dump).write_text(json.dumps({
+                "rows": rows, "held": held, "fails": fails, "seconds": seconds,
+                "total_s": time.perf_counter() - t_all}))
 
-    total = time.perf_counter() - t_all
-    if args.dump:
-        Path(args.dump).write_text(json.dumps({"rows": rows, "held": held, "fails": fails,
-                                               "seconds": seconds, "total_s": total}))
-    _summary(rows, held, fails, seconds, total)
+    _summary(rows, held, fails, seconds, time.perf_counter() - t_all)
     return 0
 
 

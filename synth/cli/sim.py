@@ -39,7 +39,7 @@ def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
                    help=f"the part's density, {rng('density')} (default {d.density:g}, water)")
     g.add_argument(f"--{prefix}shake", type=float, default=d.shake, metavar="G",
                    help=f"peak acceleration of the shake along x, y and z, in g, 0 to 100 "
-                   f"(default {d.shake:g})")
+                   f"(default {d.shake:g}; 0: no shake)")
 
 
 def settings_from_args(args: argparse.Namespace, prefix: str = "", seed: int = 0):

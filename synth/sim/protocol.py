@@ -16,7 +16,8 @@
    with friction, plus the weight; times the size for torques).
 4. **Shake**: from the held pose, the hand is shaken along x, then y, then z, two periods each,
    with a peak acceleration of ``shake`` g: in the hand's frame this is gravity changing with
-   time, which is how it is applied (fingertip weights stay compensated).
+   time, which is how it is applied (fingertip weights stay compensated). ``shake`` = 0
+   skips it.
 
 The grasp *holds* when the part stays within the motion thresholds of
 :class:`~synth.sim.settings.SimSettings` through the squeeze, gravity and the shake.
@@ -312,10 +313,11 @@ def run_protocol(scene: Scene, *, pushes: bool = True) -> SimRun:
                     r.restore(state)
                     cap = cap_force * (st.size if k >= 6 else 1.0)
                     loads[k], motions[k] = r.push(k, held, cap)
-            r.restore(state)
-            mo = r.shake(held)
-            if mo is not None:
-                failed = "shake"
+            if st.shake > 0:
+                r.restore(state)
+                mo = r.shake(held)
+                if mo is not None:
+                    failed = "shake"
         if failed is not None:
             motions[12] = mo
     except _Diverged as e:

@@ -61,7 +61,7 @@ class SimSettings:
         Mass of each fingertip, kg (default 0.02); its weight is compensated.
     shake : float
         Peak acceleration of the shake, in g (default 1): the hand is shaken along x, then y,
-        then z, two periods each at ``shake_hz``.
+        then z, two periods each at ``shake_hz``; 0: no shake.
     shake_hz : float
         Frequency of the shake (default 4 Hz).
     timestep : float or None

@@ -7,6 +7,7 @@ asserted):
 * per part: grasps, convex pieces (and how many bodies CoACD decomposed, with its volume
   error), and how many of the grasps hold at each setting;
 * the share of grasps that hold at each setting;
+* the share that holds in bands of conditioning (the planner's floor is 1e-3);
 * at each setting, the Spearman rank correlation between each measure the plan reports
   (d*, conditioning, epsilon, and tolerance, d* on the facets and on the smooth surface when
   the plan has them) and the weakest push held (``force_min``, over the grip force; 0 for a
@@ -185,6 +186,18 @@ def _summary(rows: dict, held: dict, fails: list, seconds: list, total: float) -
     print("\nshare of the top grasps that hold (squeeze, gravity, shake of 1 g):")
     for name, (h, n) in held.items():
         print(f"  {name}: {h} of {n} ({h / max(n, 1):.0%})")
+    print("\nshare held by conditioning (the planner's floor is 1e-3):")
+    bands = (0.001, 0.003, 0.01, 0.03, 0.1, 1.0)
+    print(f"  {'':<14}" + "".join(f"  {lo:g}-{hi:g}".ljust(14) for lo, hi in
+                                  zip(bands[:-1], bands[1:])))
+    for name, _ in SETTINGS:
+        cond = np.array([r["conditioning"] for r in rows[name]], float)
+        ok = np.array([r["held"] for r in rows[name]], bool)
+        cells = []
+        for lo, hi in zip(bands[:-1], bands[1:]):
+            sel = (cond >= lo) & (cond < hi)
+            cells.append(f"  {int(ok[sel].sum())}/{int(sel.sum())}".ljust(14))
+        print(f"  {name:<14}" + "".join(cells))
     print("\nSpearman rank correlation of each measure with the weakest push and torque held: "
           "pooled over all grasps / median over parts of the within-part correlation (parts)")
     for name, _ in SETTINGS:

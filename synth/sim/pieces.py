@@ -223,8 +223,13 @@ def convex_pieces(path: str | os.PathLike[str], points: ArrayLike, *, seed: int 
     """
     if not 0 < threshold <= 1:
         raise InputError(f"threshold: expected a number in (0, 1], got {threshold!r}")
-    folder = cache_dir() if cache is True else (cache or None)
-    p = Path(path)
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh on open bodies' volume
+        return _convex_pieces(Path(path), points, seed, threshold,
+                              cache_dir() if cache is True else (cache or None))
+
+
+def _convex_pieces(p: Path, points: ArrayLike, seed: int, threshold: float,
+                   folder: Path | None) -> ConvexPieces:
     if not p.is_file():
         raise MeshError(f"{p}: no such file")
     bodies = _bodies(p)

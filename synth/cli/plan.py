@@ -16,6 +16,8 @@ __all__ = ["add_parser", "run", "add_finger_options", "add_part_options", "forma
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
     """Options of mesh loading, shared by ``plan`` and ``rank``."""
+    from synth.scores.surface import DEFAULT_SURFACE, SURFACES
+
     g = p.add_argument_group("mesh")
     g.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of the mesh when the file does not say (STL never does): "
@@ -30,6 +32,12 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
                    help="dihedral angle above which an edge is sharp, in (0, 180) degrees "
                    "(default 30)")
+    g.add_argument("--surface", choices=SURFACES, default=DEFAULT_SURFACE,
+                   help="which normals a grasp must hold with: 'both' (default) the mesh's "
+                   "own facets and the smooth surface they may approximate, d* the smaller; "
+                   "'mesh' the facets alone (the mesh is the object, as a simulator's "
+                   "collision mesh); 'smooth' the interpolated normals alone (the mesh "
+                   "approximates a smooth part, as a scan)")
 
 
 def load_part_from_args(args: argparse.Namespace):
@@ -265,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed, finger_radius=args.finger_radius, body_length=args.body_length,
         body_radius=args.body_radius, approach_cone=args.approach_cone,
         min_d_star=args.min_d_star, support_z=args.table, rank_by=args.rank_by,
-        regions=args.regions, min_tolerance=args.min_tolerance,
+        regions=args.regions, min_tolerance=args.min_tolerance, surface=args.surface,
     )
     paths = None if args.no_files else _output_paths(args)
     part = load_part_from_args(args)

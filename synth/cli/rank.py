@@ -33,6 +33,9 @@ class RankedCandidate:
     features: tuple[str, ...] = ()
     fingers: dict[str, Any] | None = field(default=None, repr=False)
     contact_regions: Any = field(default=None, repr=False)
+    smooth_normals: np.ndarray | None = field(default=None, repr=False)
+    d_star_mesh: float | None = None
+    d_star_smooth: float | None = None
 
     @property
     def tolerance(self) -> float:
@@ -51,6 +54,10 @@ class RankedCandidate:
             "conditioning": self.conditioning,
             "points": None if self.points is None else self.points.tolist(),
             "normals": None if self.normals is None else self.normals.tolist(),
+            "smooth_normals": None if self.smooth_normals is None
+            else self.smooth_normals.tolist(),
+            "d_star_mesh": self.d_star_mesh,
+            "d_star_smooth": self.d_star_smooth,
             "features": list(self.features),
             "fingers": self.fingers,
             "tolerance": None if self.contact_regions is None else self.tolerance,
@@ -102,8 +109,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
-                    regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0
-                    ) -> list[RankedCandidate]:
+                    regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0,
+                    surface: str = "both") -> list[RankedCandidate]:
     """Snap, resolve, check and score candidates on a part; best first (errors last).
 
     With ``regions`` (implied by ``rank_by="tolerance"`` and a positive ``min_tolerance``)
@@ -112,13 +119,16 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     ``min_tolerance`` gets status ``"tolerance"`` and ranks after the usable ones. A point is
     snapped to the closest point of the part's surface when it lies within
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (it
-    lies against or inside another body of the part) makes its candidate unusable.
+    lies against or inside another body of the part) makes its candidate unusable. Each
+    candidate is scored under the surface model ``surface`` (:mod:`synth.scores.surface`):
+    d*, closure and conditioning are those of its weaker reading of the normals.
     """
-    from synth.fingers import check_fingers
+    from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
     from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.quality import conditioning, scaled_wrenches
+    from synth.scores.surface import readings, surface_scores
 
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
@@ -146,32 +156,41 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                 "surface (against or inside another body of the part), where no finger can "
                 "touch"))
             continue
-        P, N = con.points, con.normals
+        P, N, S = con.points, con.normals, con.smooth_normals
         m = c.mu if c.mu is not None else mu
         if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
             rows.append(RankedCandidate(c.name, "error",
                                         f"{label}: {len(P)} contacts are too few"))
             continue
-        if m == 0:
-            W = scaled_wrenches(P, N, center, L)
-            r = form_closure(W)
-            d, closure = r.d_star, r.closure
-            cond = float(conditioning(W))
-        else:
-            fr = frictional_form_closure(P, N, m, center=center)
-            d, closure, cond = fr.d_star, fr.closure, 0.0
+        both = surface_scores(P[None], N[None], S[None], surface, center, L, m)
+        graded = []  # per reading: (closure?, d*, closure class, conditioning)
+        for n in readings(N, S, surface):
+            if m == 0:
+                W = scaled_wrenches(P, n, center, L)
+                r = form_closure(W)
+                graded.append((r.closure == "form", r.d_star, r.closure, float(conditioning(W))))
+            else:
+                fr = frictional_form_closure(P, n, m, center=center)
+                graded.append((fr.closure == "frictional form", fr.d_star, fr.closure, 0.0))
+        _, d, closure, _ = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
+        cond = min(g[3] for g in graded)
         ids = np.unique(con.finger, return_inverse=True)[1]
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
-        fing = chk.placement(0).to_dict() if chk.mask[0] else None
+        fing = None
+        if chk.mask[0]:
+            where = chk.placement(0)
+            fing = where.to_dict()
+            fing["tip_sink"] = float(tip_sinks(part, where.tip_centers, where.tip_radius).max())
         holds = closure in ("form", "frictional form")
-        robust = contact_regions(part, P, N, mu=m, d_star=d) if holds and (
-            regions or rank_by == "tolerance" or min_tolerance > 0) else None
+        robust = contact_regions(part, P, N, mu=m, d_star=d, smooth=S, surface=surface) if (
+            holds and (regions or rank_by == "tolerance" or min_tolerance > 0)) else None
         status, reason = ("ok", None) if chk.mask[0] else ("fingers", chk.reasons[0])
         if status == "ok" and robust is not None and robust.tolerance < min_tolerance:
             status, reason = "tolerance", (f"placement tolerance {robust.tolerance:.4g} is "
                                            f"below --min-tolerance {min_tolerance:g}")
         rows.append(RankedCandidate(c.name, status, reason, d, closure, cond, P, N,
-                                    tuple(con.features), fing, robust))
+                                    tuple(con.features), fing, robust, S,
+                                    float(both.d_mesh[0]), float(both.d_smooth[0])))
     from synth.plan.search import rank_grasps
 
     # usable first, then those below --min-tolerance, those the fingers cannot make, then
@@ -184,9 +203,9 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
 
 def run(args: argparse.Namespace) -> int:
     """Run ``synth rank``."""
+    from synth.cli.plan import load_part_from_args, report_part
     from synth.fingers import default_fingers
     from synth.grasps import read_candidates
-    from synth.cli.plan import load_part_from_args, report_part
 
     real("--mu", args.mu, 0, MAX_MU)
     real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")
@@ -205,7 +224,8 @@ def run(args: argparse.Namespace) -> int:
     fingers = default_fingers(part, **over)
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
     rows = rank_candidates(part, cands, args.mu, fingers, max_d, regions=args.regions,
-                           rank_by=args.rank_by, min_tolerance=args.min_tolerance)
+                           rank_by=args.rank_by, min_tolerance=args.min_tolerance,
+                           surface=args.surface)
     unusable = [r for r in rows if r.status == "error"]
     if len(unusable) == len(rows):
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
@@ -213,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
                          f"{unusable[0].reason}{more}")
     doc = {"format": "synth.ranked", "version": 1, "mesh": {"path": part.source,
            "sha256": part.sha256, "units": part.units, "length": part.length},
-           "mu": args.mu, "fingers": fingers.to_dict(),
+           "mu": args.mu, "surface": args.surface, "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:

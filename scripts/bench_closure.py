@@ -158,7 +158,7 @@ def score_cli() -> None:
                                   for a, p, q in zip(names, P.tolist(), N.tolist())]))
         for path in (npz, js):
             t0 = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "synth", "score", str(path), "--json",
+            proc = subprocess.run([sys.executable, "-m", "synth", "score", str(path), "--out",
                                    str(out)], capture_output=True, text=True)
             dt = time.perf_counter() - t0
             print(f"{path.suffix[1:]:>4} ({path.stat().st_size / 1e6:5.1f} MB): {dt:6.2f} s, "

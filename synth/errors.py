@@ -13,10 +13,12 @@ from __future__ import annotations
 __all__ = [
     "SynthError",
     "InputError",
+    "OptionError",
     "MeshError",
     "CandidateError",
     "SolverError",
     "DatabaseError",
+    "DatabaseFileError",
     "OutputError",
     "InternalError",
     "shown",
@@ -29,6 +31,10 @@ class SynthError(Exception):
 
 class InputError(SynthError, ValueError):
     """An argument, array or file field is not what synth expects."""
+
+
+class OptionError(InputError):
+    """A command-line option's value is outside its documented range or of the wrong form."""
 
 
 class MeshError(InputError):
@@ -45,6 +51,13 @@ class SolverError(SynthError):
 
 class DatabaseError(SynthError):
     """A grasp database is missing, locked, of another version or not a synth database."""
+
+
+class DatabaseFileError(DatabaseError, InputError):
+    """The file named as a grasp database cannot be used as one: it does not exist, is a
+    folder, is not a synth database or is damaged, is of a newer schema, or was built with
+    other parameters than those asked. Bad input (exit status 2), unlike a database that is
+    busy or cannot be read or written, which the system refused (1)."""
 
 
 class OutputError(SynthError):

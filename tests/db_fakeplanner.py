@@ -180,3 +180,13 @@ def plan_losing_one_alarm(path: str, params: dict[str, Any]) -> dict[str, Any]:
     except BaseException:  # noqa: BLE001 - the point of this planner: the first alarm is lost
         pass
     return plan_mesh_file(path, params)
+
+
+def plan_crashing_on_ico(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, but the process dies of SIGSEGV on files named ``ico*``, as
+    when a native library crashes on one mesh."""
+    if os.path.basename(path).startswith("ico"):
+        from tests.segfault import segfault
+
+        segfault()
+    return plan_mesh_file(path, params)

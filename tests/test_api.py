@@ -7,7 +7,8 @@ import pytest
 import synth
 
 MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances", "synth.part",
-           "synth.contacts", "synth.fingers", "synth.plan", "synth.database"]
+           "synth.contacts", "synth.fingers", "synth.plan", "synth.database", "synth.isolate",
+           "synth.native", "synth.sim"]
 
 
 @pytest.mark.parametrize("name", MODULES)

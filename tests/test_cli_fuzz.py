@@ -142,7 +142,7 @@ def test_rank_options(work, option, value):
 @FUZZ
 @given(option=st.sampled_from(sorted(SCORE_OPTIONS)), value=HOSTILE)
 def test_score_options(work, option, value):
-    _check(work, ["score", work / "good.json", *_option_args(option, value), "--json",
+    _check(work, ["score", work / "good.json", *_option_args(option, value), "--out",
                   work / "scores.json"], out_of_range=not SCORE_OPTIONS[option](value))
 
 
@@ -222,7 +222,7 @@ def test_score_candidate_files(work, file):
     ext, data = file
     path = work / f"cand.{ext}"
     path.write_bytes(data)
-    _check(work, ["score", path, "--json", work / "scores.json"])
+    _check(work, ["score", path, "--out", work / "scores.json"])
 
 
 @settings(FUZZ, max_examples=80)

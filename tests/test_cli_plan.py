@@ -19,7 +19,7 @@ def synth(*args, cwd=None):
                           capture_output=True, text=True, cwd=cwd)
 
 
-def test_plan_writes_json_png_glb(tmp_path):
+def test_plan_writes_json_png_glb(tmp_path, capsys):
     proc = synth("plan", MESHES / "bracket.stl", "--evals", "3000", "--top", "3", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "form" in proc.stdout and "d*" in proc.stdout
@@ -29,6 +29,60 @@ def test_plan_writes_json_png_glb(tmp_path):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
     scene = trimesh.load(tmp_path / "bracket.grasps.glb")
     assert "part" in scene.geometry and "tip_0" in scene.geometry
+    _fingers_drawn_as_planned(scene, doc["grasps"][0]["fingers"], MESHES / "bracket.stl")
+    _outputs_are_not_parts(tmp_path, doc["run_id"], capsys)
+
+
+def _outputs_are_not_parts(folder, run_id, capsys):
+    """synth's own outputs are not parts: db build on the folder plans the mesh beside them
+    but not the scene (a part with its fingers), and plan refuses the scene by name."""
+    import shutil
+
+    from synth.cli import main
+    from synth.database import build_database
+    from tests.db_support import PLANNER
+
+    shutil.copy(MESHES / "bracket.stl", folder / "bracket.stl")
+    report = build_database([folder], folder / "g.sqlite", {"evals": 100}, workers=0,
+                            planner=PLANNER, quiet=True)
+    assert (report.found, report.done) == (1, 1)
+    assert [Path(p).name for p in report.scenes] == ["bracket.grasps.glb"]
+    assert "not planned: 1 scenes synth plan wrote" in report.summary()
+    assert main(["plan", str(folder / "bracket.grasps.glb"), "--no-files"]) == 2
+    line = capsys.readouterr().err.strip()
+    assert f"a scene synth plan wrote (run {run_id})" in line and "not a part" in line
+
+
+def _fingers_drawn_as_planned(scene, fingers, mesh_path):
+    """Every finger body of the GLB is the capsule the JSON describes (axis from the tip
+    centre along the approach for the body length), and it lies outside every body of the
+    part: no triangle of it meets a triangle of the mesh file (FCL, exact triangle tests)
+    and none of its points is inside (a body wholly inside meets no triangle)."""
+    import fcl
+
+    def bvh(mesh):
+        model = fcl.BVHModel()
+        model.beginModel(len(mesh.vertices), len(mesh.faces))
+        model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32))
+        model.endModel()
+        return fcl.CollisionObject(model, fcl.Transform())
+
+    part = trimesh.load(mesh_path)
+    bodies = part.split(only_watertight=False)
+    tips, approach = np.array(fingers["tip_centers"]), np.array(fingers["approach"])
+    L, rb = fingers["body_length"], fingers["body_radius"]
+    atol = 1e-6 * np.linalg.norm(np.ptp(part.vertices, axis=0))  # the GLB stores float32
+    for i, (c, a) in enumerate(zip(tips, approach)):
+        body = scene.geometry[f"finger_{i}"]
+        v = body.vertices - c
+        along = v @ a
+        off_axis = np.linalg.norm(v - np.clip(along, 0, L)[:, None] * a, axis=1)
+        assert np.allclose(off_axis, rb, rtol=0, atol=atol), f"finger {i}: not the JSON's capsule"
+        assert np.allclose([along.min(), along.max()], [-rb, L + rb], rtol=0, atol=atol), i
+        for b in bodies:
+            hit = fcl.collide(bvh(body), bvh(b), fcl.CollisionRequest(), fcl.CollisionResult())
+            assert not hit, f"finger {i}'s body crosses the part's surface"
+            assert not b.contains(body.vertices[:1]).any(), f"finger {i}'s body is inside"
 
 
 def test_plan_json_to_stdout_and_sphere_exit_status(tmp_path):

@@ -93,8 +93,11 @@ def test_plan_refuses_bad_options_before_any_work(box, tmp_path, capsys, extra, 
     (["score", "{c}", "--top", "-3"], "--top: expected an integer >= 0"),
     (["score", "{c}", "--mu", "inf"], "--mu"),
     (["score", "{c}", "--mu", "1e308"], "--mu: expected a number in [0, 100]"),
-    (["score", "{c}", "--json", "{tmp}/scores.txt"],
-     "--json: expected a file name ending in .json"),
+    (["score", "{c}", "--out", "{tmp}/scores.txt"],
+     "--out: expected a file name ending in .json"),
+    (["score", "{c}", "--json", "{tmp}/scores.json"],
+     "--json takes no file name: it prints the JSON, as plan --json and rank --json do; "
+     "write it to a file with --out"),
     (["rank", "{box}", "{c}", "--max-distance", "-1"],
      "--max-distance: expected a number in [0, 1e+15]"),
     (["rank", "{box}", "{c}", "--max-distance", "nan"], "--max-distance"),
@@ -190,7 +193,7 @@ def _bad_candidate_files(tmp_path):
 def test_bad_candidate_files_one_line_each(box, tmp_path, capsys):
     for path, words in _bad_candidate_files(tmp_path):
         before = _files(tmp_path)
-        for argv in (["score", path, "--json", tmp_path / "s.json"],
+        for argv in (["score", path, "--out", tmp_path / "s.json"],
                      ["rank", box, path, "--out", tmp_path / "r.json", "--quiet"]):
             line = _refused(capsys, *argv)
             for w in words:
@@ -336,3 +339,105 @@ def test_a_disk_full_while_writing_the_glb_names_the_glb(box, tmp_path, capsys):
     assert ".part" not in line
     assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]
+
+
+# -- one vocabulary (issue 22) ---------------------------------------------------------------
+
+def _options(*path):
+    """Option strings and actions of the subcommand ``path`` (``("db", "build")``)."""
+    import argparse
+
+    from synth.cli import build_parser
+
+    parser = build_parser()
+    for word in path:
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        parser = sub.choices[word]
+    return {s: a for a in parser._actions for s in a.option_strings}
+
+
+def test_one_vocabulary_across_commands():
+    from synth.plan.params import RANK_BY
+
+    for path in (("plan",), ("rank",), ("db", "top"), ("db", "build")):
+        opts = _options(*path)
+        assert set(RANK_BY) <= set(opts["--rank-by"].choices), path
+        assert "--top" in opts, path
+    assert "--top" in _options("score") and "-k" in _options("db", "top")  # -k: old spelling
+    for path in (("plan",), ("rank",), ("score",), ("db", "build")):
+        assert {"--mu", "--edges"} <= set(_options(*path)), path
+    for path in (("plan",), ("rank",), ("score",), ("db", "info"), ("db", "top")):
+        assert _options(*path)["--json"].nargs in (0, "?"), path  # prints, never a path
+    assert "--out" in _options("score")
+
+
+def test_db_build_takes_every_planning_option_of_plan(box, tmp_path, capsys):
+    """A database holds what plan gives for the same part: every option of plan that is
+    not about its output files is an option of db build, and reaches the planner."""
+    output = {"--out", "--png", "--glb", "--no-files", "--json", "--quiet", "-h", "--help"}
+    missing = set(_options("plan")) - output - set(_options("db", "build"))
+    assert not missing, missing
+    db = tmp_path / "g.sqlite"
+    code, _, err = _run(capsys, "db", "build", box, "--out", db, "--workers", "0", "--quiet",
+                        "--evals", "100", "--top", "1", "--units", "dm", "--table", "-5",
+                        "--sharp-angle", "40", "--edges", "6", "--body", "largest",
+                        "--body-length", "0.3", "--approach-cone", "10", "--min-d-star", "0.01")
+    assert code == 0, err
+    from synth.database import GraspDatabase
+
+    with GraspDatabase(db) as d:
+        mesh = d.mesh("box")
+        params = d.info().params
+    assert mesh.units == "decimeters" and mesh.status == "done"
+    assert (params["units"], params["support_z"], params["sharp_angle"], params["edges"],
+            params["body_length"], params["approach_cone"]) == ("dm", -5.0, 40.0, 6, 0.3, 10.0)
+    code, _, err = _run(capsys, "db", "build", box, "--out", db, "--seed", "-1")
+    assert code == 2 and "--seed: expected an integer from 0 to 2**63 - 1" in err
+    assert "(see 'synth db build --help')" in err
+
+
+# -- partial failures and exit statuses (issue 22) ---------------------------------------------
+
+def test_rank_reports_a_malformed_candidate_and_ranks_the_rest(box, tmp_path, capsys):
+    """As synth score does: the NaN candidate gets its own error line and status 2, the
+    others are ranked and written; a candidate never scored shows no score (not 0, not
+    'force')."""
+    nan = dict(CUBE_FC, name="nan", points=[["NaN", 0.1, 0.1]] + CUBE_FC["points"][1:])
+    far = dict(CUBE_FC, name="far", points=[[5.0, 0.1, 0.1]] + CUBE_FC["points"][1:])
+    c = tmp_path / "c.json"
+    c.write_text(json.dumps([far, nan, CUBE_FC]).replace('"NaN"', "NaN"))
+    out = tmp_path / "r.json"
+    code, stdout, err = _run(capsys, "rank", box, c, "--units", "mm", "--out", out)
+    assert code == 2
+    errors = [line for line in err.splitlines() if line.startswith("synth: error: ")]
+    assert len(errors) == 1 and "candidate 1 (nan)" in errors[0] and "finite" in errors[0]
+    rows = json.loads(out.read_text())["candidates"]
+    assert [(r["name"], r["status"], r["index"]) for r in rows] == [
+        ("good", "ok", 2), ("far", "error", 0), ("nan", "error", 1)]
+    assert rows[0]["d_star"] == pytest.approx(0.5) and rows[0]["closure"] == "form"
+    for r in rows[1:]:
+        assert r["d_star"] is None and r["closure"] is None and r["conditioning"] is None
+    table = stdout.splitlines()
+    assert "0.50000" in table[1]
+    for line in table[2:]:
+        assert "0.00000" not in line and "force" not in line
+        assert line.split()[2:5] == ["-", "-", "-"]
+
+
+def test_a_closed_pipe_ends_the_output_quietly(tmp_path):
+    """``synth score ... | head``: the reader goes away; synth stops with 128 + SIGPIPE, as
+    other tools do, and prints no error."""
+    import signal
+    import subprocess
+    import sys
+
+    f = tmp_path / "c.npz"  # 3,000 rows: more than a pipe holds
+    np.savez(f, points=np.tile(CUBE_FC["points"], (3000, 1, 1)),
+             normals=np.tile(CUBE_FC["normals"], (3000, 1, 1)))
+    proc = subprocess.Popen([sys.executable, "-m", "synth", "score", str(f), "--top", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.readline()
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 128 + signal.SIGPIPE, err
+    assert err == ""

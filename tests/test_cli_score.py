@@ -35,7 +35,7 @@ def _write(tmp_path, obj, name="c.json"):
 def test_ranked_table_and_json(tmp_path, capsys):
     f = _write(tmp_path, {"candidates": [NO_TOP, CUBE_FC]})
     out = tmp_path / "out.json"
-    assert main(["score", str(f), "--json", str(out)]) == 0
+    assert main(["score", str(f), "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert text.index("good") < text.index("no-top")
     assert "free to translate along +z" in text
@@ -88,7 +88,7 @@ def test_a_bad_candidate_does_not_stop_the_others(tmp_path):
     bad = dict(NO_TOP, name="broken", normals=[[0, 0, 0]] + NO_TOP["normals"][1:])
     f = _write(tmp_path, {"candidates": [NO_TOP, bad, CUBE_FC, {"name": "x"}]})
     out = tmp_path / "out.json"
-    proc = subprocess.run([sys.executable, "-m", "synth", "score", str(f), "--json", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "synth", "score", str(f), "--out", str(out)],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     errors = [line for line in proc.stderr.splitlines() if line.startswith("synth: error:")]

@@ -223,10 +223,15 @@ def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> 
 
 
 def test_cli_errors_are_one_line(tmp_path: Path) -> None:
+    """A file that is not a database, or no file at all, is bad input (status 2), as a
+    missing or malformed mesh is."""
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(b"\x00" * 100)
-    for code, args in ((1, ("info", str(bad))), (1, ("top", str(bad), "box")),
-                       (2, ("build", str(tmp_path / "nope"), "--out", str(bad)))):  # fmt: skip
+    missing = str(tmp_path / "missing.sqlite")
+    for code, args in ((2, ("info", str(bad))), (2, ("top", str(bad), "box")),
+                       (2, ("build", str(tmp_path / "nope"), "--out", str(bad))),
+                       (2, ("info", missing)), (2, ("top", missing, "box")),
+                       (2, ("export", missing, "--out", str(tmp_path / "e.json")))):  # fmt: skip
         r = _cli(*args)
         assert r.returncode == code, r.stderr
         assert r.stderr.startswith("synth: error: ") and r.stderr.count("\n") == 1, r.stderr

@@ -347,6 +347,23 @@ def test_a_lost_alarm_is_raised_again(tmp_path: Path, mesh_dir: Path,
     assert report.elapsed_s < 4  # the lost alarm was followed by another
 
 
+def test_a_worker_that_crashes_fails_its_mesh_with_the_signal(tmp_path: Path,
+                                                               mesh_dir: Path) -> None:
+    """A worker killed by SIGSEGV while planning a mesh: that mesh is recorded as failed,
+    kind "crashed", with the signal; the other meshes are planned."""
+    out = tmp_path / "c.sqlite"
+    report = build_database([mesh_dir / "box.stl", mesh_dir / "ico.stl"], out, PARAMS,
+                            workers=1, quiet=True,
+                            planner="tests.db_fakeplanner:plan_crashing_on_ico")
+    with GraspDatabase(out) as db:
+        ico = db.mesh("ico")
+        box = db.mesh("box")
+    assert (ico.status, ico.error_kind) == ("failed", "crashed")
+    assert "killed by SIGSEGV (segmentation fault)" in ico.error
+    assert box.status == "done" and (report.done, report.failed) == (1, 1)
+    assert any("ico.stl" in path and "SIGSEGV" in why for path, why in report.failures)
+
+
 def test_tiny_timeout_with_the_synth_planner(tmp_path: Path, mesh_dir: Path) -> None:
     out = tmp_path / "t.sqlite"
     build_database([mesh_dir / "box.stl", mesh_dir / "ico.stl"], out, {"evals": 2000},
@@ -395,9 +412,11 @@ def test_numeric_options_are_checked_up_front(
 ) -> None:
     huge = "1" * 22
     cases = [
-        (["top", str(reference), "box", "-k", huge], "-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "-k", "0"], "-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "-k", "two"], "-k: expected an integer"),
+        (["top", str(reference), "box", "-k", huge],
+         "--top/-k: expected an integer from 1 to 10,000"),
+        (["top", str(reference), "box", "--top", "0"],
+         "--top/-k: expected an integer from 1 to 10,000"),
+        (["top", str(reference), "box", "-k", "two"], "--top/-k: expected an integer"),
         (["build", str(mesh_dir), "--out", str(reference), "--workers", huge], "--workers"),
         (["build", str(mesh_dir), "--out", str(reference), "--seed", "-1"], "--seed"),
         (["build", str(mesh_dir), "--out", str(reference), "--timeout", "0"], "--timeout"),
@@ -416,8 +435,9 @@ def test_numeric_options_are_checked_up_front(
     top_help = " ".join(_cli(["db", "top", "--help"], capsys)[1].split())
     assert "number of grasps, 1 to 10,000" in top_help
     build_help = " ".join(_cli(["db", "build", "--help"], capsys)[1].split())
-    for text in ("contacts per grasp, 2 to 64", "grasps kept per mesh, 1 to 1000",
-                 "evaluations per mesh, 100 to 10,000,000", "worker processes, 0 to 1024",
+    for text in ("contacts per grasp, one fingertip each: 7 to 64 without friction, 3 to 64 "
+                 "with", "grasps to return, 1 to 1000", "budget of grasp evaluations, 100 to "
+                 "10,000,000", "worker processes, 0 to 1024",
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k

@@ -66,6 +66,30 @@ def test_surfaces_of_revolution(name):
         assert r.d_star == pytest.approx(g.d_star, abs=1e-6)
 
 
+def test_surface_models_on_a_tessellated_cylinder():
+    """The 64-sided cylinder: its facets alone give closure (``mesh``; every grasp is form
+    closure by scipy's LP with the file's own facet normals, read by trimesh), the surface it
+    approximates never does (the same grasps with the smooth normals are rank deficient), so
+    the default (``both``) finds none, as ``smooth`` does not."""
+    from tests.independent_check import lp_d_star
+
+    part = load_part(MESHES / "cylinder.stl")
+    mesh = trimesh.load(MESHES / "cylinder.stl")
+    plan = plan_part(part, PlanParams(evals=3000, top=3, surface="mesh"))
+    assert plan.grasps, plan.message
+    for g in plan.grasps:
+        _, _, faces = trimesh.proximity.closest_point(mesh, g.points)
+        own = -mesh.face_normals[faces]
+        d, rank = lp_d_star(g.points, own)
+        assert rank == 6 and d == pytest.approx(g.d_star, abs=1e-6)
+        assert g.d_star_mesh == g.d_star
+        ds, rank_s = lp_d_star(g.points, g.smooth_normals)
+        assert rank_s < 6 and g.d_star_smooth == pytest.approx(ds, abs=1e-6)
+    for surface in ("both", "smooth"):
+        none = plan_part(part, PlanParams(evals=3000, surface=surface))
+        assert none.grasps == () and "rotate about" in none.message
+
+
 @pytest.mark.parametrize("name", SAMPLES)
 def test_every_grasp_verifies_from_json(name):
     doc = plan_mesh_file(MESHES / name, {"evals": 3000, "top": 5, "seed": 3})
@@ -148,12 +172,28 @@ def test_support_plane_keeps_fingers_above_the_table():
         assert (ends[:, 2] - f["body_radius"] >= -3.0 - 1e-9).all()
 
 
-def test_ranking_ties_by_conditioning_and_rank_by():
-    """d* within 1e-6 are equal for ranking; the better-conditioned grasp comes first, and
-    --rank-by orders by conditioning or epsilon instead."""
+def test_rows_that_print_the_same_d_star_are_in_conditioning_order():
+    """0.5000004 and 0.4999988 both print 0.50000: the reader sees a tie, so the tie is
+    broken by conditioning, whatever the digits the table does not show (issue 22)."""
     from types import SimpleNamespace
 
-    from synth.plan.search import rank_grasps
+    from synth.plan.ranking import rank_grasps, shown_d_star
+
+    g = [SimpleNamespace(name=n, d_star=d, conditioning=c, epsilon=0.0) for n, d, c in [
+        ("a", 0.5000004, 0.01), ("b", 0.4999988, 0.2), ("c", 0.500002, 0.05),
+        ("d", 0.499994, 0.9), ("e", 0.6, 0.001)]]
+    ranked = rank_grasps(g)
+    assert [x.name for x in ranked] == ["e", "b", "c", "a", "d"]
+    shown = [(shown_d_star(x.d_star), x.conditioning) for x in ranked]
+    assert shown == sorted(shown, reverse=True)  # what the table prints is in order
+
+
+def test_ranking_ties_by_conditioning_and_rank_by():
+    """d* that print the same are equal for ranking; the better-conditioned grasp comes
+    first, and --rank-by orders by conditioning or epsilon instead."""
+    from types import SimpleNamespace
+
+    from synth.plan.ranking import rank_grasps
 
     g = [SimpleNamespace(name=n, d_star=d, conditioning=c, epsilon=e) for n, d, c, e in [
         ("a", 0.5000000004, 0.01, 0.3), ("b", 0.5, 0.2, 0.1), ("c", 0.4999999998, 0.05, 0.2),

@@ -1,4 +1,5 @@
-"""The ``synth`` command line: ``synth score``, ``synth plan``, ``synth rank``, ``synth db``.
+"""The ``synth`` command line: ``synth score``, ``synth plan``, ``synth rank``, ``synth sim``,
+``synth db``.
 
 Every command returns an exit status instead of raising:
 
@@ -10,6 +11,7 @@ Every command returns an exit status instead of raising:
 3      an internal error: synth failed on input it accepted. This is a bug in synth; the line
        says so and how to report it (``SYNTH_TRACEBACK=1`` prints the traceback)
 130    interrupted (Ctrl-C)
+141    the reader of the output went away (``synth score ... | head``); nothing is printed
 143    stopped by SIGTERM (``synth db build``: the workers are stopped, finished meshes kept)
 =====  ======================================================================================
 
@@ -30,11 +32,14 @@ from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 from synth import __version__
-from synth.errors import InputError, InternalError, SolverError, SynthError
+from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError
 
-__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL"]
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
+           "EXIT_PIPE"]
 
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+#: The reader of the output went away (``| head``): 128 + SIGPIPE, as a tool SIGPIPE ends.
+EXIT_PIPE = 141
 
 Runner = Callable[[argparse.Namespace], int]
 
@@ -63,12 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"synth {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    from synth.cli import plan, rank, score
+    from synth.cli import plan, rank, score, sim
     from synth.database.cli import add_db_parser
 
     plan.add_parser(sub)
     rank.add_parser(sub)
     score.add_parser(sub)
+    sim.add_parser(sub)
     add_db_parser(sub)
     return parser
 
@@ -76,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
     parser = build_parser()
+    args = None
     try:
         args = parser.parse_args(argv)
         run: Runner | None = getattr(args, "run", None)
@@ -83,12 +90,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.print_help()
             return EXIT_INPUT
         return run(args)
+    except OptionError as e:
+        print(f"synth: error: {_line(e)} (see '{_prog(args)} --help')", file=sys.stderr)
+        return EXIT_INPUT
     except InputError as e:
         print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
         print("synth: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        return _reader_gone()
     except (InternalError, SolverError) as e:
         return _internal(e)
     except (SynthError, OSError) as e:
@@ -96,6 +108,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
         return _internal(e)
+
+
+def _prog(args: argparse.Namespace | None) -> str:
+    """The command line's command, such as ``synth db build``."""
+    words = ["synth", getattr(args, "command", None), getattr(args, "db_command", None)]
+    return " ".join(w for w in words if w)
+
+
+def _reader_gone() -> int:
+    """The reader of stdout went away (``synth score ... | head``): end quietly, as other
+    command-line tools do when SIGPIPE ends them (status 128 + SIGPIPE), and point stdout at
+    the null device so the interpreter's last flush does not fail again."""
+    try:
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        os.close(null)
+    except (OSError, ValueError):  # no file descriptor behind stdout (a test's capture)
+        pass
+    return EXIT_PIPE
 
 
 def _line(e: BaseException) -> str:

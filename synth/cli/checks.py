@@ -8,15 +8,13 @@ with a file half written.
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 from pathlib import Path
 
-from synth.errors import InputError, OutputError, shown
-from synth.limits import MAX_LENGTH
+from synth.errors import OptionError, OutputError, shown
 
-__all__ = ["integer", "real", "output_path", "check_part_options", "check_finger_options"]
+__all__ = ["integer", "real", "output_path"]
 
 
 def integer(option: str, value: int | None, lo: int, hi: int | None = None,
@@ -28,13 +26,13 @@ def integer(option: str, value: int | None, lo: int, hi: int | None = None,
     --------
     >>> integer("--contacts", 1000, 2, 64)
     Traceback (most recent call last):
-    synth.errors.InputError: --contacts: expected an integer from 2 to 64, got 1000
+    synth.errors.OptionError: --contacts: expected an integer from 2 to 64, got 1000
     """
     if value is None or (lo <= value and (hi is None or value <= hi)):
         return
     expected = f"an integer >= {lo}" if hi is None else \
         f"an integer from {lo:,} to {hi_text or format(hi, ',')}"
-    raise InputError(f"{option}: expected {expected}, got {shown(value)}")
+    raise OptionError(f"{option}: expected {expected}, got {shown(value)}")
 
 
 def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: bool = False,
@@ -46,7 +44,7 @@ def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: boo
     --------
     >>> real("--min-d-star", float("nan"), 0, 1)
     Traceback (most recent call last):
-    synth.errors.InputError: --min-d-star: expected a number in [0, 1], got nan
+    synth.errors.OptionError: --min-d-star: expected a number in [0, 1], got nan
     """
     if value is None:
         return
@@ -55,7 +53,7 @@ def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: boo
     if math.isfinite(value) and above and below:
         return
     interval = f"{'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}"
-    raise InputError(f"{option}: expected a number in {interval}{unit}, got {shown(value)}")
+    raise OptionError(f"{option}: expected a number in {interval}{unit}, got {shown(value)}")
 
 
 def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
@@ -75,14 +73,14 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
 
     Raises
     ------
-    InputError
+    OptionError
         The name has another suffix.
     OutputError
         Its folder does not exist or cannot be written, or the name is a folder.
     """
     out = Path(path)
     if "\0" in str(out) or out.suffix.lower() != suffix:
-        raise InputError(f"{option}: expected a file name ending in {suffix}, got "
+        raise OptionError(f"{option}: expected a file name ending in {suffix}, got "
                          f"{shown(str(out), 80)}")
     folder = out.parent
     if not folder.is_dir():
@@ -93,18 +91,3 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
         raise OutputError(f"{out}: cannot write here (no permission to write in "
                           f"{str(folder)!r})")
     return out
-
-
-def check_part_options(args: argparse.Namespace) -> None:
-    """The mesh options of ``plan`` and ``rank`` (see ``synth.cli.plan.add_part_options``)."""
-    real("--sharp-angle", args.sharp_angle, 0, 180, open_lo=True, open_hi=True, unit=" degrees")
-
-
-def check_finger_options(args: argparse.Namespace) -> None:
-    """The finger options of ``plan`` and ``rank`` (see
-    ``synth.cli.plan.add_finger_options``)."""
-    for option, value in (("--finger-radius", args.finger_radius),
-                          ("--body-length", args.body_length),
-                          ("--body-radius", args.body_radius)):
-        real(option, value, 0, MAX_LENGTH, open_lo=True, unit=" (mesh units)")
-    real("--approach-cone", args.approach_cone, 0, 90, open_hi=True, unit=" degrees")

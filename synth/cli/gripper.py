@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
-from synth.errors import InputError
+from synth.errors import OptionError
 
 __all__ = ["add_gripper_options", "refuse_gripper_options", "run_gripper",
            "format_gripper_table"]
@@ -50,9 +50,9 @@ def refuse_gripper_options(args: argparse.Namespace) -> None:
 
     for name in _ONLY_GRIPPER:
         if getattr(args, name) is not None:
-            raise InputError(f"--{name} applies to gripper grasps: add --gripper NAME|FILE")
+            raise OptionError(f"--{name} applies to gripper grasps: add --gripper NAME|FILE")
     if args.rank_by is not None and args.rank_by not in lim.RANK_BY:
-        raise InputError(f"--rank-by {args.rank_by} applies to gripper grasps; point-finger "
+        raise OptionError(f"--rank-by {args.rank_by} applies to gripper grasps; point-finger "
                          f"plans rank by {', '.join(lim.RANK_BY)}")
 
 
@@ -64,7 +64,7 @@ def _gravity(text: str | None) -> tuple[float, float, float] | None:
     except ValueError:
         v = ()
     if len(v) != 3 or not all(math.isfinite(x) for x in v) or not any(v):
-        raise InputError(f"--gravity: expected three numbers X,Y,Z, not all 0, got {text[:40]!r}")
+        raise OptionError(f"--gravity: expected three numbers X,Y,Z, not all 0, got {text[:40]!r}")
     return v  # type: ignore[return-value]
 
 
@@ -91,6 +91,9 @@ def run_gripper(args: argparse.Namespace) -> int:
     from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams, plan_gripper
     from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
 
+    if getattr(args, "sim", False):
+        raise OptionError("--sim simulates point-finger grasps; gripper grasps are not "
+                          "simulated yet (leave out --sim or --gripper)")
     mu = 0.5 if args.mu is None else args.mu
     real("--mu", mu, 0, MAX_MU, open_lo=True)
     integer("--top", args.top, 1, MAX_TOP)
@@ -100,12 +103,12 @@ def run_gripper(args: argparse.Namespace) -> int:
     real("--mass", args.mass, 0, math.inf, open_lo=True, open_hi=True, unit=" kg")
     real("--density", args.density, 0, math.inf, open_lo=True, open_hi=True, unit=" kg/m^3")
     if args.mass is not None and args.density is not None:
-        raise InputError("give --mass or --density, not both")
+        raise OptionError("give --mass or --density, not both")
     samples = GripperParams().samples if args.samples is None else args.samples
     integer("--samples", samples, 1, 1_000_000)
     rank_by = args.rank_by or "margin"
     if rank_by not in GRIPPER_RANK_BY:
-        raise InputError(f"--rank-by {rank_by}: gripper grasps rank by "
+        raise OptionError(f"--rank-by {rank_by}: gripper grasps rank by "
                          f"{', '.join(GRIPPER_RANK_BY)}")
     params = GripperParams(gripper=args.gripper, mu=mu, torsion=args.torsion, mass=args.mass,
                            density=args.density, gravity=_gravity(args.gravity), top=args.top,

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.cli.checks import integer, output_path, real
-from synth.errors import InputError
+from synth.errors import InputError, OptionError, shown
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
 
@@ -57,11 +57,14 @@ class Scores:
     errors: tuple[tuple[int, str], ...]
 
     def order(self) -> NDArray[np.int64]:
-        """Valid candidates best first: closure before non-closure, then by d*, then by
-        position in the file."""
+        """Valid candidates best first: closure before non-closure, then by d* as the table
+        prints it (:func:`synth.plan.ranking.shown_d_star`), then by position in the file."""
+        from synth.plan.ranking import shown_d_star
+
         idx = np.flatnonzero(self.valid)
         is_closure = self.closure[idx] != "force"
-        return idx[np.lexsort((idx, -self.d_star[idx], ~is_closure))]
+        printed = np.array([shown_d_star(d) for d in self.d_star[idx].tolist()])
+        return idx[np.lexsort((idx, -printed, ~is_closure))]
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -98,15 +101,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     )
     p.add_argument("--top", type=int, default=None, metavar="N",
                    help=f"rows to print and explain, N >= 0 (default {DEFAULT_TOP}; 0 for all)")
-    p.add_argument(
-        "--json",
-        nargs="?",
-        const="-",
-        default=None,
-        metavar="PATH",
-        help="write every candidate's score as JSON to PATH, ending in .json (or to stdout "
-        "without PATH)",
-    )
+    p.add_argument("--out", default=None, metavar="JSON",
+                   help="write every candidate's score as JSON to this file, ending in .json "
+                   "(as plan --out and rank --out); the table is printed too")
+    p.add_argument("--json", nargs="?", const=True, default=False, metavar="",
+                   help="print every candidate's score as JSON instead of the table (as plan "
+                   "--json and rank --json); --out writes it to a file")
     p.set_defaults(run=run)
 
 
@@ -252,8 +252,11 @@ def run(args: argparse.Namespace) -> int:
     real("--torsion", args.torsion, 0, MAX_LENGTH)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     integer("--top", args.top, 0)
-    if args.json not in (None, "-"):
-        output_path("--json", args.json, ".json")
+    if args.json is not True and args.json is not False:  # the old form, --json PATH
+        raise OptionError(f"--json takes no file name: it prints the JSON, as plan --json and "
+                          f"rank --json do; write it to a file with --out {shown(args.json, 60)}")
+    if args.out is not None:
+        output_path("--out", args.out, ".json")
     table = read_candidate_table(args.file)
     scores = score_table(table, args.mu, args.edges, args.torsion)
     order = scores.order()
@@ -261,9 +264,9 @@ def run(args: argparse.Namespace) -> int:
         more = f" (and {len(scores.errors) - 1} more malformed)" if len(scores.errors) > 1 else ""
         raise InputError(f"no candidate could be scored: {scores.errors[0][1]}{more}")
     top = DEFAULT_TOP if args.top is None else args.top
-    shown = order if top == 0 else order[:top]
-    why = explain(table, scores, shown, args.edges, args.torsion)
-    if args.json is not None:
+    rows_shown = order if top == 0 else order[:top]
+    why = explain(table, scores, rows_shown, args.edges, args.torsion)
+    if args.json or args.out is not None:
         rank_of = np.zeros(len(scores.names), np.int64)
         rank_of[order] = np.arange(1, len(order) + 1)
         def row(i: int) -> str:  # one JSON object, without json.dumps' per-call overhead
@@ -280,16 +283,17 @@ def run(args: argparse.Namespace) -> int:
         text = ('{"format": "synth.scores", "version": 1, "file": ' + json.dumps(str(args.file))
                 + ',\n "candidates": [\n' + ",\n".join(rows)
                 + '],\n "errors": [\n' + ",\n".join(map(json.dumps, errs)) + "]}")
-        if args.json == "-":
+        if args.out is not None:
+            write_atomic(args.out, text + "\n")
+        if args.json:
             print(text)
-        else:
-            write_atomic(args.json, text + "\n")
-    if args.json != "-":
-        print(format_table(scores, shown, why))
+    if not args.json:
+        print(format_table(scores, rows_shown, why))
     for _, message in scores.errors:
         print(f"synth: error: {message}", file=sys.stderr)
     n_closure = int((scores.closure[order] != "force").sum())
-    more = f"; showing the best {len(shown)} (--top 0 for all)" if len(shown) < len(order) else ""
+    more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
+            if len(rows_shown) < len(order) and not args.json else "")
     print(f"{len(order)} candidates scored, {n_closure} with closure"
           f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
           file=sys.stderr)

@@ -28,7 +28,7 @@ import sqlite3
 import threading
 from urllib.parse import quote
 
-from synth.errors import DatabaseError
+from synth.errors import DatabaseError, DatabaseFileError
 
 __all__ = ["open_reader", "open_writer", "release", "rest"]
 
@@ -49,7 +49,7 @@ def _read_header(path: str, fd: int) -> bytes:
     except OSError as e:
         raise DatabaseError(f"{path}: cannot read grasp database: {e.strerror or e}") from e
     if head and not head.startswith(_SQLITE_MAGIC):
-        raise DatabaseError(f"{path}: not a synth grasp database (not an SQLite file)")
+        raise DatabaseFileError(f"{path}: not a synth grasp database (not an SQLite file)")
     return head
 
 

@@ -36,11 +36,13 @@ from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
 from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
 from synth.errors import InputError
+from synth.plan import LOAD_KEYS
 from synth.plan.params import PlanParams
 
 __all__ = [
     "MESH_EXTENSIONS",
     "DEFAULT_PARAMS",
+    "PARAMS_BEFORE",
     "MeshInputs",
     "BuildReport",
     "BuildTerminated",
@@ -50,19 +52,21 @@ __all__ = [
 ]
 
 MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
-DEFAULT_PARAMS: dict[str, Any] = {
-    "contacts": 7,
-    "mu": 0.0,
-    "top": 10,
-    "seed": 0,
-    "finger_radius": None,
-    "evals": PlanParams().evals,  # the same search effort as 'synth plan'
-    # the planner's wall-clock cap; far above a normal plan, so the evaluation budget (not the
-    # machine's speed) decides the result. A plan the cap cuts is recorded as failed.
-    "time": 600.0,
-    # contact regions and placement tolerance of every grasp (synth plan --regions)
-    "regions": False,
-}
+#: A build's planner parameters when none are given: every field of
+#: :class:`synth.plan.PlanParams` (the same search effort as ``synth plan``) and the mesh
+#: options of :data:`synth.plan.LOAD_KEYS` (``sharp_angle`` in degrees), except the
+#: wall-clock cap: far above a normal plan, so the evaluation budget (not the machine's
+#: speed) decides the result; a plan the cap cuts is recorded as failed.
+DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
+                                  "body": "largest", "sharp_angle": 30.0}
+#: What a parameter was before it existed, for databases built then: before ``surface``, grasps
+#: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`). Any other
+#: parameter missing from a stored set matches its default.
+PARAMS_BEFORE: dict[str, Any] = {"surface": "smooth"}
+#: Parameters that are numbers (stored as floats, so 1 and 1.0 are one parameter set).
+_REAL_PARAMS = ("mu", "time", "finger_radius", "body_length", "body_radius", "approach_cone",
+                "support_z", "min_d_star", "min_conditioning", "diversity", "min_tolerance",
+                "sharp_angle")
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,9 @@ class MeshInputs:
     revisited : tuple of str
         Folders met again through a symbolic link (a link cycle, or a second link to a folder
         already searched): not searched twice.
+    scenes : tuple of str
+        GLB files met in folders that ``synth plan`` wrote (a part with its fingers, not a
+        part; see :func:`synth.plan.result.scene_run_id`): not planned.
     """
 
     paths: tuple[str, ...]
@@ -89,6 +96,7 @@ class MeshInputs:
     not_mesh: tuple[str, ...]
     missing: tuple[str, ...]
     revisited: tuple[str, ...] = ()
+    scenes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -115,6 +123,8 @@ class BuildReport:
         Non-mesh files met in directories.
     revisited : tuple of str
         Folders met again through a symbolic link, not searched twice.
+    scenes : tuple of str
+        Scenes ``synth plan`` wrote, met in folders and not planned.
     failures : tuple of (str, str)
         ``(path, reason)`` of the meshes that failed in this run.
     elapsed_s : float
@@ -139,6 +149,7 @@ class BuildReport:
     engine: str
     workers: int
     revisited: tuple[str, ...] = ()
+    scenes: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """A few readable lines for the end of a run."""
@@ -155,6 +166,10 @@ class BuildReport:
         if self.ignored:
             shown = ", ".join(self.ignored[:5]) + (", ..." if len(self.ignored) > 5 else "")
             lines.append(f"  ignored {len(self.ignored)} non-mesh files: {shown}")
+        if self.scenes:
+            shown = ", ".join(self.scenes[:5]) + (", ..." if len(self.scenes) > 5 else "")
+            lines.append(f"  not planned: {len(self.scenes)} scenes synth plan wrote (a part "
+                         f"with its fingers, not a part): {shown}")
         if self.revisited:
             shown = ", ".join(self.revisited[:5]) + (", ..." if len(self.revisited) > 5 else "")
             lines.append(f"  searched once: {len(self.revisited)} folders met again through "
@@ -189,20 +204,21 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
         if key not in DEFAULT_PARAMS:
             raise InputError(f"unknown planner parameter {key!r}; valid: {sorted(DEFAULT_PARAMS)}")
         out[key] = value
-    for key in ("contacts", "top", "seed", "evals"):
+    for key in ("contacts", "top", "seed", "evals", "edges"):
         if isinstance(out[key], bool) or not isinstance(out[key], int):
             raise InputError(f"planner parameter {key!r} must be an integer, got {out[key]!r}")
     if not isinstance(out["regions"], bool):
         raise InputError(f"planner parameter 'regions' must be true or false, got "
                          f"{out['regions']!r}")
-    for key in ("time", "mu", "finger_radius"):
+    for key in _REAL_PARAMS:
         if out[key] is not None:
             try:
                 out[key] = float(out[key])
             except (TypeError, ValueError) as e:
                 raise InputError(f"planner parameter {key!r} must be a number, got "
                                  f"{out[key]!r}") from e  # fmt: skip
-    PlanParams(**out)
+    _check_load_options(out)
+    PlanParams(**{k: v for k, v in out.items() if k not in LOAD_KEYS})
     return out
 
 
@@ -230,6 +246,28 @@ def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
             0 < out["mu"] < float("inf")):
         raise InputError(f"planner parameter 'mu' must be a number > 0, got {out['mu']!r}")
     return out
+
+
+def _check_load_options(params: dict[str, Any]) -> None:
+    """The mesh options of a parameter set, as :func:`synth.load_part` will check them."""
+    from synth.part.load import UNIT_ALIASES
+
+    units, body, angle = params["units"], params["body"], params["sharp_angle"]
+    if units is not None:
+        try:
+            import trimesh
+
+            trimesh.units.to_inch(UNIT_ALIASES.get(str(units).strip().lower(), str(units)))
+        except Exception as e:  # noqa: BLE001 - trimesh raises several kinds
+            raise InputError(f"planner parameter 'units': unknown length unit {units!r}; use "
+                             "mm, cm, dm, m, um, in, ft or a trimesh unit name such as "
+                             "'millimeters'") from e
+    if isinstance(body, bool) or not isinstance(body, (int, str)):
+        raise InputError(f"planner parameter 'body' must be 'largest', 'all', an index or a "
+                         f"body name, got {body!r}")
+    if angle is None or not 0 < angle < 180:
+        raise InputError(f"planner parameter 'sharp_angle' must be in (0, 180) degrees, got "
+                         f"{angle!r}")
 
 
 def _is_mesh(path: str) -> bool:
@@ -275,6 +313,7 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     missing: set[str] = set()
     seen: set[str] = set()  # real paths of the folders searched
     revisited: list[str] = []
+    scenes: list[str] = []
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
     for src in map(os.fspath, sources):
@@ -284,7 +323,12 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
                     revisited.append(os.path.abspath(root))  # met again through a link
                 for name in files:
                     full = os.path.abspath(os.path.join(root, name))
-                    (paths.add(full) if _is_mesh(name) else ignored.append(full))
+                    if not _is_mesh(name):
+                        ignored.append(full)
+                    elif _is_scene(full):
+                        scenes.append(full)
+                    else:
+                        paths.add(full)
         elif not os.path.exists(src):
             raise InputError(f"{src}: no such file or folder")
         elif _is_mesh(src):
@@ -314,13 +358,30 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
                 else:
                     paths.add(full)
     if not paths and not not_mesh and not missing:
+        also = f" (only {len(scenes)} scenes synth plan wrote)" if scenes else ""
         raise InputError(
-            f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in {', '.join(map(str, sources))}"
+            f"no mesh files ({', '.join(MESH_EXTENSIONS)}) found in "
+            f"{', '.join(map(str, sources))}{also}"
         )
     return MeshInputs(
         tuple(sorted(paths)), tuple(sorted(ignored)), tuple(sorted(not_mesh)),
-        tuple(sorted(missing)), tuple(revisited),
+        tuple(sorted(missing)), tuple(revisited), tuple(sorted(scenes)),
     )  # fmt: skip
+
+
+def _is_scene(path: str) -> bool:
+    """Whether a file is a GLB scene ``synth plan`` wrote (its header and JSON chunk)."""
+    from synth.plan.result import scene_run_id
+
+    if not path.lower().endswith(".glb"):
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(20)
+            size = int.from_bytes(head[12:16], "little") if len(head) == 20 else 0
+            return scene_run_id(head + fh.read(min(size, 1 << 24))) is not None
+    except OSError:
+        return False  # planned, and recorded as unreadable
 
 
 def _hash_file(path: str) -> tuple[str, int]:
@@ -610,7 +671,7 @@ def build_database(
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]
         with GraspDatabase(out, mode="w") as db:
-            db.bind(run_params, planner_name)
+            db.bind(run_params, planner_name, {**DEFAULT_PARAMS, **PARAMS_BEFORE})
             tasks, hashes, skipped, duplicates, failures = _prepare(
                 db, inputs, params_text, planner_name, retry_failed
             )
@@ -658,4 +719,5 @@ def build_database(
             engine=engine,
             workers=seen_workers[0],
             revisited=inputs.revisited,
+            scenes=inputs.scenes,
         )

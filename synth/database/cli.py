@@ -16,8 +16,8 @@ from typing import Any
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
 from synth.errors import shown
-from synth.limits import (MAX_CONTACTS, MAX_EVALS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP,
-                          MIN_EVALS)
+from synth.cli.options import add_planning_options, check_planning_options, planning_params
+from synth.plan.params import RANK_BY, PlanParams
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -86,14 +86,8 @@ def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str]
     return parse
 
 
-# Ranges of the numeric options (shown in --help, checked before anything is read or written);
-# the planner's own limits (synth.plan.PlanParams) are checked again before the database opens.
-_CONTACTS = (2, MAX_CONTACTS)
-_MU = (0.0, MAX_MU)
-_TOP = (1, MAX_TOP)
-_SEED = (0, MAX_SEED)
-_RADIUS = (0.0, MAX_LENGTH)
-_EVALS = (MIN_EVALS, MAX_EVALS)
+# Ranges of the database's own numeric options (shown in --help, checked as they are parsed);
+# the planning options are plan's (synth.cli.options), checked before the database opens.
 _WORKERS = (0, 1024)
 _TIMEOUT = (0.0, 1e6)
 _K = (1, 10_000)
@@ -122,26 +116,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "cycle, is searched once), mesh files, or text files listing mesh paths")
     b.add_argument("--out", required=True,
                    help="database file (created or resumed; one build at a time writes it)")
-    b.add_argument("--contacts", type=_int_in(*_CONTACTS), default=DEFAULT_PARAMS["contacts"],
-                   help=f"contacts per grasp, {_CONTACTS[0]} to {_CONTACTS[1]}: at least 7 "
-                   "without friction, 3 with --mu > 0 (default %(default)s)")
-    b.add_argument("--mu", type=_float_in(*_MU), default=DEFAULT_PARAMS["mu"],
-                   help=f"Coulomb friction coefficient, {_MU[0]:g} to {_MU[1]:g} "
-                   "(default %(default)g: frictionless)")
-    b.add_argument("--top", type=_int_in(*_TOP), default=DEFAULT_PARAMS["top"],
-                   help=f"grasps kept per mesh, {_TOP[0]} to {_TOP[1]} (default %(default)s)")
-    b.add_argument("--seed", type=_int_in(*_SEED), default=DEFAULT_PARAMS["seed"],
-                   help="random seed, 0 to 2**63-1 (default %(default)s)")
-    b.add_argument("--finger-radius", type=_float_in(*_RADIUS, low_open=True),
-                   default=DEFAULT_PARAMS["finger_radius"], metavar="R",
-                   help=f"fingertip radius in the mesh's units, above 0 to {_RADIUS[1]:g} "
-                   "(default: sized from each part)")
-    b.add_argument("--evals", type=_int_in(*_EVALS), default=DEFAULT_PARAMS["evals"],
-                   help=f"grasp evaluations per mesh, {_EVALS[0]} to {_EVALS[1]:,} (default "
-                   "%(default)s, as 'synth plan'); with --seed this fixes the result")
-    b.add_argument("--regions", action="store_true",
-                   help="store each grasp's contact regions and placement tolerance (as synth "
-                   "plan --regions), for 'synth db top --rank-by tolerance'")
+    add_planning_options(b, time=DEFAULT_PARAMS["time"])
     b.add_argument("--workers", type=_int_in(*_WORKERS), default=None,
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
@@ -152,9 +127,9 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--planner", default=None, help="planner 'module:function'")
     b.add_argument("--gripper", default=None, metavar="NAME|FILE",
                    help="store gripper grasps of this parallel-jaw gripper (as synth plan "
-                   "--gripper, with --mu 0.5 unless given) in the table gripper_grasps")
-    b.add_argument("--units", default=None, metavar="UNIT",
-                   help="with --gripper: the unit of meshes whose file does not say")
+                   "--gripper, with --mu 0.5 unless given; --units, --top, --seed apply) in "
+                   "the table gripper_grasps")
+    b.set_defaults(mu=None)  # 0 for point fingers, 0.5 for a gripper, unless given
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
     b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
                    metavar="SECONDS",
@@ -169,11 +144,13 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     t = sub.add_parser("top", help="best grasps of one mesh", description="Best grasps of one mesh.")
     t.add_argument("database", help="database file")
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
-    t.add_argument("-k", type=_int_in(*_K), default=5,
+    t.add_argument("--top", "-k", type=_int_in(*_K), default=5, metavar="N",
                    help=f"number of grasps, {_K[0]} to {_K[1]:,} (default 5)")
-    t.add_argument("--rank-by", choices=("rank", "tolerance"), default="rank",
-                   help="order: the planner's rank (default) or placement tolerance, largest "
-                   "first (needs a database built with --regions)")
+    t.add_argument("--rank-by", choices=RANK_BY, default="rank",
+                   help="order of the grasps (default: the database's own, its build's "
+                   "--rank-by; d_star: by d* as printed, 5 decimals, then by conditioning; "
+                   "conditioning, epsilon or tolerance, the placement tolerance, which needs a "
+                   "database built with --regions: by that measure, largest first)")
     t.add_argument("--json", action="store_true", help="print the grasps as JSON")
 
     e = sub.add_parser("export", help="export a database to HDF5, NPZ or JSON", description="Export a database to HDF5, NPZ or JSON.")
@@ -187,14 +164,15 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _build(args: argparse.Namespace) -> int:
     from synth.database.build import build_database
 
-    params = {
-        "contacts": args.contacts, "mu": args.mu, "top": args.top, "seed": args.seed,
-        "finger_radius": args.finger_radius, "evals": args.evals, "regions": args.regions,
-    }  # fmt: skip
     planner = args.planner
-    if args.gripper is not None:
+    if args.gripper is None:
+        if args.mu is None:
+            args.mu = PlanParams().mu
+        check_planning_options(args)
+        params = planning_params(args)
+    else:  # gripper grasps (synth plan --gripper): the gripper planner's own parameters
         params = {"gripper": args.gripper, "units": args.units, "top": args.top,
-                  "seed": args.seed, "mu": args.mu if args.mu > 0 else 0.5}
+                  "seed": args.seed, "mu": 0.5 if args.mu is None else args.mu}
         planner = planner or "synth.plan:plan_gripper_file"
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
@@ -246,7 +224,7 @@ def _top(args: argparse.Namespace) -> int:
 
     with GraspDatabase(args.database) as db:
         mesh = db.mesh(args.mesh)
-        grasps = db.top(args.mesh, args.k, args.rank_by)
+        grasps = db.top(args.mesh, args.top, args.rank_by)
     if args.json:
         print(json.dumps({"mesh": mesh.path, "grasps": [g.to_dict() for g in grasps]}, indent=1))
         return 0
@@ -258,7 +236,7 @@ def _top(args: argparse.Namespace) -> int:
               + (f"{'tolerance':>10}  " if show else "") + "closure")
         for g in grasps:
             tol = "-" if g.tolerance is None else f"{g.tolerance:.3g}"
-            print(f"{g.rank:>4}  {g.d_star:8.4f}  {g.conditioning:8.4f}  {g.epsilon:8.4f}  "
+            print(f"{g.rank:>4}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
                   + (f"{tol:>10}  " if show else "") + g.closure)
     return 0
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -29,6 +28,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from synth.database.worker import PlanOutcome, crashed, run_one
+from synth.isolate import die_with_parent, how_it_ended
 
 __all__ = ["WATCHDOG_INTERVAL_S", "run_local"]
 
@@ -37,22 +37,8 @@ WATCHDOG_INTERVAL_S = 0.2
 # BLAS/OpenMP threads per local worker: the CPUs divided among the workers (unless already set),
 # so that N workers do not run N times the cores' worth of threads.
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
-_PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 
 _Task = tuple[int, str]  # (mesh id, path)
-
-
-def _die_with_parent() -> None:
-    """On Linux, have the kernel send SIGKILL to this process when its parent dies."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-    except (OSError, AttributeError):
-        pass  # the watchdog thread is enough
 
 
 def _watch_parent(parent: int) -> None:
@@ -65,7 +51,7 @@ def _watch_parent(parent: int) -> None:
 def _init_worker(parent: int) -> None:
     """Pool initializer: ignore Ctrl-C and end with the parent process ``parent``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-    _die_with_parent()
+    die_with_parent()
     threading.Thread(target=_watch_parent, args=(parent,), name="synth-watchdog",
                      daemon=True).start()  # fmt: skip
 
@@ -106,13 +92,19 @@ def run_local(
                 task = suspects.pop()
                 solo, solo_finished = _new_pool(1), False
                 try:
+                    future = solo.submit(run_one, task[1], params, planner, timeout)
+                    members = list((solo._processes or {}).values())
                     try:
-                        outcome = solo.submit(run_one, task[1], params, planner, timeout).result()
+                        outcome = future.result()
                     except BrokenProcessPool:
-                        outcome = crashed(task[1], "worker process died (crash or out of memory)")
+                        outcome = None
                     solo_finished = True
                 finally:
                     _stop(solo, solo_finished)
+                if outcome is None:  # the worker died planning this mesh alone: its crash
+                    codes = [p.exitcode for p in members if p.exitcode != 0]
+                    outcome = crashed(task[1], "the worker process planning it was "
+                                      + how_it_ended(codes[0] if codes else None))
                 yield task[0], outcome
                 continue
             while queue and not suspects and len(running) < 2 * workers:

@@ -29,7 +29,8 @@ sha256         TEXT       SHA-256 of the file's bytes (hex), NULL if the file co
 size           INTEGER    file size in bytes, NULL if unknown
 status         TEXT       ``pending``, ``done``, ``failed`` or ``duplicate``
 error_kind     TEXT       for ``failed``: ``mesh``, ``not_mesh``, ``unreadable``, ``no_grasp``,
-                          ``planner``, ``invalid_result``, ``timeout`` or ``crash``; else NULL
+                          ``planner``, ``invalid_result``, ``timeout``, ``time_cap`` or
+                          ``crashed`` (the worker died: the error names the signal); else NULL
 error          TEXT       readable reason of a failure, or the note of a duplicate
 duplicate_of   INTEGER    for ``duplicate``: id of the mesh with the same SHA-256 that is planned
 units          TEXT       units reported by the planner (``mm``, ``m``, ...)
@@ -128,7 +129,7 @@ from typing import Any
 
 import numpy as np
 
-from synth.errors import DatabaseError
+from synth.errors import DatabaseError, DatabaseFileError
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -551,27 +552,27 @@ def check_schema(conn: sqlite3.Connection, path: str) -> dict[str, str]:
     try:
         tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     except sqlite3.DatabaseError as e:
-        raise DatabaseError(f"{path}: not a synth grasp database (not SQLite: {e})") from e
+        raise DatabaseFileError(f"{path}: not a synth grasp database (not SQLite: {e})") from e
     if "meta" not in tables:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: not a synth grasp database (an SQLite file without a 'meta' table; "
             f"tables found: {sorted(tables) or 'none'})"
         )
     meta = dict(conn.execute("SELECT key, value FROM meta").fetchall())
     if meta.get("application") != APPLICATION:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: not a synth grasp database (meta.application is "
             f"{meta.get('application')!r}, expected {APPLICATION!r})"
         )
     if meta.get("schema_version") not in {str(v) for v in READABLE_VERSIONS}:
-        raise DatabaseError(
+        raise DatabaseFileError(
             f"{path}: grasp database of schema version {meta.get('schema_version')}, this synth "
             f"reads versions {READABLE_VERSIONS[0]} to {SCHEMA_VERSION}; rebuild it with this "
             "version of synth or use the version that wrote it"
         )
     missing = {"meshes", "grasps"} - tables
     if missing:
-        raise DatabaseError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
+        raise DatabaseFileError(f"{path}: damaged grasp database, missing tables {sorted(missing)}")
     return meta
 
 

@@ -29,15 +29,16 @@ from synth.database.schema import (
     schema_version,
 )
 from synth.database.worker import PlanOutcome
-from synth.errors import DatabaseError, InputError
+from synth.errors import DatabaseError, DatabaseFileError, InputError
 
 __all__ = ["GraspDatabase", "DatabaseInfo", "TOP_ORDERS"]
 
 #: Orders :meth:`GraspDatabase.top` knows.
-TOP_ORDERS = ("rank", "tolerance")
+#: Orders of :meth:`GraspDatabase.top`: the planner's ranks as stored, or the words of
+#: ``--rank-by`` (:func:`synth.plan.ranking.rank_grasps`).
+TOP_ORDERS = ("rank", "d_star", "conditioning", "epsilon", "tolerance")
 
 _BUSY_TIMEOUT_MS = 30_000
-_SQLITE_INT_MAX = 2**63 - 1
 
 
 def _now() -> str:
@@ -158,10 +159,10 @@ class GraspDatabase:
     def _connect(self, meta: dict[str, str] | None) -> sqlite3.Connection:
         path = self.path
         if os.path.isdir(path):
-            raise DatabaseError(f"{path}: is a directory, not a grasp database")
+            raise DatabaseFileError(f"{path}: is a directory, not a grasp database")
         if self.mode == "r":
             if not os.path.exists(path):
-                raise DatabaseError(f"{path}: no such grasp database")
+                raise DatabaseFileError(f"{path}: no such grasp database")
             conn, self._lock = open_reader(path)
         else:
             parent = os.path.dirname(os.path.abspath(path))
@@ -192,7 +193,7 @@ class GraspDatabase:
             raise DatabaseError(f"{path}: cannot open grasp database for writing ({e})") from e
         except sqlite3.DatabaseError as e:
             self._close_connection(conn)
-            raise DatabaseError(f"{path}: not a synth grasp database ({e})") from e
+            raise DatabaseFileError(f"{path}: not a synth grasp database ({e})") from e
         except BaseException:
             self._close_connection(conn)
             raise
@@ -350,22 +351,24 @@ class GraspDatabase:
     def top(self, mesh: str | int, k: int = 5, rank_by: str = "rank") -> list[GraspRecord]:
         """The best ``k`` grasps of a mesh, following duplicates to their original.
 
-        ``rank_by``: ``"rank"`` (the planner's order) or ``"tolerance"`` (placement tolerance,
-        largest first; grasps without one last, then by rank).
+        ``rank_by``: ``"rank"`` (the planner's order, as built) or a word of ``--rank-by``:
+        ``"d_star"`` (by d* as printed, then conditioning), ``"conditioning"``,
+        ``"epsilon"`` or ``"tolerance"`` (placement tolerance, largest first; grasps without
+        one last), as :func:`synth.plan.ranking.rank_grasps` orders them, then by rank.
         """
+        from synth.plan.ranking import rank_grasps
+
         if k < 1:
             raise InputError(f"k must be at least 1, got {k}")
         if rank_by not in TOP_ORDERS:
             raise InputError(f"rank_by: expected one of {', '.join(TOP_ORDERS)}, got "
                              f"{rank_by!r}")
-        order = "rank" if rank_by == "rank" else "tolerance IS NULL, tolerance DESC, rank"
-        if rank_by == "tolerance" and self.schema_version < 3:
-            order = "rank"  # an older file has no tolerances: every grasp has none
-        rows = self._query(
-            f"SELECT * FROM grasps WHERE mesh_id = ? ORDER BY {order} LIMIT ?",
-            (self._grasp_owner(mesh), min(int(k), _SQLITE_INT_MAX)),  # any larger k: all of them
-        )
-        return [GraspRecord.from_row(r) for r in rows]
+        rows = self._query("SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank",
+                           (self._grasp_owner(mesh),))
+        grasps = [GraspRecord.from_row(r) for r in rows]
+        if rank_by != "rank":
+            grasps = rank_grasps(grasps, rank_by)
+        return grasps[: int(k)]
 
     def _grasp_owner(self, mesh: str | int) -> int:
         rec = self.mesh(mesh)
@@ -420,8 +423,12 @@ class GraspDatabase:
             self.meta = check_schema(self._conn, self.path)
             self.schema_version = schema_version(self.meta)
 
-    def bind(self, params: dict[str, Any], planner: str) -> None:
+    def bind(self, params: dict[str, Any], planner: str,
+             defaults: dict[str, Any] | None = None) -> None:
         """Fix this database's parameters and planner, or check they match the stored ones.
+
+        A parameter missing from the stored ones (a database built before the parameter
+        existed) matches its value in ``defaults``.
 
         Raises
         ------
@@ -441,19 +448,19 @@ class GraspDatabase:
                 )
             self.meta.update(params=text, planner=planner)
             return
-        if stored != text:
-            import json
+        import json
 
-            old = json.loads(stored)
-            diff = {k: (old.get(k), params.get(k)) for k in sorted(set(old) | set(params))}
-            diff = {k: v for k, v in diff.items() if v[0] != v[1]}
+        old = {**(defaults or {}), **json.loads(stored)}
+        diff = {k: (old.get(k), params.get(k)) for k in sorted(set(old) | set(params))}
+        diff = {k: v for k, v in diff.items() if v[0] != v[1]}
+        if diff:
             shown = ", ".join(f"{k}: stored {a!r}, asked {b!r}" for k, (a, b) in diff.items())
-            raise DatabaseError(
+            raise DatabaseFileError(
                 f"{self.path}: this database was built with other planner parameters ({shown}); "
                 "use the same parameters to resume, or another --out file"
             )
         if self.meta.get("planner") != planner:
-            raise DatabaseError(
+            raise DatabaseFileError(
                 f"{self.path}: this database was built with planner {self.meta.get('planner')!r}, "
                 f"not {planner!r}; use the same planner to resume, or another --out file"
             )

@@ -292,8 +292,9 @@ def _failure(
 
 
 def crashed(path: str, reason: str) -> PlanOutcome:
-    """The outcome of a task whose worker died (or whose Dask task failed) with ``reason``."""
-    return PlanOutcome(path, False, "crash", reason, None, None, None, None, (), None, 0.0)
+    """The outcome of a task whose worker died (or whose Dask task failed) with ``reason``:
+    ``error_kind`` ``"crashed"``."""
+    return PlanOutcome(path, False, "crashed", reason, None, None, None, None, (), None, 0.0)
 
 
 def _planner_failure(path: str, e: Exception, start: float) -> PlanOutcome:

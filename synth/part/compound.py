@@ -23,20 +23,22 @@ import fcl
 import numpy as np
 import trimesh
 
+from synth.isolate import NativeCrash, call_isolated
+from synth.native import bvh_model
 from synth.part.repair import fix_degenerate
 
 __all__ = ["OVERLAP_RTOL", "group_bodies", "unite_overlapping"]
+
+#: The manifold3d steps, run in the child process of :mod:`synth.isolate`.
+OVERLAP_VOLUMES = "synth.native:overlap_volumes"
+UNITE = "synth.native:unite"
 
 #: Two closed bodies overlap when their common volume exceeds this fraction of the smaller.
 OVERLAP_RTOL: float = 1e-6
 
 
 def _bvh(mesh: trimesh.Trimesh) -> fcl.CollisionObject:
-    model = fcl.BVHModel()
-    model.beginModel(len(mesh.vertices), len(mesh.faces))
-    model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int32))
-    model.endModel()
-    return fcl.CollisionObject(model, fcl.Transform())
+    return fcl.CollisionObject(bvh_model(mesh.vertices, mesh.faces), fcl.Transform())
 
 
 def _box_gap(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -45,12 +47,10 @@ def _box_gap(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.maximum(sep, 0.0), axis=2)
 
 
-def _manifold(mesh: trimesh.Trimesh, origin: np.ndarray):  # type: ignore[no-untyped-def]
-    import manifold3d as mf
-
-    m = mf.Manifold(mf.Mesh64(vert_properties=np.asarray(mesh.vertices, np.float64) - origin,
-                              tri_verts=np.asarray(mesh.faces, np.uint64)))
-    return m if m.status() == mf.Error.NoError and not m.is_empty() else None
+def _arrays(mesh: trimesh.Trimesh, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A body's vertices around ``origin`` and its faces, for :mod:`synth.native`."""
+    return (np.asarray(mesh.vertices, np.float64) - origin,
+            np.asarray(mesh.faces, np.int64))
 
 
 class _Sets:
@@ -76,14 +76,13 @@ class _Sets:
 
 
 def _overlap_volume(a: trimesh.Trimesh, b: trimesh.Trimesh, origin: np.ndarray) -> float:
-    ma, mb = _manifold(a, origin), _manifold(b, origin)
-    if ma is None or mb is None:
-        return 0.0
-    return float((ma ^ mb).volume())
+    """The volume common to two closed bodies (manifold3d, in the child process)."""
+    return float(call_isolated(OVERLAP_VOLUMES, [_arrays(a, origin), _arrays(b, origin)],
+                               [(0, 1)])[0])
 
 
 def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: float
-                 ) -> list[list[int]]:
+                 ) -> tuple[list[list[int]], list[str]]:
     """Split bodies into objects: groups of bodies that touch, nearly touch or nest.
 
     Parameters
@@ -99,10 +98,12 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
     -------
     groups : list of list of int
         Body indices of each object, in order of their first body.
+    warnings : list of str
+        One line per nesting test manifold3d crashed on (those bodies count as apart).
     """
     n = len(meshes)
     if n == 1:
-        return [[0]]
+        return [[0]], []
     lo = np.array([m.bounds[0] for m in meshes], float)
     hi = np.array([m.bounds[1] for m in meshes], float)
     thr = gap_rtol * float(np.linalg.norm(hi.max(axis=0) - lo.min(axis=0)))
@@ -116,6 +117,7 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
         return objects[i]
 
     centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
+    warnings: list[str] = []
     for i, j in zip(*np.nonzero(near)):
         i, j = int(i), int(j)
         if sets.find(i) == sets.find(j):
@@ -126,11 +128,17 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
             continue
         for outer, inner in ((i, j), (j, i)):  # one body nested inside the other
             if closed[outer] and closed[inner] and np.all(lo[outer] <= lo[inner]) and \
-                    np.all(hi[inner] <= hi[outer]) and \
-                    _overlap_volume(meshes[outer], meshes[inner], centre) > 0:
-                sets.join(i, j)
-                break
-    return sets.groups()
+                    np.all(hi[inner] <= hi[outer]):
+                try:
+                    nested = _overlap_volume(meshes[outer], meshes[inner], centre) > 0
+                except NativeCrash as e:
+                    warnings.append(f"manifold3d crashed ({e.how}) testing whether body "
+                                    f"{inner} lies inside body {outer}; counted them apart")
+                    nested = False
+                if nested:
+                    sets.join(i, j)
+                    break
+    return sets.groups(), warnings
 
 
 def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: list[bool],
@@ -164,28 +172,25 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
     hi = np.array([m.bounds[1] for m in meshes], float)
     centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
     boxes = np.triu(_box_gap(lo, hi) <= 0.0, 1)
+    pairs = [(int(i), int(j)) for i, j in zip(*np.nonzero(boxes)) if closed[i] and closed[j]]
+    used = sorted({k for p in pairs for k in p})
+    slot = {k: s for s, k in enumerate(used)}
+    notes: list[str] = []
     sets = _Sets(n)
-    manifolds: dict[int, object] = {}
-
-    def man(i: int):  # type: ignore[no-untyped-def]
-        if i not in manifolds:
-            manifolds[i] = _manifold(meshes[i], centre)
-        return manifolds[i]
-
+    try:
+        volumes = call_isolated(OVERLAP_VOLUMES, [_arrays(meshes[k], centre) for k in used],
+                                [(slot[i], slot[j]) for i, j in pairs]) if pairs else []
+    except NativeCrash as e:
+        volumes = [0.0] * len(pairs)
+        notes.append(f"could not test which bodies overlap (manifold3d crashed: {e.how}); "
+                     "kept them separate")
     vol = [abs(float(m.volume)) if c else 0.0 for m, c in zip(meshes, closed)]
-    for i, j in zip(*np.nonzero(boxes)):
-        i, j = int(i), int(j)
-        if not (closed[i] and closed[j]):
-            continue
-        a, b = man(i), man(j)
-        if a is None or b is None:
-            continue
-        if (a ^ b).volume() > OVERLAP_RTOL * min(vol[i], vol[j]):  # type: ignore[attr-defined]
+    for (i, j), common in zip(pairs, volumes):
+        if common > OVERLAP_RTOL * min(vol[i], vol[j]):
             sets.join(i, j)
     out_m: list[trimesh.Trimesh] = []
     out_n: list[str] = []
     out_s: list[np.ndarray] = []
-    notes: list[str] = []
 
     def keep(i: int) -> None:
         out_m.append(meshes[i])
@@ -196,29 +201,23 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
         if len(group) == 1:
             keep(group[0])
             continue
-        import manifold3d as mf
-
-        inputs = [man(i).as_original() for i in group]  # type: ignore[union-attr]
-        origin = {m.original_id(): i for m, i in zip(inputs, group)}
-        union = mf.Manifold.batch_boolean(inputs, mf.OpType.Add)
-        pieces = union.decompose() if union.status() == mf.Error.NoError else []
+        try:
+            pieces = call_isolated(UNITE, [_arrays(meshes[i], centre) for i in group])
+            why = "manifold3d failed"
+        except NativeCrash as e:
+            pieces, why = None, f"manifold3d crashed: {e.how}"
         if not pieces:
             for i in group:
                 keep(i)
             notes.append(f"could not unite overlapping bodies {[names[i] for i in group]} "
-                         "(manifold3d failed); kept them separate")
+                         f"({why}); kept them separate")
             continue
         label = "+".join(names[i] for i in group)
-        for k, piece in enumerate(pieces):
-            mesh = piece.to_mesh64()
-            runs = np.asarray(mesh.run_index, np.int64) // 3
-            src = np.repeat([origin.get(int(r), group[0]) for r in mesh.run_original_id],
-                            np.diff(runs))
-            united = trimesh.Trimesh(np.asarray(mesh.vert_properties, float)[:, :3] + centre,
-                                     np.asarray(mesh.tri_verts, np.int64), process=False)
+        for k, (v, f, src) in enumerate(pieces):
+            united = trimesh.Trimesh(v + centre, f, process=False)
             united, _, _, kept = fix_degenerate(united, height, max_move)
             out_m.append(united)
-            out_s.append(src[kept])
+            out_s.append(np.asarray(group, np.int64)[src][kept])
             out_n.append(label if len(pieces) == 1 else f"{label}#{k}")
         shown = [names[i] for i in group]
         shown = shown if len(shown) <= 6 else shown[:5] + [f"... {len(shown) - 5} more"]

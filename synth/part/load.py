@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import MeshError
+from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
 from synth.part.bodies import body_labels
@@ -66,6 +67,13 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     if len(data) == 0:
         raise _fail(name, "file is empty")
     digest = hashlib.sha256(data).hexdigest()
+    if ext == "glb":
+        from synth.plan.result import scene_run_id
+
+        run = scene_run_id(data)
+        if run is not None:
+            raise _fail(name, f"a scene synth plan wrote (run {run}): the part together with "
+                        "its fingers, not a part; plan the mesh it was made from")
     if ext == "stl" and not data[:5].lower().startswith(b"solid") and len(data) >= 84:
         count = int(np.frombuffer(data[80:84], "<u4")[0])
         if len(data) < 84 + 50 * count:
@@ -205,11 +213,16 @@ def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs
     flipped = 0
     closes: list[str] = []
     still_open: list[tuple[str, int]] = []
+    crashed: list[tuple[str, str]] = []
     for pname, m in pieces:
         m, k = orient(m)
         flipped += k
         if not m.is_watertight and len(m.faces) >= 4:
-            m, what = close(m)
+            try:  # after a crash, the file's other bodies get trimesh's filling only
+                m, what = close(m, native=not crashed)
+            except NativeCrash as e:
+                what = None
+                crashed.append((pname, e.how))
             if what:
                 closes.append(what if len(pieces) == 1 else f"{what} ({pname})")
         closed = bool(m.is_watertight and m.is_winding_consistent and m.volume > 0)
@@ -219,6 +232,13 @@ def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs
     if flipped:
         repairs.append(f"re-oriented {flipped} faces (consistent winding, outward normals)")
     repairs.extend(closes)
+    if crashed:
+        where, how = crashed[0]
+        which = "" if len(pieces) == 1 else f" on body {where}, so the file's later bodies " \
+            "were not given to it"
+        warnings.append(f"{name}: manifold3d crashed ({how}) closing open edges{which}; the "
+                        "crash was confined to a child process and the bodies it would have "
+                        "closed are kept open")
     if len(pieces) == 1 and still_open:
         warnings.append(
             f"{name}: mesh is not watertight ({still_open[0][1]} open edges); volume, centre of "
@@ -354,7 +374,9 @@ def load_part(
     soup = path is not None and Path(path).suffix.lower() == ".stl"
     pieces, precision, length = _pieces(raw, name, repairs, soup)
     bodies = _repair_bodies(pieces, name, repairs, warnings)
-    groups = group_bodies([b[1] for b in bodies], [b[2] for b in bodies], tol.GROUP_GAP_RTOL)
+    groups, crashes = group_bodies([b[1] for b in bodies], [b[2] for b in bodies],
+                                   tol.GROUP_GAP_RTOL)
+    warnings.extend(f"{name}: {w}" for w in crashes)
     chosen, dropped, note = _choose(groups, bodies, body, name)
     if note:
         repairs.append(note)

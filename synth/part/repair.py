@@ -14,7 +14,13 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-__all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges"]
+from synth.isolate import call_isolated
+
+__all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges",
+           "MERGE_CLOSE"]
+
+#: The function :func:`close` runs in the child process (see :mod:`synth.isolate`).
+MERGE_CLOSE = "synth.native:merge_close"
 
 _PASSES = 8
 #: A degenerate face is a needle when its apex lies within this many tolerance heights of an
@@ -151,28 +157,31 @@ def open_edges(mesh: trimesh.Trimesh) -> int:
     return len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
 
 
-def close(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str | None]:
+def close(mesh: trimesh.Trimesh, native: bool = True) -> tuple[trimesh.Trimesh, str | None]:
     """Try to close an open body; returns it and what was done (None: still open, and
-    returned as it came: faces that close some holes but not all are not kept)."""
+    returned as it came: faces that close some holes but not all are not kept).
+
+    trimesh fills the holes it can; failing that (and unless ``native`` is False),
+    manifold3d merges nearly coincident open edges, in the child process of
+    :mod:`synth.isolate` (it crashed on real meshes).
+
+    Raises
+    ------
+    NativeCrash
+        manifold3d crashed on this mesh; the caller keeps it open and says so.
+    """
     n_f = len(mesh.faces)
     filled = mesh.copy()
     trimesh.repair.fill_holes(filled)
     if filled.is_watertight:
         filled, _ = orient(filled)
         return filled, f"filled holes with {len(filled.faces) - n_f} faces"
-    try:
-        import manifold3d as mf
-
-        m = mf.Mesh64(vert_properties=np.asarray(mesh.vertices, np.float64),
-                      tri_verts=np.asarray(mesh.faces, np.uint64))
-        m.merge()
-        solid = mf.Manifold(m)
-        if solid.status() == mf.Error.NoError and not solid.is_empty():
-            out = solid.to_mesh64()
-            closed = trimesh.Trimesh(np.asarray(out.vert_properties, float)[:, :3],
-                                     np.asarray(out.tri_verts, np.int64), process=False)
-            if closed.is_watertight and closed.volume > 0:
-                return closed, "closed the mesh with manifold3d (merged open edges)"
-    except Exception:  # manifold3d refuses non-manifold input; the body stays open
-        pass
+    if not native:
+        return mesh, None
+    got = call_isolated(MERGE_CLOSE, np.asarray(mesh.vertices, np.float64),
+                        np.asarray(mesh.faces, np.int64))
+    if got is not None:
+        closed = trimesh.Trimesh(*got, process=False)
+        if closed.is_watertight and closed.volume > 0:
+            return closed, "closed the mesh with manifold3d (merged open edges)"
     return mesh, None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import math
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,8 @@ __all__ = [
     "PlanParams",
     "PlannedGrasp",
     "Progress",
+    "LOAD_KEYS",
+    "load_options",
     "export_glb",
     "plan_mesh_file",
     "plan_gripper_file",
@@ -39,15 +42,34 @@ __all__ = [
 ]
 
 
+#: Keys of a planner parameter dict that say how to load the mesh (:func:`synth.load_part`;
+#: ``sharp_angle`` in degrees); the others are :class:`PlanParams` fields.
+LOAD_KEYS = ("units", "body", "sharp_angle")
+
+
+def load_options(params: dict[str, Any]) -> dict[str, Any]:
+    """:func:`synth.load_part` keywords from a parameter dict's ``LOAD_KEYS`` (absent keys:
+    the defaults). ``body`` may be the text of an index (``"2"``); ``sharp_angle`` is in
+    degrees."""
+    body = params.get("body", "largest")
+    if isinstance(body, str) and body.strip().lstrip("-").isdigit():
+        body = int(body)
+    return {"units": params.get("units"), "body": body,
+            "sharp_angle": math.radians(float(params.get("sharp_angle", 30.0)))}
+
+
 def plan_mesh_file(path: str | Path, params: dict[str, Any] | None = None) -> dict[str, Any]:
     """Load a mesh file and plan it; return the ``synth.grasps`` JSON document.
 
     This is the function ``synth db build`` calls for every mesh. ``params`` holds
-    :class:`PlanParams` fields (unknown keys are refused).
+    :class:`PlanParams` fields and the mesh options ``LOAD_KEYS`` (unknown keys are
+    refused).
     """
     from synth.part import load_part
     from synth.plan.search import plan_part
 
-    prm = PlanParams(**(params or {}))
-    part = load_part(path)
+    given = dict(params or {})
+    load = {k: given.pop(k) for k in LOAD_KEYS if k in given}
+    prm = PlanParams(**given)
+    part = load_part(path, **load_options(load))
     return plan_part(part, prm).to_json()

@@ -152,7 +152,6 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
     plan : Plan
     path : str or Path
     grasp : int
-    grasp : int
         Which grasp to show (0 = best); with no grasps, the part alone. The scene's extras
         hold the plan's ``run_id``, this grasp's rank, the mesh's SHA-256 and the parameters.
         Its contact regions, when computed, are patches ``region_i`` in the contacts' colours,
@@ -183,9 +182,13 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
             scene.add_geometry(tip, geom_name=f"tip_{i}")
             length = float(f["body_length"])
             cap = trimesh.creation.capsule(height=length, radius=float(f["body_radius"]))
-            # trimesh's capsule runs along +z from z = 0 to z = height
+            # the capsule's axis is z; trimesh 4.5 and 5.x centre it on the origin, older
+            # versions started it there: centred here, its middle goes halfway along the
+            # approach, so the axis runs from the tip centre to the body's far end, as the
+            # finger check's does
+            cap.apply_translation([0.0, 0.0, -float(cap.bounds[:, 2].mean())])
             T = trimesh.geometry.align_vectors([0, 0, 1], a)
-            T[:3, 3] = c
+            T[:3, 3] = c + 0.5 * length * a
             cap.apply_transform(T)
             cap.visual.face_colors = col
             scene.add_geometry(cap, geom_name=f"finger_{i}")

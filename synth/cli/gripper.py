@@ -11,7 +11,7 @@ from typing import Any
 from synth.cli.checks import integer, output_path, real
 from synth.errors import OptionError
 
-__all__ = ["add_gripper_options", "refuse_gripper_options", "run_gripper",
+__all__ = ["add_gripper_options", "refuse_gripper_options", "gripper_params", "run_gripper",
            "format_gripper_table"]
 
 _ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
@@ -83,13 +83,11 @@ def format_gripper_table(plan: Any) -> str:
     return "\n".join(lines)
 
 
-def run_gripper(args: argparse.Namespace) -> int:
-    """Run ``synth plan --gripper``; exit status 1 when no grasp was found."""
-    from synth.cli.plan import load_part_from_args, report_part
-    from synth.files import atomic_paths, writing
+def gripper_params(args: argparse.Namespace) -> Any:
+    """The :class:`synth.plan.gripper.GripperParams` of checked gripper options (``synth
+    plan --gripper`` and ``synth db build --gripper``)."""
     from synth.limits import MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP
-    from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams, plan_gripper
-    from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
+    from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams
 
     if getattr(args, "sim", False):
         raise OptionError("--sim simulates point-finger grasps; gripper grasps are not "
@@ -109,10 +107,21 @@ def run_gripper(args: argparse.Namespace) -> int:
     rank_by = args.rank_by or "margin"
     if rank_by not in GRIPPER_RANK_BY:
         raise OptionError(f"--rank-by {rank_by}: gripper grasps rank by "
-                         f"{', '.join(GRIPPER_RANK_BY)}")
-    params = GripperParams(gripper=args.gripper, mu=mu, torsion=args.torsion, mass=args.mass,
-                           density=args.density, gravity=_gravity(args.gravity), top=args.top,
-                           samples=samples, seed=args.seed, rank_by=rank_by, table=args.table)
+                          f"{', '.join(GRIPPER_RANK_BY)}")
+    return GripperParams(gripper=args.gripper, mu=mu, torsion=args.torsion, mass=args.mass,
+                         density=args.density, gravity=_gravity(args.gravity), top=args.top,
+                         samples=samples, seed=args.seed, rank_by=rank_by, table=args.table,
+                         edges=args.edges)
+
+
+def run_gripper(args: argparse.Namespace) -> int:
+    """Run ``synth plan --gripper``; exit status 1 when no grasp was found."""
+    from synth.cli.plan import load_part_from_args, report_part
+    from synth.files import atomic_paths, writing
+    from synth.plan.gripper import plan_gripper
+    from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
+
+    params = gripper_params(args)
     from synth.fingers.gripper import load_gripper
 
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read

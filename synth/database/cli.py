@@ -12,6 +12,7 @@ import math
 import signal
 import sys
 from collections.abc import Callable
+from dataclasses import asdict
 from typing import Any
 
 from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
@@ -125,11 +126,10 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--scheduler", default=None,
                    help="Dask scheduler address (engine dask; default: a local Dask cluster)")
     b.add_argument("--planner", default=None, help="planner 'module:function'")
-    b.add_argument("--gripper", default=None, metavar="NAME|FILE",
-                   help="store gripper grasps of this parallel-jaw gripper (as synth plan "
-                   "--gripper, with --mu 0.5 unless given; --units, --top, --seed apply) in "
-                   "the table gripper_grasps")
-    b.set_defaults(mu=None)  # 0 for point fingers, 0.5 for a gripper, unless given
+    from synth.cli.gripper import add_gripper_options
+
+    add_gripper_options(b)  # --gripper: gripper grasps, stored in the table gripper_grasps
+    b.set_defaults(mu=None, rank_by=None)  # their defaults differ with --gripper
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
     b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
                    metavar="SECONDS",
@@ -166,13 +166,17 @@ def _build(args: argparse.Namespace) -> int:
 
     planner = args.planner
     if args.gripper is None:
-        if args.mu is None:
-            args.mu = PlanParams().mu
+        from synth.cli.gripper import refuse_gripper_options
+
+        refuse_gripper_options(args)
+        args.mu = PlanParams().mu if args.mu is None else args.mu
+        args.rank_by = args.rank_by or PlanParams().rank_by
         check_planning_options(args)
         params = planning_params(args)
     else:  # gripper grasps (synth plan --gripper): the gripper planner's own parameters
-        params = {"gripper": args.gripper, "units": args.units, "top": args.top,
-                  "seed": args.seed, "mu": 0.5 if args.mu is None else args.mu}
+        from synth.cli.gripper import gripper_params
+
+        params = {"units": args.units, **asdict(gripper_params(args))}
         planner = planner or "synth.plan:plan_gripper_file"
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,

@@ -441,3 +441,20 @@ def test_a_closed_pipe_ends_the_output_quietly(tmp_path):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 128 + signal.SIGPIPE, err
     assert err == ""
+
+
+def test_a_hidden_point_of_a_single_body_is_not_blamed_on_another_body(tmp_path, capsys):
+    """A point in a slot narrower than a fingertip's step off the surface, on a part of one
+    body: hidden, and the message says where (a crevice), not "another body"."""
+    import manifold3d as mf
+
+    cut = mf.Manifold.cube([1, 1, 1], True) - mf.Manifold.cube([0.001, 2, 0.6], True).translate(
+        [0, 0, 0.3])
+    mesh = cut.to_mesh()
+    path = tmp_path / "slot.stl"
+    trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)).export(path)
+    c = tmp_path / "c.json"
+    c.write_text(json.dumps([{"name": "slot", "points": [[0.0005, 0.1, 0.3]] + CUBE_FC["points"][1:]}]))
+    line = _refused(capsys, "rank", path, c, "--units", "mm")
+    assert "point 0 lies on a hidden part of the surface (in a crevice of the part" in line
+    assert "another body" not in line

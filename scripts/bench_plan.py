@@ -53,11 +53,11 @@ def random_baseline(part, seconds: float, k: int = 7, seed: int = 0) -> tuple[fl
     best, n = 0.0, 0
     pool = sample_contacts(part, 60_000, seed=rng)
     single = (np.bincount(pool.finger)[pool.finger] == 1) & (pool.features == "face")
-    PP, PN = pool.points[single], pool.normals[single]
+    PP, PN, PS = pool.points[single], pool.normals[single], pool.smooth_normals[single]
     t_end = time.perf_counter() + seconds
     while time.perf_counter() < t_end:
         idx = rng.integers(0, len(PP), size=(4096, k))
-        d = valid_d_star(part, PP[idx], PN[idx], r)
+        d = valid_d_star(part, PP[idx], PN[idx], PS[idx], r)
         best = max(best, float(d.max()))
         n += len(idx)
     return best, n

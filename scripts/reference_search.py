@@ -2,9 +2,11 @@
 
 For one part, with a wall-clock budget:
 
-1. sample 60,000 contacts of the exposed surface (synth's part model: face normals on planar
-   facets, interpolated normals on curved patches, so that both searches score the same
-   physical model) and score random 7-subsets in batches for 30% of the budget;
+1. sample 60,000 contacts of the exposed surface (synth's part model, both readings of the
+   normals: the facets' own and the interpolated ones on curved patches) and score random
+   7-subsets in batches for 30% of the budget under the planner's default surface model
+   (``both``: closure and conditioning with both readings, d* the smaller), so that both
+   searches score the same physical model;
 2. keep the 8 best valid sets (form closure, conditioning >= 1e-3, fingertips of the
    planner's default radius at least two radii apart) and hill-climb each for an equal share
    of the rest: 256 proposals a round, each moving one random contact by a Gaussian step
@@ -35,9 +37,10 @@ from pathlib import Path
 
 import numpy as np
 
-from synth import form_closure_batch, load_part, sample_contacts
+from synth import load_part, sample_contacts
 from synth.fingers import check_fingers, default_fingers
 from synth.scores.quality import conditioning, scaled_wrenches
+from synth.scores.surface import readings, surface_scores
 
 __all__ = ["reference_search", "valid_d_star"]
 
@@ -45,14 +48,17 @@ CORPUS = Path(__file__).resolve().parent.parent / "meshes" / "corpus"
 CACHE = Path(__file__).resolve().parent / "reference_plan.json"
 
 
-def valid_d_star(part, P: np.ndarray, N: np.ndarray, r: float) -> np.ndarray:  # type: ignore[no-untyped-def]
-    """d* of each set (B, k, 3) where valid (form closure, conditioning >= 1e-3, tips at
-    least 2 r apart), else -1."""
-    W = scaled_wrenches(P, N, part.center_mass, part.length)
-    res = form_closure_batch(W)
+def valid_d_star(part, P: np.ndarray, N: np.ndarray, S: np.ndarray,  # type: ignore[no-untyped-def]
+                 r: float, surface: str = "both") -> np.ndarray:
+    """d* of each set (B, k, 3) with the mesh's normals ``N`` and the smooth ones ``S`` under
+    ``surface`` where valid (form closure, conditioning >= 1e-3 with every reading, tips at
+    least 2 r apart; tips along ``N``), else -1."""
+    res = surface_scores(P, N, S, surface, part.center_mass, part.length)
     ok = res.closure.copy()
-    if ok.any():
-        ok[ok] &= np.asarray(conditioning(W[ok])).reshape(-1) >= 1e-3
+    for n in readings(N, S, surface):
+        if ok.any():
+            W = scaled_wrenches(P[ok], n[ok], part.center_mass, part.length)
+            ok[ok] &= np.asarray(conditioning(W)).reshape(-1) >= 1e-3
     tips = P - r * N
     iu = np.triu_indices(P.shape[1], 1)
     ok &= np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2).min(axis=1) >= 2 * r
@@ -76,25 +82,25 @@ def reference_search(part, seconds: float, seed: int, k: int = 7,  # type: ignor
     L = part.length
     pool = sample_contacts(part, 60_000, seed=rng)
     single = (np.bincount(pool.finger)[pool.finger] == 1) & (pool.features == "face")
-    PP, PN = pool.points[single], pool.normals[single]
+    PP, PN, PS = pool.points[single], pool.normals[single], pool.smooth_normals[single]
     if reachable:
         ok = _reachable(part, PP, PN, fingers)
-        PP, PN = PP[ok], PN[ok]
-    best_sets: list[tuple[float, np.ndarray, np.ndarray]] = []
+        PP, PN, PS = PP[ok], PN[ok], PS[ok]
+    best_sets: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
     while time.perf_counter() < t_end_random:
         idx = rng.integers(0, len(PP), size=(4096, k))
-        P, N = PP[idx], PN[idx]
-        d = valid_d_star(part, P, N, r)
+        P, N, S = PP[idx], PN[idx], PS[idx]
+        d = valid_d_star(part, P, N, S, r)
         for i in np.argsort(-d)[:8]:
             if d[i] > 0:
-                best_sets.append((float(d[i]), P[i], N[i]))
+                best_sets.append((float(d[i]), P[i], N[i], S[i]))
         best_sets = sorted(best_sets, key=lambda t: -t[0])[:8]
     best = best_sets[0][0] if best_sets else 0.0
     if not best_sets:
         return 0.0
     share = (seconds * 0.7) / len(best_sets)
-    for d0, P0, N0 in best_sets:
-        cur_d, P, N = d0, P0.copy(), N0.copy()
+    for d0, P0, N0, S0 in best_sets:
+        cur_d, P, N, S = d0, P0.copy(), N0.copy(), S0.copy()
         sigma = 0.05 * L
         t_end = time.perf_counter() + share
         while sigma > 1e-5 * L and time.perf_counter() < t_end:
@@ -115,12 +121,14 @@ def reference_search(part, seconds: float, seed: int, k: int = 7,  # type: ignor
                 continue
             Pc = np.repeat(P[None], len(sel), axis=0)
             Nc = np.repeat(N[None], len(sel), axis=0)
+            Sc = np.repeat(S[None], len(sel), axis=0)
             Pc[np.arange(len(sel)), which[sel]] = c.points[first[sel]]
             Nc[np.arange(len(sel)), which[sel]] = c.normals[first[sel]]
-            d = valid_d_star(part, Pc, Nc, r)
+            Sc[np.arange(len(sel)), which[sel]] = c.smooth_normals[first[sel]]
+            d = valid_d_star(part, Pc, Nc, Sc, r)
             j = int(np.argmax(d))
             if d[j] > cur_d:
-                cur_d, P, N = float(d[j]), Pc[j], Nc[j]
+                cur_d, P, N, S = float(d[j]), Pc[j], Nc[j], Sc[j]
             else:
                 sigma *= 0.7
         best = max(best, cur_d)
@@ -144,7 +152,7 @@ def main() -> None:
             continue
         part = load_part(CORPUS / e["file"], units=e["units"])
         found = {str(s): reference_search(part, args.seconds, s) for s in args.seeds}
-        cache[e["file"]] = {"seconds": args.seconds, "seeds": found,
+        cache[e["file"]] = {"seconds": args.seconds, "seeds": found, "surface": "both",
                             "best": max(found.values()),
                             "computed": datetime.now(timezone.utc).strftime("%Y-%m-%d")}
         print(f"{e['file'][:44]:44s} " + "  ".join(f"seed {s}: {d:.4f}" for s, d in found.items()),

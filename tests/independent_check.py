@@ -7,20 +7,24 @@ every mesh), and for each grasp of a ``synth.grasps`` document checks that
    and on its exposed part: a step of ``STEP_RTOL`` times the part's size from the contact
    towards its fingertip's centre (along the outward normal for a fingertip with one contact)
    lands outside every closed piece (trimesh's signed distance);
-2. every normal points into every face the contact touches (faces within the on-surface
-   tolerance of it, except those buried in another closed piece beside it) and lies in the cone of the inward normals of those faces and the faces
-   around them (sharing a corner): a face normal, a normal of an edge's or a corner's cone,
-   and a normal interpolated on a tessellated curved surface all do;
+2. the file's own normal at every contact: the normal of the triangle it lies in (the faces
+   within the on-surface tolerance of it, except those buried in another closed piece
+   beside it, all coplanar); on an edge or at a vertex (touched faces not coplanar) the
+   reported normal, which must lie in the cone of the touched faces' inward normals. The
+   reported smooth normals point into every touched face and lie in the cone of the touched
+   faces and the faces around them (sharing a corner), as an interpolated normal does;
 3. d* solved again as a plain scipy LP (Trinkle 1992, LP (12)-(15) with the box
    -1 <= c <= 1; with friction its Section II.B test, written with free tangential
-   intensities and polygon facets) equals the reported d*, and the wrench matrix has full
-   rank when the grasp is reported as form closure;
+   intensities and polygon facets) with the file's own normals equals the reported
+   ``d_star_mesh``, with the reported smooth normals equals ``d_star_smooth``, and the
+   reported ``d_star`` is the one of the surface model (``params.surface``: the smaller of the
+   two for ``both``). Unless the model is ``smooth``, a grasp reported as form closure is form
+   closure with the file's own normals (positive d*, full rank);
 4. every fingertip touches its contacts and, with every finger body (a capsule along the
    approach direction), stays outside every closed piece and off every surface (trimesh's
-   signed distance; open pieces by unsigned distance), and fingertips do not overlap. On a
-   curved patch a fingertip pressed along an interpolated normal overlaps the flat facet
-   under it by ``r (1 - cos a)`` (``a`` the angle between the normal and the facet's): that
-   much, for angles up to 15 degrees, is the tessellation's error and allowed.
+   signed distance; open pieces by unsigned distance), and fingertips do not overlap. A tip
+   may sink ``PENETRATION`` of its radius into the surface, nothing more (tips are seated on
+   the facets), and the reported ``tip_sink`` is the depth measured here to within that.
 
 ``check_document(path, doc)`` returns a list of readable failures (empty when all pass).
 """
@@ -230,15 +234,27 @@ def _in_cone(n: np.ndarray, cone: np.ndarray) -> bool:
     return bool(resid <= 1e-6 and lam.sum() > 0)
 
 
-def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8) -> list[str]:
+def _lp(points: np.ndarray, normals: np.ndarray, mu: float, edges: int) -> tuple[float, int]:
+    """d* (frictional with mu > 0) and the rank of the frictionless wrench matrix."""
+    d, rank = lp_d_star(points, normals)
+    if mu > 0:
+        d = lp_frictional_d_star(points, normals, mu, edges)
+        d = d if d > 1e-9 else 0.0
+    return d, rank
+
+
+def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8,
+                surface: str = "both") -> list[str]:
     """Failures of one grasp (a dict of a synth.grasps document) planned with friction
-    coefficient ``mu`` and ``edges`` cone edges."""
+    coefficient ``mu``, ``edges`` cone edges and the surface model ``surface``."""
     out: list[str] = []
     P = np.asarray(g["points"], float)
     N = np.asarray(g["normals"], float)
+    S = np.asarray(g.get("smooth_normals", g["normals"]), float)
     L = pieces.length
-    if not np.allclose(np.linalg.norm(N, axis=1), 1.0, atol=1e-9):
-        out.append("normals are not unit vectors")
+    for name, arr in (("normals", N), ("smooth normals", S)):
+        if not np.allclose(np.linalg.norm(arr, axis=1), 1.0, atol=1e-9):
+            out.append(f"{name} are not unit vectors")
     dist = pieces.distance(P)
     for j in np.flatnonzero(dist > pieces.tol):
         out.append(f"contact {j} is {dist[j]:.3g} off the surface (tolerance {pieces.tol:.3g})")
@@ -250,22 +266,37 @@ def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8) -> lis
     depth = pieces.inside_depth(P + STEP_RTOL * L * toward)
     for j in np.flatnonzero(depth >= 0):
         out.append(f"contact {j} is not exposed: a step outward lands inside a closed piece")
-    for j, (p, n) in enumerate(zip(P, N)):
+    own = N.copy()  # the file's own normal at each contact
+    for j, (p, n, sm) in enumerate(zip(P, N, S)):
         faces = pieces.touched(p)
-        if len(faces) and (np.any(-pieces.normals[faces] @ n <= 0)
-                           or not _in_cone(n, pieces.normal_cone(faces))):
+        if not len(faces):
+            continue
+        inward = -pieces.normals[faces]
+        if np.all(inward @ inward[0] >= np.cos(1e-6)):  # inside one facet (or coplanar ones)
+            own[j] = inward[0] / np.linalg.norm(inward[0])
+        elif np.any(inward @ n <= 0) or not _in_cone(n, inward):
             out.append(f"contact {j}: normal {np.round(n, 4).tolist()} is outside the normal "
                        "cone of the faces it touches")
-    d, rank = lp_d_star(P, N)
-    if mu > 0:
-        d = lp_frictional_d_star(P, N, mu, edges)
-        d = d if d > 1e-9 else 0.0
-    if abs(d - g["d_star"]) > D_STAR_ATOL:
-        out.append(f"d* reported {g['d_star']:.9f}, scipy LP gives {d:.9f}")
-    if g["closure"] == "form" and (rank < 6 or d <= 1e-9):
-        out.append(f"reported form closure, but rank {rank} and LP d* {d:.3g}")
-    if g["closure"] == "frictional form" and d <= 1e-9:
-        out.append(f"reported frictional form closure, but the frictional LP gives {d:.3g}")
+        if np.any(inward @ sm <= 0) or not _in_cone(sm, pieces.normal_cone(faces)):
+            out.append(f"contact {j}: smooth normal {np.round(sm, 4).tolist()} is outside the "
+                       "normal cone of the faces it touches and those around them")
+    d_mesh, rank_mesh = _lp(P, own, mu, edges)
+    d_smooth, rank_smooth = _lp(P, S, mu, edges)
+    d_model = {"mesh": d_mesh, "smooth": d_smooth}.get(surface, min(d_mesh, d_smooth))
+    for name, got, want in (("d*", g["d_star"], d_model),
+                            ("d_star_mesh", g.get("d_star_mesh", g["d_star"]), d_mesh),
+                            ("d_star_smooth", g.get("d_star_smooth", g["d_star"]), d_smooth)):
+        if abs(want - got) > D_STAR_ATOL:
+            out.append(f"{name} reported {got:.9f}, scipy LP gives {want:.9f}")
+    holds = [(d_mesh, rank_mesh, "the file's own normals")] if surface != "smooth" else []
+    if surface != "mesh":
+        holds.append((d_smooth, rank_smooth, "the smooth normals"))
+    for d, rank, what in holds:
+        if g["closure"] == "form" and (rank < 6 or d <= 1e-9):
+            out.append(f"reported form closure, but with {what} rank {rank} and LP d* {d:.3g}")
+        if g["closure"] == "frictional form" and d <= 1e-9:
+            out.append(f"reported frictional form closure, but with {what} the frictional LP "
+                       f"gives {d:.3g}")
     A = np.asarray(f["approach"], float)
     r, rb, lb = float(f["tip_radius"]), float(f["body_radius"]), float(f["body_length"])
     gap = np.abs(np.linalg.norm(P - C[cf], axis=1) - r)
@@ -277,17 +308,13 @@ def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8) -> lis
                 out.append(f"fingertips {i} and {k} overlap")
     if (d_tip := pieces.inside_depth(C)).max() >= 0:
         out.append(f"fingertip {int(np.argmax(d_tip))} centre is inside a closed piece")
-    facet = np.zeros(len(C))  # the tessellation's overlap allowed to each fingertip
-    for j, (p, n) in enumerate(zip(P, N)):
-        faces = pieces.touched(p)
-        if len(faces):
-            cos = float((-pieces.normals[faces] @ n).min())
-            if cos >= np.cos(np.radians(15.0)):
-                facet[cf[j]] = max(facet[cf[j]], r * (1 - cos))
     near = pieces.distance(C, below=r)
-    for i in np.flatnonzero(near < r * (1 - PENETRATION) - facet):
+    for i in np.flatnonzero(near < r * (1 - PENETRATION)):
         out.append(f"fingertip {i} sinks {r - near[i]:.3g} into the surface (allowed "
-                   f"{r * PENETRATION + facet[i]:.3g})")
+                   f"{r * PENETRATION:.3g})")
+    if "tip_sink" in f and abs(float(f["tip_sink"]) - max(0.0, float(r - near.min()))) > \
+            r * PENETRATION:
+        out.append(f"tip_sink reported {f['tip_sink']:.3g}, measured {r - near.min():.3g}")
     if lb > 0:
         t = np.linspace(0.0, 1.0, max(2, int(np.ceil(20 * lb / rb)) + 1))
         axis = C[:, None, :] + (lb * t)[None, :, None] * A[:, None, :]
@@ -308,7 +335,9 @@ def check_document(path: str | Path, doc: dict, pieces: Pieces | None = None) ->
     pieces = pieces or Pieces(path)
     mu = float(doc.get("params", {}).get("mu", 0.0))
     edges = int(doc.get("params", {}).get("edges", 8))
+    surface = str(doc.get("params", {}).get("surface", "smooth"))
     out = []
     for i, g in enumerate(doc["grasps"]):
-        out.extend(f"grasp {i + 1}: {msg}" for msg in check_grasp(pieces, g, mu, edges))
+        out.extend(f"grasp {i + 1}: {msg}" for msg in check_grasp(pieces, g, mu, edges,
+                                                                   surface))
     return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -376,13 +377,14 @@ def _roof() -> trimesh.Trimesh:
     return trimesh.convex.convex_hull(np.array(pts + [(0.0, -1.0, h), (0.0, 1.0, h)]))
 
 
-def test_tip_on_an_edge_sinks_only_when_every_touched_facet_is_shallow() -> None:
+def test_one_fingertip_model_a_tip_sinks_at_most_the_penetration_tolerance() -> None:
     """A contact on the ridge, its normal tilted 8.9 degrees from the facet it lies on and 21
     from the facet across the ridge: the tip enters the ridge by r (1 - cos 8 deg) (distance
-    from the tip centre to the ridge line, derived by hand and measured with trimesh). The
-    curved-patch allowance covers the near facet alone, not the sharp edge, so the tip is
-    rejected; the same normal in the middle of the facet gets the allowance."""
-    from synth.fingers.collide import facet_sink
+    from the tip centre to the ridge line, derived by hand and measured with trimesh), and is
+    rejected with that depth and the allowance in the message. The same normal in the middle
+    of a facet sinks r (1 - cos a) and is rejected too (no allowance for tessellation); the
+    part's own normals there and on the ridge seat tips that sink nothing (trimesh)."""
+    from synth.fingers import tip_sinks
     from synth.part import Part
 
     mesh = _roof()
@@ -400,9 +402,48 @@ def test_tip_on_an_edge_sinks_only_when_every_touched_facet_is_shallow() -> None
     assert sunk == pytest.approx(r * (1 - math.cos(math.radians(8.0))), rel=1e-6)
     fingers = Fingers(tip_radius=r, body_length=0.0)
     assert sunk > fingers.penetration_tol
-    assert facet_sink(part, ridge[None], -n[None], r)[0, 0] == 0.0
     res = check_fingers(part, ridge[None], -n[None], fingers)
     assert not res.mask[0] and res.status[0, 0] == TIP_PENETRATES, res.reasons[0]
+    assert f"{fingers.penetration_tol:.3g}" in res.reasons[0], res.reasons[0]
+    assert _depth(res.reasons[0]) == pytest.approx(sunk, rel=5e-3)  # printed to 3 digits
     inside = np.array([-0.5, 0.0, 0.5 * math.tan(math.radians(12.0))])  # facet a only
-    assert facet_sink(part, inside[None], -n[None], r)[0, 0] == pytest.approx(
-        r * (1 - n @ n_a), rel=1e-9)
+    res = check_fingers(part, inside[None], -n[None], fingers)
+    assert not res.mask[0] and res.status[0, 0] == TIP_PENETRATES, res.reasons[0]
+    for p in (ridge, inside):
+        c = part.resolve(p[None])
+        res = check_fingers(part, c.points[None], c.normals[None], fingers)
+        assert res.mask[0], res.reasons[0]
+        tip = res.tip_centers[0, 0]
+        clear = -trimesh.proximity.signed_distance(mesh, [tip])[0]
+        assert abs(clear - r) <= 1e-8  # the ridge point lies 1e-9 off the ridge
+        assert tip_sinks(part, tip[None], r)[0] <= 1e-8
+
+
+def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None:
+    """Grasps of a tessellated curved part (the corpus lemon), their points jittered by 0.3% of
+    its size as another tool's would be: ``synth rank`` snaps them to the facets and seats the
+    tips along the facets' normals, so no tip sinks beyond the penetration tolerance (before,
+    tips followed interpolated normals and were refused as penetrating by about 1e-5 m). The
+    depths are measured again with trimesh's signed distance."""
+    from synth import PlanParams, load_part, plan_part
+    from synth.cli.rank import rank_candidates
+    from synth.fingers import default_fingers
+    from synth.grasps.candidates import Candidate
+
+    path = Path(__file__).resolve().parent.parent / "meshes" / "corpus" / "robosuite_lemon.stl"
+    part = load_part(path, units="m")
+    plan = plan_part(part, PlanParams(evals=3000, top=3, surface="smooth"))  # candidates
+    assert plan.grasps, plan.message
+    rng = np.random.default_rng(0)
+    cands = [Candidate(f"g{i}", g.points + rng.normal(size=g.points.shape) * 3e-3 * part.length,
+                       np.full(g.points.shape, np.nan), None)
+             for i, g in enumerate(plan.grasps)]
+    fingers = default_fingers(part)
+    rows = rank_candidates(part, cands, 0.0, fingers, 0.01 * part.length)
+    mesh = trimesh.load(path)
+    for r in rows:
+        assert r.fingers is not None, r.reason
+        assert r.fingers["tip_sink"] <= fingers.penetration_tol
+        tips = np.asarray(r.fingers["tip_centers"])
+        clear = -trimesh.proximity.signed_distance(mesh, tips)
+        assert clear.min() >= fingers.tip_radius - fingers.penetration_tol

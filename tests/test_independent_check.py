@@ -32,3 +32,30 @@ def test_touched_faces_skip_faces_buried_in_another_piece(tmp_path: Path) -> Non
     corner = pieces.touched(np.array([2.0, 1.2, 1.5]))  # A's face and C's y = 1.2 side
     assert np.isclose(outward[corner], [0.0, -1.0, 0.0]).all(axis=1).any()
     assert np.isclose(np.abs(outward[corner]), [1.0, 0.0, 0.0]).all(axis=1).any()
+
+
+def test_the_check_fails_grasps_that_hold_only_with_smooth_normals() -> None:
+    """On a convex decomposition (CoACD's bottle), grasps planned with ``--surface smooth``
+    pass the check as what they claim, but their d* overstates the one of the file's own
+    facet normals: the check rejects them as grasps of the default model, and a reported
+    d_star_mesh that is off is caught too."""
+    from synth import PlanParams, load_part, plan_part
+    from tests.independent_check import check_document
+
+    path = Path(__file__).resolve().parent.parent / "meshes" / "corpus" / \
+        "coacd_robosuite_bottle.obj"
+    plan = plan_part(load_part(path, units="m"), PlanParams(evals=3000, top=3,
+                                                           surface="smooth"))
+    doc = plan.to_json()
+    pieces = Pieces(path)
+    assert check_document(path, doc, pieces) == []
+    doc["params"]["surface"] = "both"
+    failures = check_document(path, doc, pieces)
+    assert failures and all(f.split(": ")[1].startswith("d* reported") or
+                            "with the file's own normals" in f for f in failures), failures
+    doc["params"]["surface"] = "smooth"
+    doc["grasps"][0]["d_star_mesh"] += 1e-3
+    assert check_document(path, doc, pieces) == ["grasp 1: d_star_mesh reported "
+                                                 f"{doc['grasps'][0]['d_star_mesh']:.9f}, "
+                                                 "scipy LP gives "
+                                                 f"{doc['grasps'][0]['d_star_mesh'] - 1e-3:.9f}"]

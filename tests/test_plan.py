@@ -83,6 +83,30 @@ def test_fingers_too_large_for_the_part_are_named():
     assert "rotate" not in plan.message and "revolution" not in plan.message
 
 
+def test_surface_models_on_a_tessellated_cylinder():
+    """The 64-sided cylinder: its facets alone give closure (``mesh``; every grasp is form
+    closure by scipy's LP with the file's own facet normals, read by trimesh), the surface it
+    approximates never does (the same grasps with the smooth normals are rank deficient), so
+    the default (``both``) finds none, as ``smooth`` does not."""
+    from tests.independent_check import lp_d_star
+
+    part = load_part(MESHES / "cylinder.stl")
+    mesh = trimesh.load(MESHES / "cylinder.stl")
+    plan = plan_part(part, PlanParams(evals=3000, top=3, surface="mesh"))
+    assert plan.grasps, plan.message
+    for g in plan.grasps:
+        _, _, faces = trimesh.proximity.closest_point(mesh, g.points)
+        own = -mesh.face_normals[faces]
+        d, rank = lp_d_star(g.points, own)
+        assert rank == 6 and d == pytest.approx(g.d_star, abs=1e-6)
+        assert g.d_star_mesh == g.d_star
+        ds, rank_s = lp_d_star(g.points, g.smooth_normals)
+        assert rank_s < 6 and g.d_star_smooth == pytest.approx(ds, abs=1e-6)
+    for surface in ("both", "smooth"):
+        none = plan_part(part, PlanParams(evals=3000, surface=surface))
+        assert none.grasps == () and "rotate about" in none.message
+
+
 @pytest.mark.parametrize("name", SAMPLES)
 def test_every_grasp_verifies_from_json(name):
     doc = plan_mesh_file(MESHES / name, {"evals": 3000, "top": 5, "seed": 3})

@@ -21,6 +21,7 @@ from synth.errors import OptionError
 from synth.limits import (AUTO_MAX_FINGERS, MAX_CONTACTS, MAX_EDGES, MAX_EVALS, MAX_FINGERS,
                           MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES, MIN_EVALS)
 from synth.plan.params import RANK_BY, PlanParams
+from synth.scores.surface import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_planning_options",
            "check_part_options", "check_finger_options", "check_planning_options",
@@ -28,7 +29,8 @@ __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_plannin
 
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
-    """How the mesh is loaded: ``--units``, ``--body``, ``--sharp-angle``."""
+    """How the mesh is read: ``--units``, ``--body``, ``--sharp-angle``, and which normals
+    score a grasp, ``--surface``."""
     g = p.add_argument_group("mesh")
     g.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of the mesh when the file does not say (STL never does): "
@@ -43,6 +45,12 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
                    help="dihedral angle above which an edge is sharp, in (0, 180) degrees "
                    "(default 30)")
+    g.add_argument("--surface", choices=SURFACES, default=DEFAULT_SURFACE,
+                   help="which normals a grasp must hold with: 'both' (default) the mesh's "
+                   "own facets and the smooth surface they may approximate, d* the smaller; "
+                   "'mesh' the facets alone (the mesh is the object, as a simulator's "
+                   "collision mesh); 'smooth' the interpolated normals alone (the mesh "
+                   "approximates a smooth part, as a scan)")
 
 
 def add_finger_options(p: argparse.ArgumentParser) -> None:
@@ -176,7 +184,7 @@ def planning_params(args: argparse.Namespace) -> dict[str, Any]:
         "body_length": args.body_length, "body_radius": args.body_radius,
         "approach_cone": args.approach_cone, "min_d_star": args.min_d_star,
         "support_z": args.table, "rank_by": args.rank_by, "regions": args.regions,
-        "min_tolerance": args.min_tolerance,
+        "min_tolerance": args.min_tolerance, "surface": args.surface,
         "units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
     }  # fmt: skip
 

@@ -45,6 +45,9 @@ class RankedCandidate:
     features: tuple[str, ...] = ()
     fingers: dict[str, Any] | None = field(default=None, repr=False)
     contact_regions: Any = field(default=None, repr=False)
+    smooth_normals: np.ndarray | None = field(default=None, repr=False)
+    d_star_mesh: float | None = None
+    d_star_smooth: float | None = None
     index: int | None = None  # position in the candidate file
 
     @property
@@ -66,6 +69,10 @@ class RankedCandidate:
             "epsilon": None if self.closure is None else self.epsilon,
             "points": None if self.points is None else self.points.tolist(),
             "normals": None if self.normals is None else self.normals.tolist(),
+            "smooth_normals": None if self.smooth_normals is None
+            else self.smooth_normals.tolist(),
+            "d_star_mesh": self.d_star_mesh,
+            "d_star_smooth": self.d_star_smooth,
             "features": list(self.features),
             "fingers": self.fingers,
             "tolerance": None if self.contact_regions is None else self.tolerance,
@@ -121,7 +128,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                     regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0,
-                    edges: int = 8, index: list[int] | None = None) -> list[RankedCandidate]:
+                    edges: int = 8, index: list[int] | None = None, surface: str = "both"
+                    ) -> list[RankedCandidate]:
     """Snap, resolve, check and score candidates on a part; best first (errors last).
 
     With ``regions`` (implied by ``rank_by="tolerance"`` and a positive ``min_tolerance``)
@@ -132,15 +140,18 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (a
     fingertip could not reach it: against another body of the part, or in a crevice of its
     own) makes its candidate unusable. ``index`` gives each candidate's position in its file,
-    for the messages (default: 0, 1, ...). Conditioning and epsilon are those ``synth plan``
-    reports (with friction, of the cone-edge wrenches with ``edges`` edges).
+    for the messages (default: 0, 1, ...). Each candidate is scored under the surface model
+    ``surface`` (:mod:`synth.scores.surface`): d*, closure, conditioning and epsilon are
+    those of its weaker reading of the normals, as ``synth plan`` reports them (with friction,
+    of the cone-edge wrenches with ``edges`` edges).
     """
-    from synth.fingers import check_fingers
+    from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
     from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.quality import (conditioning, epsilon_quality, grasp_wrenches,
                                      scaled_wrenches)
+    from synth.scores.surface import readings, surface_scores
 
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
@@ -172,32 +183,44 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                 c.name, "error", f"{label}: point {int(hidden[0])} lies on a hidden part of the "
                 f"surface ({where}), where no finger can touch", index=i))
             continue
-        P, N = con.points, con.normals
+        P, N, S = con.points, con.normals, con.smooth_normals
         m = c.mu if c.mu is not None else mu
         if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
             rows.append(RankedCandidate(c.name, "error",
                                         f"{label}: {len(P)} contacts are too few", index=i))
             continue
-        if m == 0:
-            r = form_closure(scaled_wrenches(P, N, center, L))
-            d, closure = r.d_star, r.closure
-        else:
-            fr = frictional_form_closure(P, N, m, center=center, edges=edges)
-            d, closure = fr.d_star, fr.closure
-        cond = float(conditioning(grasp_wrenches(P, N, center, L, m, edges)))
-        eps = float(epsilon_quality(P, N, center, L, m, edges))
+        both = surface_scores(P[None], N[None], S[None], surface, center, L, m)
+        graded = []  # per reading: (closure?, d*, closure class)
+        for n in readings(N, S, surface):
+            if m == 0:
+                r = form_closure(scaled_wrenches(P, n, center, L))
+                graded.append((r.closure == "form", r.d_star, r.closure))
+            else:
+                fr = frictional_form_closure(P, n, m, center=center, edges=edges)
+                graded.append((fr.closure == "frictional form", fr.d_star, fr.closure))
+        _, d, closure = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
+        cond = min(float(conditioning(grasp_wrenches(P, n, center, L, m, edges)))
+                   for n in readings(N, S, surface))
+        eps = min(float(epsilon_quality(P, n, center, L, m, edges))
+                  for n in readings(N, S, surface))
         ids = np.unique(con.finger, return_inverse=True)[1]
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
-        fing = chk.placement(0).to_dict() if chk.mask[0] else None
+        fing = None
+        if chk.mask[0]:
+            where = chk.placement(0)
+            fing = where.to_dict()
+            fing["tip_sink"] = float(tip_sinks(part, where.tip_centers, where.tip_radius).max())
         holds = closure in ("form", "frictional form")
-        robust = contact_regions(part, P, N, mu=m, edges=edges, d_star=d) if holds and (
+        robust = contact_regions(part, P, N, mu=m, edges=edges, d_star=d, smooth=S,
+                                 surface=surface) if holds and (
             regions or rank_by == "tolerance" or min_tolerance > 0) else None
         status, reason = ("ok", None) if chk.mask[0] else ("fingers", chk.reasons[0])
         if status == "ok" and robust is not None and robust.tolerance < min_tolerance:
             status, reason = "tolerance", (f"placement tolerance {robust.tolerance:.4g} is "
                                            f"below --min-tolerance {min_tolerance:g}")
         rows.append(RankedCandidate(c.name, status, reason, d, closure, cond, eps, P, N,
-                                    tuple(con.features), fing, robust, i))
+                                    tuple(con.features), fing, robust, S,
+                                    float(both.d_mesh[0]), float(both.d_smooth[0]), i))
     return order_rows(rows, rank_by)
 
 
@@ -243,7 +266,8 @@ def run(args: argparse.Namespace) -> int:
     index = sorted(i for g in table.groups for i in g.index.tolist())
     rows = rank_candidates(part, table.candidates(), args.mu, fingers, max_d,
                            regions=args.regions, rank_by=args.rank_by,
-                           min_tolerance=args.min_tolerance, edges=args.edges, index=index)
+                           min_tolerance=args.min_tolerance, edges=args.edges, index=index,
+                           surface=args.surface)
     rows = order_rows(rows + [RankedCandidate(table.names[i], "error", message, index=i)
                               for i, message in table.errors], args.rank_by)
     unusable = [r for r in rows if r.status == "error"]
@@ -253,7 +277,8 @@ def run(args: argparse.Namespace) -> int:
                          f"{unusable[0].reason}{more}")
     doc = {"format": "synth.ranked", "version": 1, "mesh": {"path": part.source,
            "sha256": part.sha256, "units": part.units, "length": part.length},
-           "mu": args.mu, "edges": args.edges, "fingers": fingers.to_dict(),
+           "mu": args.mu, "edges": args.edges, "surface": args.surface,
+           "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:

@@ -20,12 +20,18 @@ FEATURE_KINDS: tuple[str, ...] = ("face", "edge", "vertex")
 class Contacts:
     """Frictionless point contacts on a part, one row per contact.
 
+    Each contact carries two readings of the surface's normal (see :mod:`synth.scores.surface`):
+    ``normals``, the mesh's own (the facet's inside a face, a direction of the feature's normal
+    cone at an edge or a vertex), along which a fingertip touching the mesh pushes; and
+    ``smooth_normals``, those of the smooth surface the mesh may approximate (interpolated across
+    a tessellated curved patch; the same as ``normals`` on planar facets and sharp features).
+
     Attributes
     ----------
     points : (n, 3) float
         Contact points on the surface.
     normals : (n, 3) float
-        Unit normals pointing INTO the object (Trinkle's convention).
+        Unit normals of the mesh as given, pointing INTO the object (Trinkle's convention).
     features : (n,) str
         ``"face"``, ``"edge"`` or ``"vertex"``: the feature the contact lies on.
     feature_index : (n,) int
@@ -39,6 +45,8 @@ class Contacts:
     finger : (n,) int
         Contacts one fingertip makes together (the 2 of a groove, the 3 of an inside
         corner) share an id; other contacts have distinct ids.
+    smooth_normals : (n, 3) float, optional
+        Unit inward normals of the smooth reading; default: ``normals``.
 
     Examples
     --------
@@ -57,6 +65,7 @@ class Contacts:
     unique_normal: np.ndarray
     region: np.ndarray
     finger: np.ndarray
+    smooth_normals: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         pts = np.array(self.points, dtype=float, copy=True)
@@ -66,9 +75,14 @@ class Contacts:
         nrm = np.array(self.normals, dtype=float, copy=True)
         if nrm.shape != (n, 3):
             raise InputError(f"Contacts.normals: expected shape ({n}, 3), got {nrm.shape}")
-        if not (np.isfinite(pts).all() and np.isfinite(nrm).all()):
+        smooth = nrm.copy() if self.smooth_normals is None else np.array(
+            self.smooth_normals, dtype=float, copy=True)
+        if smooth.shape != (n, 3):
+            raise InputError(f"Contacts.smooth_normals: expected shape ({n}, 3), got "
+                             f"{smooth.shape}")
+        if not (np.isfinite(pts).all() and np.isfinite(nrm).all() and np.isfinite(smooth).all()):
             raise InputError("Contacts: points and normals must be finite")
-        conv: dict[str, Any] = {"points": pts, "normals": nrm}
+        conv: dict[str, Any] = {"points": pts, "normals": nrm, "smooth_normals": smooth}
         conv["features"] = np.array(self.features, dtype="<U6", copy=True)
         bad = ~np.isin(conv["features"], FEATURE_KINDS)
         if bad.any():
@@ -85,7 +99,7 @@ class Contacts:
         ):
             conv[name] = np.array(getattr(self, name), dtype=dtype, copy=True)
         for name, arr in conv.items():
-            if name not in ("points", "normals") and arr.shape != (n,):
+            if name not in ("points", "normals", "smooth_normals") and arr.shape != (n,):
                 raise InputError(f"Contacts.{name}: expected shape ({n},), got {arr.shape}")
             arr.flags.writeable = False
             object.__setattr__(self, name, arr)

@@ -13,6 +13,7 @@ from synth.fingers.collide import (
     check_fingers,
     checker_for,
     finger_placement,
+    tip_sinks,
 )
 from synth.fingers.model import FingerPlacement, Fingers, default_fingers, tip_centers
 
@@ -26,4 +27,5 @@ __all__ = [
     "default_fingers",
     "finger_placement",
     "tip_centers",
+    "tip_sinks",
 ]

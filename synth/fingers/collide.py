@@ -5,7 +5,9 @@ For a batch of grasps of one part, :func:`check_fingers` keeps the grasps whose 
 1. can touch all their contacts (a fingertip shared by several contacts fits them all),
 2. do not overlap each other (tips and bodies; exact sphere/capsule distances in numpy),
 3. stay on the part's side of an optional support plane, approach path included (numpy),
-4. do not penetrate the part deeper than ``Fingers.penetration_tol`` (FCL), and
+4. do not penetrate the part deeper than ``Fingers.penetration_tol`` (FCL; a tip is seated
+   along the mesh's own normal, see :mod:`synth.scores.surface`, so one touching the facets
+   sinks into none of them), and
 5. can come in from outside along an approach direction in the cone without passing through
    the part (FCL: the fingertip swept from beyond the part's bounding sphere to its contact is
    a capsule, which also contains the tip and, the body being thinner, the whole finger).
@@ -63,9 +65,7 @@ __all__ = [
     "APPROACH_BLOCKED",
     "STATUS_NAMES",
     "DEGENERATE_AXIS_TOL",
-    "MAX_SINK_ANGLE",
-    "SINK_STEP",
-    "facet_sink",
+    "tip_sinks",
     "FingerCheck",
     "FingerChecker",
     "checker_for",
@@ -76,12 +76,6 @@ __all__ = [
 #: Per-finger status codes of :attr:`FingerCheck.status`.
 OK, ABSENT, UNCHECKED = 0, -2, -1
 MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2, 3, 4, 5, 6
-#: Largest angle between a contact's normal and its facet's for which a fingertip may sink into
-#: the facet (see :func:`facet_sink`): half the default sharp-edge angle, 15 degrees, so about
-#: 3.4% of the tip radius at most.
-MAX_SINK_ANGLE: float = float(np.radians(15.0))
-#: Extra sinks are rounded down to multiples of this fraction of the tip radius.
-SINK_STEP: float = 2.5e-3
 #: A finger's summed outward normals shorter than this (the sum of unit vectors) count as
 #: cancelling out (a tip pinched between opposite faces); see ``_approach_axes``.
 DEGENERATE_AXIS_TOL: float = 1e-6
@@ -230,13 +224,8 @@ class FingerChecker:
         normals: np.ndarray,
         fingers: Fingers,
         finger_ids: np.ndarray | None = None,
-        sink: np.ndarray | None = None,
     ) -> FingerCheck:
-        """Check B grasps; see :func:`check_fingers`.
-
-        ``sink`` (B, k) is an extra depth each contact's fingertip may sink into the part,
-        on top of ``penetration_tol`` (see :func:`facet_sink`); 0 by default.
-        """
+        """Check B grasps; see :func:`check_fingers`."""
         P, N, ids = _validate(points, normals, fingers, finger_ids)
         B, k, _ = P.shape
         r = float(fingers.tip_radius)
@@ -298,11 +287,9 @@ class FingerChecker:
                     what = "tip" if tip_below[b, j] else "approach"
                     fail(b, j, PLANE, f"finger {slot_name[b][j]} {what} crosses the support plane")
 
-        # 4-5. FCL: tip against part, then the approach sweep; a finger's extra sink (the
-        # largest of its contacts', rounded down to steps so few FCL objects are built)
-        extra = np.zeros((B, k)) if sink is None else np.floor(
-            np.einsum("bfj,bj->bfj", onehot, np.asarray(sink, float)).max(axis=2)
-            / (SINK_STEP * r)) * (SINK_STEP * r)
+        # 4-5. FCL: tip against part, then the approach sweep
+        sweep = self._object("capsule", r - tol, D)
+        tip = self._object("sphere", r - tol)
         approach = np.full((B, k, 3), np.nan)
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
         mid = centers[:, :, None, :] + 0.5 * D * dirs  # (B, k, m, 3)
@@ -311,9 +298,6 @@ class FingerChecker:
             for j in range(k):
                 if not present_l[b][j]:
                     continue
-                give = tol + float(extra[b, j])
-                sweep = self._object("capsule", r - give, D)
-                tip = self._object("sphere", r - give)
                 options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
                 for d in options:
@@ -323,9 +307,10 @@ class FingerChecker:
                     if not tip_checked:
                         tip_checked = True
                         if self._hits(tip, None, centers[b, j]):
-                            depth = self._penetration(centers[b, j], r - give) + give
+                            depth = self._penetration(centers[b, j], r)
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
-                                 f"penetrates the part by {depth:.3g}")
+                                 f"penetrates the part by {depth:.3g} (a fingertip may "
+                                 f"sink at most {tol:.3g}, the penetration tolerance)")
                             break
                 if not alive[b]:
                     break
@@ -508,62 +493,35 @@ def check_fingers(
     >>> check_fingers(box, pts, nrm, Fingers(tip_radius=0.1)).reasons[0]
     'fingers 0 and 1 overlap (tips 0.1 apart, less than 2 r = 0.2)'
     """
-    sink = facet_sink(part, points, normals, fingers.tip_radius) if hasattr(
-        part, "resolve") else None
-    return checker_for(part).check(points, normals, fingers, finger_ids, sink)
+    return checker_for(part).check(points, normals, fingers, finger_ids)
 
 
-def facet_sink(part: Any, points: np.ndarray, normals: np.ndarray, tip_radius: float
-               ) -> np.ndarray | None:
-    """How deep each fingertip may sink into the facet under its contact (B, k).
+def tip_sinks(part: Any, centers: np.ndarray, tip_radius: float) -> np.ndarray:
+    """How deep each fingertip sinks into the part (FCL's penetration depth; 0 when clear).
 
-    On a curved patch a contact's normal is interpolated across the facets of the mesh, so
-    a fingertip touching the contact along that normal overlaps the flat facet it lies on by
-    ``r (1 - cos a)``, ``a`` the angle between the two normals: the tessellation's own error,
-    not a collision (the curved surface the facets approximate is not entered). That depth is
-    allowed where ``a`` is at most ``MAX_SINK_ANGLE`` for every facet within the surface
-    tolerance of the contact (a contact on an edge or a vertex touches them all); elsewhere
-    (sharp edges, corners, planar faces) none. A contact inside its facet, farther than the
-    surface tolerance from the facet's edges, is taken to touch that facet alone.
+    A grasp :func:`check_fingers` accepts has every sink at most ``Fingers.penetration_tol``.
 
     Parameters
     ----------
-    part : synth.Part
-    points, normals : (B, k, 3) or (k, 3) float
+    part : trimesh.Trimesh or object with ``.mesh``
+    centers : (f, 3) float
+        Fingertip centres.
     tip_radius : float
 
     Returns
     -------
-    (B, k) float, or None when ``points`` cannot be read (the check reports that)
-    """
-    from synth.part.closest import faces_within, plane_and_sides
-    from synth.part.resolve import closest_points, mesh_index
+    (f,) float
+        In the part's units.
 
-    try:
-        P = np.asarray(points, float)
-        N = np.asarray(normals, float)
-        P, N = (P[None], N[None]) if P.ndim == 2 else (P, N)
-        flat = P.reshape(-1, 3)
-        _, faces, _ = closest_points(part, flat)
-    except (TypeError, ValueError, IndexError):
-        return None
-    face_normals = np.asarray(part.mesh.face_normals, float)
-    N = N / np.maximum(np.linalg.norm(N, axis=-1, keepdims=True), 1e-300)
-    Nf = N.reshape(-1, 3)
-    cos = np.einsum("nx,nx->n", Nf, -face_normals[faces])
-    # a contact on an edge or a vertex touches every face there: the fingertip may sink only
-    # when all of them lie within MAX_SINK_ANGLE of its normal (else the feature is sharp).
-    # Only contacts that would get an allowance and lie at the border of their face need it.
-    index, tol = mesh_index(part), part.surface_tolerance
-    _, side = plane_and_sides(index, faces[:, None], flat)
-    ask = np.flatnonzero((cos >= np.cos(MAX_SINK_ANGLE)) & (cos < 1.0) & (
-        (side[:, 0].min(axis=1) <= tol) | index.unbounded[faces]))
-    owner, near = faces_within(index, flat[ask], tol)
-    real = np.linalg.norm(face_normals[near], axis=1) > 0.5  # a face without area has no normal
-    owner, near = ask[owner[real]], near[real]
-    np.minimum.at(cos, owner, np.einsum("nx,nx->n", Nf[owner], -face_normals[near]))
-    cos = np.clip(cos, -1.0, 1.0).reshape(P.shape[:2])
-    return np.where(cos >= np.cos(MAX_SINK_ANGLE), tip_radius * (1.0 - cos), 0.0)
+    Examples
+    --------
+    >>> import trimesh
+    >>> tip_sinks(trimesh.creation.box(), np.array([[0.0, 0.0, 0.6]]), 0.1).tolist()
+    [0.0]
+    """
+    checker = checker_for(part)
+    return np.array([checker._penetration(np.asarray(c, float), float(tip_radius))
+                     for c in np.asarray(centers, float).reshape(-1, 3)])
 
 
 def finger_placement(

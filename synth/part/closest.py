@@ -21,7 +21,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
-           "closest_within", "faces_within", "plane_and_sides", "workers"]
+           "closest_within", "plane_and_sides", "workers"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
 #: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
@@ -429,37 +429,6 @@ def closest_within(index: MeshIndex, points: np.ndarray, radius: float
         closest[s + rows], face[s + rows], dist[s + rows] = c, f, d
         found[s + rows] = d <= radius
     return closest, face, dist, found
-
-
-def faces_within(index: MeshIndex, points: np.ndarray, radius: float
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Every face that comes within ``radius`` of each point (exact distances).
-
-    Parameters
-    ----------
-    index : MeshIndex
-    points : (n, 3) float
-    radius : float
-
-    Returns
-    -------
-    owner : (m,) int
-        The point of each pair, into ``points``.
-    faces : (m,) int
-        A face within ``radius`` of it (a face may be listed more than once for a point).
-    """
-    points = np.asarray(points, dtype=np.float64)
-    owners, found = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-    for s, p, rows, owner, cand, _ in _near_chunks(index, points, radius):
-        q = p[rows[owner]]
-        h = np.einsum("cx,cx->c", index.plane_normals[cand], q) - index.plane_offsets[cand]
-        near = (np.abs(h) <= radius) | index.unbounded[cand]  # within reach of the plane
-        q, who, cand = q[near], owner[near], cand[near]
-        d = np.linalg.norm(closest_on_triangles(index.triangles[cand], q) - q, axis=1)
-        keep = d <= radius
-        owners.append(s + rows[who[keep]])
-        found.append(cand[keep])
-    return np.concatenate(owners), np.concatenate(found)
 
 
 def _near_chunks(index: MeshIndex, points: np.ndarray, radius: float

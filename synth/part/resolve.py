@@ -1,22 +1,30 @@
 """Resolve surface points into contacts with inward normals (``Part.resolve``).
 
-Rules, for a point on face ``f`` of the cleaned mesh:
+Every contact gets two normals (see :mod:`synth.scores.surface`): the mesh's own
+(``Contacts.normals``), along which a fingertip touching the facets pushes, and the smooth
+reading (``Contacts.smooth_normals``) of the curved surface a tessellation approximates. For a
+point on face ``f`` of the cleaned mesh:
 
-* inside a planar facet: the face normal, ``feature="face"``;
-* inside a smooth region: barycentric interpolation of the corner normals of ``f``
-  (vertex normals of its smooth component), continuous across smooth edges;
-* on a smooth edge or smooth vertex: as inside a face;
+* inside a face (a planar facet or a facet of a tessellated patch), and on a smooth edge or a
+  smooth vertex, ``feature="face"``: the mesh normal is the face's (on a smooth edge the mean
+  of its two facets', at a smooth vertex the smooth normal there, both inside the feature's
+  cone); the smooth normal is the face's on a planar facet and, on a tessellated patch, the
+  barycentric interpolation of the corner normals of ``f`` (vertex normals of its smooth
+  component), continuous across smooth edges;
 * on a convex sharp edge, a convex corner or an open boundary: the normal cone is the set
   of normals of the incident facets (``Part.normal_cone``); the fingertip's normal is the
   normalised mean of the cone's normals (independent of the fingertip radius: for a sphere
   pushed straight onto the feature the contact force lies inside the cone, and the mean is
-  the direction that favours no face); ``unique_normal=False``;
+  the direction that favours no face); for the smooth reading the mean of the two sides'
+  smooth normals; ``unique_normal=False``;
 * on a concave edge: one contact per face (2), in a concave corner one per incident
   facet (3 in a box corner); they share a ``finger`` id; normals unique;
 * at a saddle vertex: one contact per incident facet, ``unique_normal=False`` (which of
   them a fingertip really touches depends on its approach).
 
-``finger`` is the index of the input point, so contacts of one point share it.
+At a vertex both readings take the corner normals of the incident facets (an angle-weighted
+mean of facets around the vertex, so inside the vertex's cone). ``finger`` is the index of the
+input point, so contacts of one point share it.
 """
 
 from __future__ import annotations
@@ -200,26 +208,37 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
     on_edge = on_edge | vedge
     ekind = np.where(on_edge, feats.edge_kind[eid], 0)
     corner = at_vertex & (vkind >= 2)
-    on_edge &= ekind != 0  # smooth edges behave as faces
+    smooth_edge = on_edge & (ekind == 0)
+    on_edge &= ekind != 0  # smooth edges behave as faces (but for the mesh's normal)
 
-    normal = _interp_normals(part, f, q)
+    face_in = -np.asarray(part.mesh.face_normals, float)  # inward facet normals
+    smooth = _interp_normals(part, f, q)
+    normal = face_in[f]
+    # on a smooth edge the mesh's normal is the mean of its two facets' (whichever face the
+    # point was found on); at a smooth vertex the corner normal (in the vertex's cone); a
+    # face without area has no normal of its own
+    ef = feats.edge_faces
+    se = np.flatnonzero(smooth_edge)
+    normal[se] = _unit(face_in[ef[eid[se], 0]] + face_in[ef[eid[se], 1]])
+    flat = (at_vertex & (vkind == 0)) | (np.linalg.norm(normal, axis=1) < 0.5)
+    normal[flat] = smooth[flat]
     kind = np.zeros(n, np.int8)  # 0 face, 1 edge, 2 vertex
     index = f.copy()
     unique = np.ones(n, bool)
     face_out = f.copy()
 
-    rows: list[tuple[np.ndarray, ...]] = []  # (src, normal, face, kind, index, unique)
+    # (src, normal, smooth normal, face, kind, index, unique)
+    rows: list[tuple[np.ndarray, ...]] = []
     single = ~on_edge & ~corner
 
     # convex and boundary edges: mean of the two side normals
-    ef = feats.edge_faces
     cvx = on_edge & ((ekind == 1) | (ekind == 3))
     if cvx.any():
         e = eid[cvx]
         fa = ef[e, 0]
         fb = np.where(ef[e, 1] >= 0, ef[e, 1], fa)
-        na, nb = _interp_normals(part, fa, q[cvx]), _interp_normals(part, fb, q[cvx])
-        normal[cvx] = _unit(na + nb)
+        normal[cvx] = _unit(face_in[fa] + face_in[fb])
+        smooth[cvx] = _unit(_interp_normals(part, fa, q[cvx]) + _interp_normals(part, fb, q[cvx]))
         kind[cvx], index[cvx], unique[cvx], face_out[cvx] = 1, e, False, fa
         single |= cvx
     ccv = on_edge & (ekind == 2)
@@ -228,7 +247,7 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
         e = eid[ccv]
         for side in (0, 1):
             fs = ef[e, side]
-            rows.append((src, _interp_normals(part, fs, q[ccv]), fs,
+            rows.append((src, face_in[fs], _interp_normals(part, fs, q[ccv]), fs,
                          np.full(len(src), 1, np.int8), e, np.ones(len(src), bool)))
     if corner.any():
         src = np.flatnonzero(corner)
@@ -246,28 +265,26 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
             acc = np.zeros((n, 3))
             m = np.isin(rep_src, cs)
             np.add.at(acc, rep_src[m], cnorm[sel[m]])
-            normal[cs] = _unit(acc[cs])
+            normal[cs] = smooth[cs] = _unit(acc[cs])
             kind[cs], index[cs], unique[cs] = 2, vid[cs], False
             single[cs] = True
         multi = ~np.isin(rep_src, src[mean_like])
         if multi.any():
             rs = rep_src[multi]
-            rows.append((rs, cnorm[sel[multi]], cfaces[sel[multi]],
+            rows.append((rs, cnorm[sel[multi]], cnorm[sel[multi]], cfaces[sel[multi]],
                          np.full(len(rs), 2, np.int8), vid[rs], vk[multi] == 3))
 
     src_all = [np.flatnonzero(single)]
-    cols = [(normal[single], face_out[single], kind[single], index[single], unique[single])]
+    cols = [(normal[single], smooth[single], face_out[single], kind[single], index[single],
+             unique[single])]
     for r in rows:
         src_all.append(r[0])
         cols.append(r[1:])
     src_cat = np.concatenate(src_all)
     order = np.argsort(src_cat, kind="stable")
     src_cat = src_cat[order]
-    nrm = np.concatenate([c[0] for c in cols])[order]
-    fcs = np.concatenate([c[1] for c in cols])[order]
-    knd = np.concatenate([c[2] for c in cols])[order]
-    idx = np.concatenate([c[3] for c in cols])[order]
-    unq = np.concatenate([c[4] for c in cols])[order]
+    nrm, smo, fcs, knd, idx, unq = (np.concatenate([c[i] for c in cols])[order]
+                                    for i in range(6))
     names = np.array(["face", "edge", "vertex"])
     return Contacts(
         points=q[src_cat],
@@ -278,4 +295,5 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
         unique_normal=unq,
         region=part.face_region[fcs],
         finger=src_cat,
+        smooth_normals=smo,
     )

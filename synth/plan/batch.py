@@ -3,7 +3,9 @@
 A grasp's *fitness* orders the search: its d* when it is (frictional) form closure, well
 conditioned (``PlanParams.min_conditioning``) and its fingertips do not overlap; d* - 1 when
 only closure or conditioning fails (so better candidates still rank higher); -2 when two
-fingertips overlap. Every candidate scored counts as one evaluation of the budget.
+fingertips overlap. All of it under the surface model ``PlanParams.surface``
+(:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must hold with the
+mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every candidate scored counts as one evaluation of the budget.
 
 The scorer also keeps the search's clock: it scores in chunks and stops at the deadline
 between two chunks, so no stage of the search runs more than one chunk past
@@ -28,11 +30,12 @@ from synth.plan.params import PlanParams
 from synth.scores import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
+from synth.scores.surface import differs, readings
 
 __all__ = ["GraspBatch", "Scorer", "distinct_top"]
 
 _CHUNK = 4096
-_FIELDS = ("points", "normals", "faces", "regions", "d", "fit", "finger")
+_FIELDS = ("points", "normals", "smooth", "faces", "regions", "d", "fit", "finger")
 
 
 @dataclass
@@ -42,6 +45,9 @@ class GraspBatch:
     Attributes
     ----------
     points, normals : (B, k, 3) float
+        Contacts and the mesh's inward normals (fingertips sit along them).
+    smooth : (B, k, 3) float
+        The smooth reading of the normals (:class:`synth.Contacts` ``smooth_normals``).
     faces, regions : (B, k) int
     d : (B,) float
         d* (frictional d* with friction).
@@ -54,6 +60,7 @@ class GraspBatch:
 
     points: NDArray[np.float64]
     normals: NDArray[np.float64]
+    smooth: NDArray[np.float64]
     faces: NDArray[np.int64]
     regions: NDArray[np.int64]
     d: NDArray[np.float64]
@@ -127,25 +134,33 @@ class Scorer:
         prm = self.params
         return grasp_wrenches(P, N, self.center, self.length, prm.mu, prm.edges)
 
-    def __call__(self, P: NDArray[np.float64], N: NDArray[np.float64],
+    def readings(self, N: NDArray[np.float64], S: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.float64], ...]:
+        """The normal sets a grasp is scored with (see :func:`synth.scores.surface.readings`)."""
+        return readings(N, S, self.params.surface)
+
+    def __call__(self, P: NDArray[np.float64], N: NDArray[np.float64], S: NDArray[np.float64],
                  finger: NDArray[np.int64] | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """d* and fitness (B,) of grasps ``P, N`` (B, k, 3) whose contacts belong to fingertips
-        ``finger`` (B, k) (default: one each)."""
+        """d* and fitness (B,) of grasps ``P`` (B, k, 3) with the mesh's normals ``N`` and the
+        smooth reading's ``S``, whose contacts belong to fingertips ``finger`` (B, k)
+        (default: one each)."""
         B = P.shape[0]
         d = np.zeros(B)
         fit = np.full(B, -2.0)  # what rows left unscored at the deadline keep
         s = 0
         while s < B and not self.out_of_time():
             e = min(B, s + self._rows)
-            d[s:e], fit[s:e] = self._chunk(P[s:e], N[s:e], None if finger is None else finger[s:e])
+            d[s:e], fit[s:e] = self._chunk(P[s:e], N[s:e], S[s:e],
+                                           None if finger is None else finger[s:e])
             self.evaluations += e - s
             s = e
         return d, fit
 
-    def _chunk(self, P: NDArray[np.float64], N: NDArray[np.float64],
-               finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
+    def _closure(self, P: NDArray[np.float64], N: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """d* and whether each grasp is well-conditioned (frictional) form closure with the
+        normals ``N``."""
         prm = self.params
         # the numpy simplex always: a plan must not depend on whether numba is installed, nor
         # stall in the kernel's first compile (about 10 s) under a time cap
@@ -158,6 +173,18 @@ class Scorer:
         d, ok = res.d_star, res.closure.copy()
         if ok.any():  # conditioning matters only for closure grasps
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
+        return d, ok
+
+    def _chunk(self, P: NDArray[np.float64], N: NDArray[np.float64], S: NDArray[np.float64],
+               finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
+        sets = self.readings(N, S)
+        d, ok = self._closure(P, sets[0])
+        if len(sets) == 2:  # the second reading only where it differs from the first
+            rows = np.flatnonzero(differs(N, S))
+            if len(rows):
+                d2, ok2 = self._closure(P[rows], S[rows])
+                d[rows], ok[rows] = np.minimum(d[rows], d2), ok[rows] & ok2
         if finger is None:
             tips, present = P - self.r * N, np.ones(P.shape[:2], bool)
         else:
@@ -172,7 +199,7 @@ class Scorer:
         """Fill in ``b.d`` and ``b.fit``."""
         k = b.finger.shape[1]
         own = bool((b.finger == np.arange(k)).all())  # one fingertip per contact
-        b.d, b.fit = self(b.points, b.normals, None if own else b.finger)
+        b.d, b.fit = self(b.points, b.normals, b.smooth, None if own else b.finger)
 
 
 def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:

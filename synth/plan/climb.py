@@ -177,8 +177,8 @@ def pool_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     spacing = float(np.median(tree.query(pp[: min(len(pp), 500)], k=2)[0][:, 1]))
 
     def batch(idx: NDArray[np.int64]) -> GraspBatch:
-        b = GraspBatch(pp[idx], pool.normals[idx, 0], pool.faces[idx, 0], pool.regions[idx, 0],
-                       np.zeros(len(idx)), np.zeros(len(idx)))
+        b = GraspBatch(pp[idx], pool.normals[idx, 0], pool.smooth[idx, 0], pool.faces[idx, 0],
+                       pool.regions[idx, 0], np.zeros(len(idx)), np.zeros(len(idx)))
         score.score(b)
         return b
 
@@ -260,9 +260,11 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     screened : int
         Replacements whose d* was computed.
     """
-    pp, pn = pool.points[:, 0], pool.normals[:, 0]
+    pp, pn, ps = pool.points[:, 0], pool.normals[:, 0], pool.smooth[:, 0]
     n_pool, k = len(pp), seeds.shape[1]
-    X = np.concatenate([pn, np.cross((pp - score.center) / score.length, pn)], axis=1).T
+    # the pool's wrench columns with each reading of the normals the surface model scores
+    Xs = [np.concatenate([n, np.cross((pp - score.center) / score.length, n)], axis=1).T
+          for n in score.readings(pn, ps)]
     tips = pp - score.r * pn
     clash = np.zeros((n_pool, n_pool), bool)  # fingertips of the two contacts overlap
     pairs = cKDTree(tips).query_pairs(2 * score.r * (1 - 1e-9), output_type="ndarray")
@@ -273,7 +275,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     next_seed = len(members)
     stale = np.zeros(len(members), np.int64)  # tries without a gain in a row
     tries = np.zeros(len(members), np.int64)
-    cur_d, cur_fit = score(pp[members], pn[members])
+    cur_d, cur_fit = score(pp[members], pn[members], ps[members])
     out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
     screened = 0
     while len(members):
@@ -282,16 +284,19 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
             break
         M = len(members)
         j = int(rng.integers(0, k))
-        C, vj = _cofactors(X[:, members].transpose(1, 0, 2), j)
-        V = (C.reshape(M * 7, 6) @ X).reshape(M, 7, n_pool)  # null vectors of every replacement
-        V[:, j, :] = vj[:, None]
+        d = np.ones((M, n_pool))
+        for X in Xs:  # the smaller d* of the readings
+            C, vj = _cofactors(X[:, members].transpose(1, 0, 2), j)
+            V = (C.reshape(M * 7, 6) @ X).reshape(M, 7, n_pool)  # null vectors of every swap
+            V[:, j, :] = vj[:, None]
+            # d* = min/max over a null vector whose entries share one strict sign, else 0: with
+            # a negative vector, max/min of the entries as they are (no pass to flip the signs)
+            vmin, vmax = np.minimum.reduce(V, axis=1), np.maximum.reduce(V, axis=1)
+            dx = np.zeros((M, n_pool))
+            np.divide(vmin, vmax, out=dx, where=vmin > 0)
+            np.divide(vmax, vmin, out=dx, where=vmax < 0)
+            np.minimum(d, dx, out=d)
         screened += M * n_pool
-        # d* = min/max over a null vector whose entries share one strict sign, else 0: with
-        # a negative vector, max/min of the entries as they are (no pass to flip the signs)
-        vmin, vmax = np.minimum.reduce(V, axis=1), np.maximum.reduce(V, axis=1)
-        d = np.zeros((M, n_pool))
-        np.divide(vmin, vmax, out=d, where=vmin > 0)
-        np.divide(vmax, vmin, out=d, where=vmax < 0)
         others = np.delete(members, j, axis=1)
         d[np.arange(M)[:, None], others] = 0.0  # a contact once only
         d[clash[others].any(axis=1)] = 0.0  # fingertips apart
@@ -302,8 +307,9 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
         if len(hope):
             cand = np.repeat(members[hope, None, :], _CHECKED, axis=1)
             cand[:, :, j] = best[hope]
-            cd, cfit = (a.reshape(len(hope), _CHECKED) for a in score(
-                pp[cand.reshape(-1, k)], pn[cand.reshape(-1, k)]))
+            flat = cand.reshape(-1, k)
+            cd, cfit = (a.reshape(len(hope), _CHECKED) for a in score(pp[flat], pn[flat],
+                                                                      ps[flat]))
             gain = np.where(cfit > cur_fit[hope, None] + 1e-12, cfit, -np.inf)
             pick = np.argmax(gain, axis=1)
             ok = np.isfinite(gain[np.arange(len(hope)), pick])
@@ -321,14 +327,16 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
             slots = conv[:fresh]
             members[slots] = seeds[next_seed : next_seed + fresh]
             slot_of[slots] = np.arange(next_seed, next_seed + fresh)
-            cur_d[slots], cur_fit[slots] = score(pp[members[slots]], pn[members[slots]])
+            ms = members[slots]
+            cur_d[slots], cur_fit[slots] = score(pp[ms], pn[ms], ps[ms])
             stale[slots], tries[slots] = 0, 0
             next_seed += fresh
             keep = np.setdiff1d(np.arange(M), conv[fresh:])
             members, slot_of, stale, tries, cur_d, cur_fit = (
                 members[keep], slot_of[keep], stale[keep], tries[keep], cur_d[keep],
                 cur_fit[keep])
-    b = GraspBatch(pp[out], pn[out], pool.faces[out, 0], pool.regions[out, 0], out_d, out_fit)
+    b = GraspBatch(pp[out], pn[out], ps[out], pool.faces[out, 0], pool.regions[out, 0], out_d,
+                   out_fit)
     if not score.timed_out:  # else the scores kept above stand (seeds never climbed stay at -2)
         score.score(b)
     return b, screened
@@ -386,8 +394,11 @@ def _proposals(pop: Population, rng: np.random.Generator, gradient: bool, score:
     mem, sigma = pop.members, pop.step
     M, k, _ = mem.points.shape
     whos, Ps, moveds = [], [], []
-    if gradient:
-        dirs, _ = ascent_directions(mem.points, mem.normals, score.center, score.length)
+    if gradient:  # along the reading of the normals that bounds d*
+        (dirs, low), *more = [ascent_directions(mem.points, n, score.center, score.length)
+                              for n in score.readings(mem.normals, mem.smooth)]
+        for dx, ratio in more:
+            dirs = np.where((ratio < low)[:, None, None], dx, dirs)
         usable = np.flatnonzero(np.abs(dirs).sum(axis=(1, 2)) > 0)
         for s in _GRADIENT_STEPS:
             whos.append(usable)
@@ -435,6 +446,7 @@ def _settle(part: Any, members: GraspBatch, who: NDArray[np.int64], P: NDArray[n
     j = first[g]
     cand.points[rows[g], cols[g]] = c.points[j]
     cand.normals[rows[g], cols[g]] = c.normals[j]
+    cand.smooth[rows[g], cols[g]] = c.smooth_normals[j]
     cand.faces[rows[g], cols[g]] = c.faces[j]
     cand.regions[rows[g], cols[g]] = c.region[j]
     return cand, ok

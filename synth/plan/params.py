@@ -14,8 +14,20 @@ from typing import Any
 import numpy as np
 
 from synth.errors import InputError, shown
-from synth.limits import (AUTO_MAX_FINGERS, MAX_CONTACTS, MAX_EDGES, MAX_EVALS, MAX_FINGERS,
-                          MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES, MIN_EVALS)
+from synth.limits import (
+    AUTO_MAX_FINGERS,
+    MAX_CONTACTS,
+    MAX_EDGES,
+    MAX_EVALS,
+    MAX_FINGERS,
+    MAX_LENGTH,
+    MAX_MU,
+    MAX_SEED,
+    MAX_TOP,
+    MIN_EDGES,
+    MIN_EVALS,
+)
+from synth.scores.surface import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
@@ -100,6 +112,10 @@ class PlanParams:
     min_tolerance : float
         Grasps whose placement tolerance is below this length (the mesh's units) are not
         returned (default 0).
+    surface : {"both", "mesh", "smooth"}
+        Which normals a grasp must hold with (:mod:`synth.scores.surface`): the mesh's own
+        facets and the smooth surface they may approximate, both (default; d* is the smaller
+        of the two), or only one of them.
     """
 
     contacts: int = 7
@@ -121,6 +137,7 @@ class PlanParams:
     rank_by: str = "d_star"
     regions: bool = False
     min_tolerance: float = 0.0
+    surface: str = DEFAULT_SURFACE
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> InputError:
@@ -175,6 +192,8 @@ class PlanParams:
             raise bad("regions", "True or False")
         if not (_real(self.min_tolerance) and 0 <= self.min_tolerance <= MAX_LENGTH):
             raise bad("min_tolerance", f"a length in [0, {MAX_LENGTH:g}] in the mesh's units")
+        if self.surface not in SURFACES:
+            raise bad("surface", f"one of {', '.join(SURFACES)}")
 
     @property
     def wants_regions(self) -> bool:

@@ -47,8 +47,9 @@ class Placements:
 
     Attributes
     ----------
-    points, normals : (n, 3, 3) float
-        Contacts of each placement; rows past ``count`` are padding.
+    points, normals, smooth : (n, 3, 3) float
+        Contacts of each placement, the mesh's normals and the smooth reading's; rows past
+        ``count`` are padding.
     faces, regions : (n, 3) int
     count : (n,) int
         Contacts of each placement (1 to 3).
@@ -58,6 +59,7 @@ class Placements:
 
     points: NDArray[np.float64]
     normals: NDArray[np.float64]
+    smooth: NDArray[np.float64]
     faces: NDArray[np.int64]
     regions: NDArray[np.int64]
     count: NDArray[np.int64]
@@ -73,8 +75,8 @@ def _group(c: Contacts) -> Placements:
     keep = count <= MAX_PER_FINGER
     start, count = start[keep], count[keep]
     rows = start[:, None] + np.minimum(np.arange(MAX_PER_FINGER), count[:, None] - 1)
-    return Placements(c.points[rows], c.normals[rows], c.faces[rows], c.region[rows], count,
-                      c.points[start])
+    return Placements(c.points[rows], c.normals[rows], c.smooth_normals[rows], c.faces[rows],
+                      c.region[rows], count, c.points[start])
 
 
 def _seat(part: Any, pl: Placements, r: float) -> Placements:
@@ -100,14 +102,15 @@ def _seat(part: Any, pl: Placements, r: float) -> Placements:
             & (np.linalg.norm(c.points[first] - flat, axis=1) <= part.surface_tolerance))
     good = np.ones(len(multi), bool)
     np.logical_and.at(good, np.nonzero(~pad)[0], fits)
-    F, NN = pl.faces[multi].copy(), N.copy()
-    F[~pad], NN[~pad] = c.faces[first], c.normals[first]
+    F, NN, SS = pl.faces[multi].copy(), N.copy(), pl.smooth[multi].copy()
+    F[~pad], NN[~pad], SS[~pad] = c.faces[first], c.normals[first], c.smooth_normals[first]
     points, normals, faces = pl.points.copy(), pl.normals.copy(), pl.faces.copy()
-    points[multi], normals[multi], faces[multi] = P, NN, F
+    smooth = pl.smooth.copy()
+    points[multi], normals[multi], smooth[multi], faces[multi] = P, NN, SS, F
     keep = np.ones(len(pl), bool)
     keep[multi[~good]] = False
     k = np.flatnonzero(keep)
-    return Placements(points[k], normals[k], faces[k], pl.regions[k], pl.count[k],
+    return Placements(points[k], normals[k], smooth[k], faces[k], pl.regions[k], pl.count[k],
                       points[k, 0])
 
 
@@ -141,8 +144,8 @@ def placement_pool(part: Any, fingers: Fingers, rng: np.random.Generator, n_face
             ok[sel] = check_fingers(part, pl.points[sel, :m], pl.normals[sel, :m], fingers,
                                     np.zeros(m, np.int64)).mask
     k = np.flatnonzero(ok)
-    return Placements(pl.points[k], pl.normals[k], pl.faces[k], pl.regions[k], pl.count[k],
-                      pl.center[k])
+    return Placements(pl.points[k], pl.normals[k], pl.smooth[k], pl.faces[k], pl.regions[k],
+                      pl.count[k], pl.center[k])
 
 
 def placement_seeds(pool: Placements, n: int, F: int, rng: np.random.Generator
@@ -176,10 +179,11 @@ def placement_grasps(pool: Placements, chosen: NDArray[np.int64], score: Scorer
         bi, fi, ci = np.nonzero(slot)  # row-major: contacts in finger order
         P = pool.points[sel[bi, fi], ci].reshape(b, k, 3)
         N = pool.normals[sel[bi, fi], ci].reshape(b, k, 3)
+        S = pool.smooth[sel[bi, fi], ci].reshape(b, k, 3)
         faces = pool.faces[sel[bi, fi], ci].reshape(b, k)
         regions = pool.regions[sel[bi, fi], ci].reshape(b, k)
         finger = fi.reshape(b, k)
-        g = GraspBatch(P, N, faces, regions, np.zeros(b), np.zeros(b), finger)
+        g = GraspBatch(P, N, S, faces, regions, np.zeros(b), np.zeros(b), finger)
         score.score(g)
         out[k] = (g, rows)
     return out

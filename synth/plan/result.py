@@ -13,14 +13,17 @@ A JSON object::
      "params": {...every PlanParams field...},
      "fingers": {tip_radius, body_length, body_radius, approach_cone, ...},
      "grasps": [  # best first
-        {"rank": 1-based, "points": k x 3, "normals": k x 3 (unit, into the part),
+        {"rank": 1-based, "points": k x 3, "normals": k x 3 (unit, into the part; the mesh's
+         own, along which the fingertips push), "smooth_normals": k x 3 (the smooth reading),
          "features": [str] * k,
-         "regions": [int] * k, "d_star": float, "closure": str, "conditioning": float,
+         "regions": [int] * k, "d_star": float (under params.surface), "d_star_mesh": float,
+         "d_star_smooth": float, "closure": str, "conditioning": float,
          "epsilon": float, "tolerance": float or null, "tolerance_ratio": float or null,
          "contact_regions": {"polygons", "kinds", "tolerance", "limited_by", "d_star_min",
                              "certified"} or null,
          "fingers": {"tip_centers": f x 3, "tip_radius", "approach": f x 3 (unit, away from
-                     the part), "body_length", "body_radius", "contact_finger": [int] * k}}],
+                     the part), "body_length", "body_radius", "contact_finger": [int] * k,
+                     "tip_sink": float (deepest sink of a tip into the part)}}],
      "message": str, "timing": {"total_s", "evaluations", "stopped_by_time"}}
 
 All coordinates are in the mesh file's coordinates and units. ``run_id`` names the run:
@@ -89,23 +92,30 @@ class PlannedGrasp:
     ----------
     points : (k, 3) float
     normals : (k, 3) float
-        Unit, pointing into the part.
+        Unit, pointing into the part: the mesh's own normals, along which the fingertips push
+        (:mod:`synth.scores.surface`).
     features : tuple of str
         ``"face"``, ``"edge"`` or ``"vertex"`` per contact.
     regions : (k,) int
         Face region of each contact.
     d_star : float
+        d* under the surface model the grasp was planned with (``Plan.params["surface"]``).
     closure : str
         ``"form"``, ``"frictional form"``.
     conditioning : float
-        ``sigma_min / sigma_max`` of the wrench matrix, moments scaled by the part's length.
+        ``sigma_min / sigma_max`` of the wrench matrix, moments scaled by the part's length
+        (the smaller over the surface model's readings of the normals).
     epsilon : float
-        Ferrari-Canny epsilon (same scaling).
+        Ferrari-Canny epsilon (same scaling, the smaller over the readings).
     fingers : dict
         Finger geometry: ``tip_centers``, ``tip_radius``, ``approach``, ``body_length``,
         ``body_radius`` (see :class:`synth.FingerPlacement`).
     contact_regions : synth.robust.ContactRegions or None
         Independent contact regions and placement tolerance (None when not computed).
+    smooth_normals : (k, 3) float
+        The smooth reading of the normals (interpolated on tessellated curved patches).
+    d_star_mesh, d_star_smooth : float
+        d* with ``normals`` and with ``smooth_normals``.
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -118,6 +128,9 @@ class PlannedGrasp:
     epsilon: float
     fingers: dict[str, Any] = field(repr=False)
     contact_regions: Any = field(default=None, repr=False)
+    smooth_normals: NDArray[np.float64] | None = field(default=None, repr=False)
+    d_star_mesh: float = float("nan")
+    d_star_smooth: float = float("nan")
 
     @property
     def tolerance(self) -> float:
@@ -132,9 +145,13 @@ class PlannedGrasp:
         return {
             "points": np.asarray(self.points).tolist(),
             "normals": np.asarray(self.normals).tolist(),
+            "smooth_normals": np.asarray(self.normals if self.smooth_normals is None
+                                         else self.smooth_normals).tolist(),
             "features": list(self.features),
             "regions": [int(r) for r in self.regions],
             "d_star": float(self.d_star),
+            "d_star_mesh": float(self.d_star_mesh),
+            "d_star_smooth": float(self.d_star_smooth),
             "closure": self.closure,
             "conditioning": float(self.conditioning),
             "epsilon": float(self.epsilon),

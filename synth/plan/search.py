@@ -32,19 +32,25 @@ from numpy.typing import NDArray
 
 from synth.contacts import Contacts, sample_contacts
 from synth.errors import InputError, InternalError
-from synth.fingers import Fingers, check_fingers, default_fingers
+from synth.fingers import Fingers, check_fingers, default_fingers, tip_sinks
 from synth.part import Part
 from synth.plan.batch import GraspBatch, Scorer, distinct_top
 from synth.plan.climb import pool_climb, reachable, surface_climb, swap_climb
 from synth.plan.params import AUTO_MAX_FINGERS, PlanParams
 from synth.plan.pieces import best_positions, convex_piece
-from synth.plan.placements import (Placements, finger_climb, placement_grasps, placement_pool,
-                                   placement_seeds)
+from synth.plan.placements import (
+    Placements,
+    finger_climb,
+    placement_grasps,
+    placement_pool,
+    placement_seeds,
+)
 from synth.plan.ranking import rank_grasps
 from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
 from synth.scores.quality import conditioning, epsilon_quality
+from synth.scores.surface import surface_scores, worst_reading
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
            "PLACEMENT_SHARE", "SWAP_COST"]
@@ -177,7 +183,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif rejected:
         message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
                    f"{_dropped(rejected, prm)}")
-    elif len(archive) and not ((archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
+    elif not stopped_by_time and len(archive) and not (
+            (archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
             (archive.d > 0).any() or not (archive.fit > _OVERLAP).any()):
         message = _crowded(archive, prm, fingers, L)
     else:
@@ -348,7 +355,8 @@ def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> Gra
         keep = single
     keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
     n = int(keep.sum())
-    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None], c.faces[keep][:, None],
+    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None],
+                      c.smooth_normals[keep][:, None], c.faces[keep][:, None],
                       c.region[keep][:, None], np.zeros(n), np.zeros(n))
 
 
@@ -358,8 +366,9 @@ def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n:
     scored, and their pool indices (m, k); drawn ``_SEED_CHUNK`` at a time, until the
     scorer's deadline."""
     size = len(pool)
-    best = GraspBatch(np.zeros((0, k, 3)), np.zeros((0, k, 3)), np.zeros((0, k), np.int64),
-                      np.zeros((0, k), np.int64), np.zeros(0), np.zeros(0))
+    best = GraspBatch(np.zeros((0, k, 3)), np.zeros((0, k, 3)), np.zeros((0, k, 3)),
+                      np.zeros((0, k), np.int64), np.zeros((0, k), np.int64), np.zeros(0),
+                      np.zeros(0))
     best_idx = np.zeros((0, k), np.int64)
     if size < k:
         return best, best_idx
@@ -369,8 +378,8 @@ def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n:
         m = min(_SEED_CHUNK, n - s)
         idx = np.argsort(rng.random((m, size)), axis=1)[:, :k] if size <= 64 else (
             _distinct_rows(rng, m, size, k))
-        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.faces[idx, 0],
-                       pool.regions[idx, 0], np.zeros(m), np.zeros(m))
+        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
+                       pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
         score.score(b)
         merged = GraspBatch.concat([best, b])
         merged_idx = np.concatenate([best_idx, idx])
@@ -406,8 +415,8 @@ def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
         c = part.resolve(sol[0], snap=True)
         if len(c) != k or not part.exposed(c.points, c.normals).all():
             continue
-        found.append(GraspBatch(c.points[None], c.normals[None], c.faces[None], c.region[None],
-                                np.zeros(1), np.zeros(1)))
+        found.append(GraspBatch(c.points[None], c.normals[None], c.smooth_normals[None],
+                                c.faces[None], c.region[None], np.zeros(1), np.zeros(1)))
     if not found:
         return archive.take(np.zeros(0, np.int64))
     lp = GraspBatch.concat(found)
@@ -478,21 +487,29 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
             P = archive.points[i]
             if any(_hausdorff(P, q) < min_gap for q in picked):
                 continue
-            N = archive.normals[i]
+            N, S = archive.normals[i], archive.smooth[i]
             where = chk.placement(j)
             placement = where.to_dict()
             placement["contact_finger"] = where.contact_finger.tolist()
-            cond = float(conditioning(score.matrix(P, N)))
+            placement["tip_sink"] = float(tip_sinks(part, where.tip_centers, where.tip_radius)
+                                          .max(initial=0.0))
+            both = surface_scores(P[None], N[None], S[None], prm.surface, score.center,
+                                  score.length, prm.mu, prm.edges, compiled=False)
+            cond = worst_reading(lambda n: float(conditioning(score.matrix(P, n))), N, S,
+                                 prm.surface)
             closure = "form" if prm.mu == 0 else "frictional form"
-            eps = epsilon_quality(P, N, score.center, score.length, prm.mu, prm.edges)
+            eps = worst_reading(lambda n: epsilon_quality(P, n, score.center, score.length,
+                                                          prm.mu, prm.edges), N, S, prm.surface)
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
-                                     d_star=float(archive.d[i])) if prm.wants_regions else None
+                                     d_star=float(archive.d[i]), smooth=S,
+                                     surface=prm.surface) if prm.wants_regions else None
             if robust is not None and robust.tolerance < prm.min_tolerance:
                 rejected[_LOW_TOLERANCE] = rejected.get(_LOW_TOLERANCE, 0) + 1
                 continue
             chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,
-                                       cond, eps, placement, robust))
+                                       cond, eps, placement, robust, S.copy(),
+                                       float(both.d_mesh[0]), float(both.d_smooth[0])))
             picked.append(P)
             if len(chosen) == want:
                 return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
@@ -522,19 +539,24 @@ def _why_none(archive: GraspBatch, prm: PlanParams, score: Scorer) -> str | None
     if order.size == 0:
         return None
     best, best_cond = int(order[0]), -1.0
-    mats = {}
+    mats: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
     for i in order:
-        W = score.matrix(archive.points[i], archive.normals[i])
-        mats[int(i)] = W
+        P = archive.points[i]
+        # the reading of the normals (under the surface model) that holds the grasp least
+        cands = [(score.matrix(P, n), n) for n in score.readings(archive.normals[i],
+                                                                   archive.smooth[i])]
+        W, n = min(cands, key=lambda wn: float(conditioning(wn[0])))
+        if prm.mu == 0 and archive.d[i] <= 0:
+            W, n = min(cands, key=lambda wn: form_closure(wn[0]).d_star)
+        mats[int(i)] = W, n
         c = float(conditioning(W))
         if archive.d[i] > 0 and c > best_cond:
             best, best_cond = int(i), c
-    W = mats[best]
+    W, N = mats[best]
     if archive.d[best] <= 0:
         if prm.mu == 0:
             return form_closure(W).escape_words
-        P, N = archive.points[best], archive.normals[best]
-        return frictional_form_closure(P, N, prm.mu, center=score.center,
+        return frictional_form_closure(archive.points[best], N, prm.mu, center=score.center,
                                        edges=prm.edges).escape_words
     U, sv, _ = np.linalg.svd(W)
     t = U[:, -1].copy()

@@ -13,7 +13,10 @@ is affine in its position, and for 7 contacts (the minimum in space) the certifi
 certified through 7-contact subsets that are closure by themselves. Everything else
 (friction, contacts on curved patches, a grasp with no closure 7-subset) is *sampled*:
 random placements within the radius, re-projected onto the surface with their normals,
-scored, and the radius bisected; such results say ``certified = False``.
+scored, and the radius bisected; such results say ``certified = False``. A grasp is scored
+under its surface model (:mod:`synth.scores.surface`): where the smooth reading of a contact's
+normal differs from the mesh's (a sharp edge beside a tessellated patch) and both count, the
+regions are sampled with both readings.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ from synth.part.tolerances import COPLANAR_ANGLE
 from synth.robust.certificate import CERT_RTOL, certify, expand, minor_scale
 from synth.scores.batch import form_closure_batch
 from synth.scores.friction import tangent_basis
-from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import scaled_wrenches
+from synth.scores.surface import DEFAULT_SURFACE, check_surface, differs, surface_scores
 
 __all__ = ["ContactRegions", "contact_regions", "certify_regions"]
 
@@ -225,7 +228,8 @@ def _grow(test, lo: float, hi: float, top: float) -> float:
 
 
 def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: float = 0.0,
-                    edges: int = 8, d_star: float | None = None, seed: int = 0
+                    edges: int = 8, d_star: float | None = None, seed: int = 0,
+                    smooth: ArrayLike | None = None, surface: str = DEFAULT_SURFACE
                     ) -> ContactRegions:
     """Independent contact regions and the placement tolerance of one grasp.
 
@@ -243,6 +247,10 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     seed : int
         Seed of the sampling, and of the choice of 7-contact subsets of a grasp of more than
         9 contacts.
+    smooth : (k, 3) float, optional
+        The smooth reading of the normals (default: ``normals``).
+    surface : {"both", "mesh", "smooth"}
+        The surface model the grasp is scored with (:mod:`synth.scores.surface`).
 
     Returns
     -------
@@ -262,15 +270,23 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
         raise InputError(f"points and normals: expected two (k, 3) arrays, got {P.shape} and "
                          f"{N.shape}")
     N = N / np.linalg.norm(N, axis=1, keepdims=True)
+    S = N if smooth is None else np.asarray(smooth, dtype=np.float64)
+    if S.shape != N.shape:
+        raise InputError(f"smooth: expected shape {N.shape}, got {S.shape}")
+    S = S / np.linalg.norm(S, axis=1, keepdims=True)
+    surface = check_surface(surface)
+    if surface == "smooth":
+        N = S  # the certificate needs one reading: the one that counts
     cs = _contacts(part, P, N)
     center, L = np.asarray(part.center_mass, float), float(part.length)
-    if mu == 0 and len(P) >= 7 and all(c.kind != "curved" for c in cs):
+    one = surface != "both" or not differs(N[None], S[None])[0]
+    if mu == 0 and len(P) >= 7 and all(c.kind != "curved" for c in cs) and one:
         d0 = float(form_closure_batch(scaled_wrenches(P, N, center, L)[None], compiled=False)
                    .d_star[0]) if d_star is None else float(d_star)
         out = _certified(P, N, cs, center, L, d0, seed)
         if out is not None:
             return out
-    return _sampled(part, P, N, cs, center, L, mu, edges, d_star, seed)
+    return _sampled(part, P, N, S, surface, cs, center, L, mu, edges, d_star, seed)
 
 
 def _points(P: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
@@ -479,15 +495,16 @@ def _contains(poly: NDArray[np.float64], tol: float) -> bool:
 
 
 def _on_surface(part: Part, points: NDArray[np.float64]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Closest surface points and their inward normals (the first contact where a point
-    lands in a groove)."""
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Closest surface points, the mesh's inward normals there and the smooth reading's (the
+    first contact where a point lands in a groove)."""
     c = part.resolve(points, snap=True)
     first = np.unique(c.finger, return_index=True)[1]
-    return c.points[first], c.normals[first]
+    return c.points[first], c.normals[first], c.smooth_normals[first]
 
 
-def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: list[_Contact],
+def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64],
+             S: NDArray[np.float64], surface: str, cs: list[_Contact],
              center: NDArray[np.float64], L: float, mu: float, edges: int,
              d_star: float | None, seed: int) -> ContactRegions:
     """Tolerance by bisection on sampled placements; regions are the tolerance discs."""
@@ -498,15 +515,13 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
     curved = np.array([c.kind == "curved" for c in cs])
     tangent[curved] = np.stack(tangent_basis(N[curved]), axis=1)
 
-    def score(PP: NDArray[np.float64], NN: NDArray[np.float64]) -> NDArray[np.float64]:
+    def score(PP: NDArray[np.float64], NN: NDArray[np.float64], SS: NDArray[np.float64]
+              ) -> NDArray[np.float64]:
         # numpy simplex: regions must not depend on whether numba is installed (as plans)
-        if mu > 0:
-            res = frictional_form_closure_batch(PP, NN, mu, center, edges, compiled=False)
-        else:
-            res = form_closure_batch(scaled_wrenches(PP, NN, center, L), compiled=False)
+        res = surface_scores(PP, NN, SS, surface, center, L, mu, edges, compiled=False)
         return np.where(res.closure, res.d_star, -1.0)
 
-    d0 = float(score(P[None], N[None])[0]) if d_star is None else float(d_star)
+    d0 = float(score(P[None], N[None], S[None])[0]) if d_star is None else float(d_star)
     if d0 <= 0:
         return ContactRegions(_points(P), kinds, 0.0, "none", max(d0, 0.0), 0.0, False)
     if all(c.kind == "fixed" for c in cs):
@@ -514,18 +529,19 @@ def _sampled(part: Part, P: NDArray[np.float64], N: NDArray[np.float64], cs: lis
     reach = min(c.reach if c.kind != "curved" else L for c in cs)
     worst = {0.0: d0}
 
-    def placements(r: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def placements(r: float, n: int) -> tuple[NDArray[np.float64], ...]:
         rad = r * np.sqrt(rng.uniform(size=(n, k)))
         rad[: n // 2] = r  # half on the rim, where the extremes are
         ang = rng.uniform(0, 2 * np.pi, size=(n, k))
         xy = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=2)
         PP = P + np.einsum("ska,kad->skd", xy, tangent)
-        NN = np.repeat(N[None], n, axis=0)
+        NN, SS = np.repeat(N[None], n, axis=0), np.repeat(S[None], n, axis=0)
         if curved.any():
-            q, nrm = _on_surface(part, PP[:, curved].reshape(-1, 3))
+            q, nrm, smo = _on_surface(part, PP[:, curved].reshape(-1, 3))
             PP[:, curved] = q.reshape(n, -1, 3)
             NN[:, curved] = nrm.reshape(n, -1, 3)
-        return PP, NN
+            SS[:, curved] = smo.reshape(n, -1, 3)
+        return PP, NN, SS
 
     def holds(r: float) -> bool:
         # in chunks: a radius that fails usually fails in the first one

@@ -452,9 +452,11 @@ def test_a_hidden_point_of_a_single_body_is_not_blamed_on_another_body(tmp_path,
         [0, 0, 0.3])
     mesh = cut.to_mesh()
     path = tmp_path / "slot.stl"
-    trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)).export(path)
+    trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3],
+                    np.asarray(mesh.tri_verts)).export(path)
     c = tmp_path / "c.json"
-    c.write_text(json.dumps([{"name": "slot", "points": [[0.0005, 0.1, 0.3]] + CUBE_FC["points"][1:]}]))
+    points = [[0.0005, 0.1, 0.3]] + CUBE_FC["points"][1:]  # the first on the slot's wall
+    c.write_text(json.dumps([{"name": "slot", "points": points}]))
     line = _refused(capsys, "rank", path, c, "--units", "mm")
     assert "point 0 lies on a hidden part of the surface (in a crevice of the part" in line
     assert "another body" not in line

@@ -320,13 +320,13 @@ def _crowded(archive: GraspBatch, prm: PlanParams, fingers: Fingers, L: float) -
     candidate at all) puts two fingertips on top of each other: the fingers are too large."""
     from synth.fingers.model import DEFAULT_TIP_RELATIVE_RADIUS
 
-    r = float(fingers.tip_radius)
+    r, share = float(fingers.tip_radius), DEFAULT_TIP_RELATIVE_RADIUS
     which = "every candidate with d* > 0" if (archive.d > 0).any() else "every candidate"
     return (f"no {prm.contacts}-contact grasp with its fingertips apart was found: in {which}, "
             f"two fingertips of radius {r:.4g} would overlap (their centres closer than "
             f"{2 * r:.4g}), so the fingers are too large for this part ({L:.4g} across its "
-            f"bounding box); try a smaller --finger-radius (the default is "
-            f"{100 * DEFAULT_TIP_RELATIVE_RADIUS:g}% of that, {DEFAULT_TIP_RELATIVE_RADIUS * L:.3g})")
+            f"bounding box); try a smaller --finger-radius (the default is {100 * share:g}% "
+            f"of that, {share * L:.3g})")
 
 
 def _cut_note(prm: PlanParams, score: Scorer, budget: int) -> str:

@@ -11,11 +11,14 @@ checked to lie in the touched facets' cone). Per part and model it prints:
 * ``rep``: the reported d* of the best grasp, and ``facet`` its d* with the file's normals;
 * ``worst``: the smallest ratio facet d* / reported d* over the top grasps (1 when every grasp
   holds on the facets at least as well as reported);
+* ``held`` (with ``--sim``): how many of the top grasps hold in MuJoCo (``synth sim`` at its
+  defaults: the file's own mesh as convex pieces, frictionless point fingers on stiff servos
+  limited to 10 N, gravity, pushes and torques along the six directions, a shake);
 * the planning time.
 
 Usage:
 
-    python scripts/bench_mesh_truth.py [--files a.obj b.stl] [--top 10] [--evals 50000]
+    python scripts/bench_mesh_truth.py [--files a.obj b.stl] [--top 10] [--evals 50000] [--sim]
 """
 
 from __future__ import annotations
@@ -55,6 +58,16 @@ def facet_d_star(pieces: Pieces, points: np.ndarray, normals: np.ndarray) -> tup
     return d, bool(rank == 6 and d > 1e-9)
 
 
+def held_in_mujoco(plan) -> int:  # type: ignore[no-untyped-def]
+    """How many of a plan's grasps hold in MuJoCo (``synth sim`` at its defaults)."""
+    from synth.sim import check_document, simulate_file
+
+    if not plan.grasps:
+        return 0
+    report = simulate_file(check_document(plan.to_json(), "plan"))
+    return sum(lab.held for lab in report.labels)
+
+
 def _row(pieces: Pieces, plan) -> tuple[str, float, float, float, int, int]:  # type: ignore[no-untyped-def]
     n_fc, worst, rep, facet = 0, 1.0, 0.0, 0.0
     for i, g in enumerate(plan.grasps):
@@ -71,12 +84,15 @@ def main() -> None:
     ap.add_argument("--files", nargs="*", default=None)
     ap.add_argument("--top", type=int, default=10)
     ap.add_argument("--evals", type=int, default=PlanParams().evals)
+    ap.add_argument("--sim", action="store_true", help="simulate every grasp in MuJoCo")
     args = ap.parse_args()
     entries = [e for e in json.loads((CORPUS / "corpus.json").read_text())
                if e["expect"] == "plan" and (not args.files or e["file"] in args.files)]
-    print(f"{'part':40s} | {'smooth: fc':>10} {'rep':>6} {'facet':>6} {'worst':>6} {'s':>5} | "
-          f"{'both: fc':>8} {'rep':>6} {'facet':>6} {'worst':>6} {'s':>5}")
-    totals = {"smooth": [0, 0, 0], "both": [0, 0, 0]}  # form closure on facets, grasps, parts
+    sim = f" {'held':>5}" if args.sim else ""
+    print(f"{'part':40s} | {'smooth: fc':>10} {'rep':>6} {'facet':>6} {'worst':>6}{sim} {'s':>5} | "
+          f"{'both: fc':>8} {'rep':>6} {'facet':>6} {'worst':>6}{sim} {'s':>5}")
+    # form closure on the facets, grasps, parts with a grasp that is not, held in MuJoCo
+    totals = {"smooth": [0, 0, 0, 0], "both": [0, 0, 0, 0]}
     for e in entries:
         part = load_part(CORPUS / e["file"], units=e["units"])
         pieces = Pieces(CORPUS / e["file"])
@@ -91,11 +107,17 @@ def main() -> None:
             totals[surface][0] += n_fc
             totals[surface][1] += n
             totals[surface][2] += bool(n) and n_fc < n
-            cells.append(f"{fc:>10} {rep:6.3f} {facet:6.3f} {worst:6.3f} {dt:5.2f}")
+            held = ""
+            if args.sim:
+                h = held_in_mujoco(plan)
+                totals[surface][3] += h
+                held = f" {h:>2}/{n:<2}"
+            cells.append(f"{fc:>10} {rep:6.3f} {facet:6.3f} {worst:6.3f}{held} {dt:5.2f}")
         print(f"{e['file'][:40]:40s} | {cells[0]} | {cells[1]}", flush=True)
-    for surface, (n_fc, n, bad) in totals.items():
+    for surface, (n_fc, n, bad, held) in totals.items():
         print(f"{surface}: {n_fc} of {n} top grasps are form closure with the file's own "
-              f"normals; parts with a grasp that is not: {bad}")
+              f"normals; parts with a grasp that is not: {bad}"
+              + (f"; held in MuJoCo: {held} of {n}" if args.sim else ""))
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import synth
 
 MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances", "synth.part",
            "synth.contacts", "synth.fingers", "synth.plan", "synth.database", "synth.isolate",
-           "synth.native"]
+           "synth.native", "synth.sim"]
 
 
 @pytest.mark.parametrize("name", MODULES)

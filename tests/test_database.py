@@ -207,3 +207,23 @@ def test_plan_cut_by_the_time_cap_is_a_failure_not_a_result(tmp_path):
         assert info.grasps == 0 and info.done == 0 and info.failed >= 1
         failed = [m for m in db.meshes() if m.status == "failed"]
         assert any(m.error_kind == "time_cap" and "time cap" in m.error for m in failed)
+
+
+def test_a_database_from_before_surface_resumes_only_with_the_smooth_model(
+        tmp_path: Path, mesh_dir: Path, reference: Path) -> None:
+    """A database built before ``--surface`` existed holds grasps scored with the smooth
+    reading: resuming it with the default (both) would mix two models, so it is refused with
+    the parameter named; ``surface="smooth"`` resumes it."""
+    import json
+    import sqlite3
+
+    conn = sqlite3.connect(reference)
+    params = json.loads(conn.execute("SELECT value FROM meta WHERE key = 'params'").fetchone()[0])
+    del params["surface"]
+    with conn:
+        conn.execute("UPDATE meta SET value = ? WHERE key = 'params'",
+                     (json.dumps(params, sort_keys=True, separators=(",", ":")),))
+    conn.close()
+    with pytest.raises(DatabaseError, match="surface: stored 'smooth', asked 'both'"):
+        build_database([mesh_dir], reference, PARAMS, planner=PLANNER)
+    build_database([mesh_dir], reference, {**PARAMS, "surface": "smooth"}, planner=PLANNER)

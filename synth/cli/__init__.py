@@ -1,4 +1,5 @@
-"""The ``synth`` command line: ``synth score``, ``synth plan``, ``synth rank``, ``synth db``.
+"""The ``synth`` command line: ``synth score``, ``synth plan``, ``synth rank``, ``synth sim``,
+``synth db``.
 
 Every command returns an exit status instead of raising:
 
@@ -67,12 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"synth {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    from synth.cli import plan, rank, score
+    from synth.cli import plan, rank, score, sim
     from synth.database.cli import add_db_parser
 
     plan.add_parser(sub)
     rank.add_parser(sub)
     score.add_parser(sub)
+    sim.add_parser(sub)
     add_db_parser(sub)
     return parser
 

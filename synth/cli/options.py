@@ -29,8 +29,8 @@ __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_plannin
 
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
-    """How the mesh is read: ``--units``, ``--body``, ``--sharp-angle``, and which normals
-    score a grasp, ``--surface``."""
+    """How the mesh is loaded and read: ``--units``, ``--body``, ``--sharp-angle``,
+    ``--surface``."""
     g = p.add_argument_group("mesh")
     g.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of the mesh when the file does not say (STL never does): "

@@ -74,6 +74,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     o.add_argument("--quiet", action="store_true",
                    help="print only the table and the result line: no progress bar, no loading "
                    "notes (dropped objects are still said), no list of files written")
+    from synth.cli.sim import add_sim_options
+
+    add_sim_options(p, prefix="sim-")
     p.set_defaults(run=run)
 
 
@@ -104,6 +107,21 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
     return out, png, glb
 
 
+def _simulate(doc: dict, mesh: str, settings, quiet: bool) -> dict:  # type: ignore[no-untyped-def]
+    """The plan's document with every grasp simulated (``--sim``)."""
+    from synth.cli.progress import LineProgress
+    from synth.sim import check_document, labelled_document, simulate_file
+
+    file = check_document(doc, mesh)
+    bar = LineProgress(enabled=not quiet)
+    try:
+        report = simulate_file(file, settings,
+                               progress=lambda i, n: bar(i / n, f"simulating grasp {i} of {n}"))
+    finally:
+        bar.close()
+    return labelled_document(file, report)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``synth plan``; exit status 1 when no grasp was found.
 
@@ -115,6 +133,13 @@ def run(args: argparse.Namespace) -> int:
     from synth.plan import LOAD_KEYS, PlanParams, export_glb, plan_part, render_png
 
     check_planning_options(args)
+    settings = None
+    if args.sim:
+        from synth.cli.sim import settings_from_args
+        from synth.sim import require_sim
+
+        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        require_sim()
     given = planning_params(args)
     params = PlanParams(**{k: v for k, v in given.items() if k not in LOAD_KEYS})
     paths = None if args.no_files else _output_paths(args)
@@ -125,7 +150,10 @@ def run(args: argparse.Namespace) -> int:
         plan = plan_part(part, params, progress=bar)
     finally:
         bar.close()
-    text = json.dumps(plan.to_json(), indent=1) + "\n"
+    doc = plan.to_json()
+    if settings is not None and plan.grasps:
+        doc = _simulate(doc, args.mesh, settings, args.quiet or args.json)
+    text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none
             with writing(paths[0]):
@@ -140,6 +168,11 @@ def run(args: argparse.Namespace) -> int:
         if plan.grasps:
             print(format_plan_table(plan))
         print(plan.message)
+        if "sim" in doc:
+            from synth.cli.sim import format_sim_table, summary
+
+            print(format_sim_table(doc))
+            print(summary(doc))
         if paths is not None and not args.quiet:
             print(f"wrote {', '.join(map(str, paths))} (run {plan.run_id})")
     return 0 if plan.grasps else 1

@@ -45,10 +45,10 @@ class RankedCandidate:
     features: tuple[str, ...] = ()
     fingers: dict[str, Any] | None = field(default=None, repr=False)
     contact_regions: Any = field(default=None, repr=False)
-    smooth_normals: np.ndarray | None = field(default=None, repr=False)
-    d_star_mesh: float | None = None
-    d_star_smooth: float | None = None
     index: int | None = None  # position in the candidate file
+    smooth_normals: np.ndarray | None = field(default=None, repr=False)
+    d_star_mesh: float = float("nan")
+    d_star_smooth: float = float("nan")
 
     @property
     def tolerance(self) -> float:
@@ -71,8 +71,8 @@ class RankedCandidate:
             "normals": None if self.normals is None else self.normals.tolist(),
             "smooth_normals": None if self.smooth_normals is None
             else self.smooth_normals.tolist(),
-            "d_star_mesh": self.d_star_mesh,
-            "d_star_smooth": self.d_star_smooth,
+            "d_star_mesh": None if self.closure is None else self.d_star_mesh,
+            "d_star_smooth": None if self.closure is None else self.d_star_smooth,
             "features": list(self.features),
             "fingers": self.fingers,
             "tolerance": None if self.contact_regions is None else self.tolerance,
@@ -140,18 +140,18 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     ``max_distance`` of it; a point whose snapped place is not on the exposed surface (a
     fingertip could not reach it: against another body of the part, or in a crevice of its
     own) makes its candidate unusable. ``index`` gives each candidate's position in its file,
-    for the messages (default: 0, 1, ...). Each candidate is scored under the surface model
-    ``surface`` (:mod:`synth.scores.surface`): d*, closure, conditioning and epsilon are
-    those of its weaker reading of the normals, as ``synth plan`` reports them (with friction,
-    of the cone-edge wrenches with ``edges`` edges).
+    for the messages (default: 0, 1, ...). Conditioning and epsilon are those ``synth plan``
+    reports (with friction, of the cone-edge wrenches with ``edges`` edges). Each candidate is
+    scored under the surface model ``surface`` (:mod:`synth.scores.surface`): its d*, closure,
+    conditioning and epsilon are those of its weaker reading of the normals.
     """
     from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
     from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.quality import (conditioning, epsilon_quality, grasp_wrenches,
-                                     scaled_wrenches)
-    from synth.scores.surface import readings, surface_scores
+                                      scaled_wrenches)
+    from synth.scores.surface import readings, surface_scores, worst_reading
 
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
@@ -189,8 +189,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
             rows.append(RankedCandidate(c.name, "error",
                                         f"{label}: {len(P)} contacts are too few", index=i))
             continue
-        both = surface_scores(P[None], N[None], S[None], surface, center, L, m)
-        graded = []  # per reading: (closure?, d*, closure class)
+        both = surface_scores(P[None], N[None], S[None], surface, center, L, m, edges)
+        graded = []  # per reading of the normals: (closure?, d*, closure class)
         for n in readings(N, S, surface):
             if m == 0:
                 r = form_closure(scaled_wrenches(P, n, center, L))
@@ -199,10 +199,10 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                 fr = frictional_form_closure(P, n, m, center=center, edges=edges)
                 graded.append((fr.closure == "frictional form", fr.d_star, fr.closure))
         _, d, closure = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
-        cond = min(float(conditioning(grasp_wrenches(P, n, center, L, m, edges)))
-                   for n in readings(N, S, surface))
-        eps = min(float(epsilon_quality(P, n, center, L, m, edges))
-                  for n in readings(N, S, surface))
+        cond = worst_reading(lambda n: float(conditioning(grasp_wrenches(P, n, center, L, m,
+                                                                         edges))), N, S, surface)
+        eps = worst_reading(lambda n: float(epsilon_quality(P, n, center, L, m, edges)), N, S,
+                            surface)
         ids = np.unique(con.finger, return_inverse=True)[1]
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
         fing = None
@@ -219,8 +219,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
             status, reason = "tolerance", (f"placement tolerance {robust.tolerance:.4g} is "
                                            f"below --min-tolerance {min_tolerance:g}")
         rows.append(RankedCandidate(c.name, status, reason, d, closure, cond, eps, P, N,
-                                    tuple(con.features), fing, robust, S,
-                                    float(both.d_mesh[0]), float(both.d_smooth[0]), i))
+                                    tuple(con.features), fing, robust, i, S,
+                                    float(both.d_mesh[0]), float(both.d_smooth[0])))
     return order_rows(rows, rank_by)
 
 

@@ -42,6 +42,7 @@ from synth.plan.params import PlanParams
 __all__ = [
     "MESH_EXTENSIONS",
     "DEFAULT_PARAMS",
+    "PARAMS_BEFORE",
     "MeshInputs",
     "BuildReport",
     "BuildTerminated",
@@ -58,6 +59,10 @@ MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 #: speed) decides the result; a plan the cap cuts is recorded as failed.
 DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
                                   "body": "largest", "sharp_angle": 30.0}
+#: What a parameter was before it existed, for databases built then: before ``surface``, grasps
+#: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`). Any other
+#: parameter missing from a stored set matches its default.
+PARAMS_BEFORE: dict[str, Any] = {"surface": "smooth"}
 #: Parameters that are numbers (stored as floats, so 1 and 1.0 are one parameter set).
 _REAL_PARAMS = ("mu", "time", "finger_radius", "body_length", "body_radius", "approach_cone",
                 "support_z", "min_d_star", "min_conditioning", "diversity", "min_tolerance",
@@ -639,7 +644,7 @@ def build_database(
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]
         with GraspDatabase(out, mode="w") as db:
-            db.bind(run_params, planner_name, DEFAULT_PARAMS)
+            db.bind(run_params, planner_name, {**DEFAULT_PARAMS, **PARAMS_BEFORE})
             tasks, hashes, skipped, duplicates, failures = _prepare(
                 db, inputs, params_text, planner_name, retry_failed
             )

@@ -5,7 +5,8 @@ conditioned (``PlanParams.min_conditioning``) and its fingertips do not overlap;
 only closure or conditioning fails (so better candidates still rank higher); -2 when two
 fingertips overlap. All of it under the surface model ``PlanParams.surface``
 (:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must hold with the
-mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every candidate scored counts as one evaluation of the budget.
+mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every
+candidate scored counts as one evaluation of the budget.
 
 The scorer also keeps the search's clock: it scores in chunks and stops at the deadline
 between two chunks, so no stage of the search runs more than one chunk past

@@ -37,6 +37,7 @@ from synth.fingers import Fingers, check_fingers
 from synth.part.resolve import closest_points
 from synth.plan.ascent import ascent_directions
 from synth.plan.batch import GraspBatch, Scorer
+from synth.scores.surface import differs
 
 __all__ = ["GROW", "SHRINK", "FIRST_STEP", "Population", "pool_climb", "surface_climb",
            "swap_climb", "reachable"]
@@ -263,8 +264,12 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     pp, pn, ps = pool.points[:, 0], pool.normals[:, 0], pool.smooth[:, 0]
     n_pool, k = len(pp), seeds.shape[1]
     # the pool's wrench columns with each reading of the normals the surface model scores
+    # (one when the readings agree on the whole pool, as on a polyhedral part)
+    sets = score.readings(pn, ps)
+    if len(sets) == 2 and not differs(pn[None], ps[None])[0]:
+        sets = sets[:1]
     Xs = [np.concatenate([n, np.cross((pp - score.center) / score.length, n)], axis=1).T
-          for n in score.readings(pn, ps)]
+          for n in sets]
     tips = pp - score.r * pn
     clash = np.zeros((n_pool, n_pool), bool)  # fingertips of the two contacts overlap
     pairs = cKDTree(tips).query_pairs(2 * score.r * (1 - 1e-9), output_type="ndarray")

@@ -1,0 +1,173 @@
+"""``synth sim GRASPS.json``: simulate every grasp of a grasp file in MuJoCo and label it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from synth.cli.checks import integer, output_path, real
+
+__all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args"]
+
+
+def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
+    """The simulated hand's options (``prefix`` "sim-" for ``synth plan --sim``)."""
+    from synth.sim.settings import RANGES, SimSettings
+
+    d = SimSettings()
+
+    def rng(name: str) -> str:
+        lo, hi = RANGES[name]
+        return f"{lo:g} to {hi:g}"
+
+    g = p.add_argument_group(f"simulation (MuJoCo; the part scaled to --{prefix}size)")
+    if prefix:
+        g.add_argument("--sim", action="store_true",
+                       help="simulate every grasp found in MuJoCo, as 'synth sim' does, and "
+                       "store its label in the JSON ('sim'); needs pip install 'synth[sim]'")
+    g.add_argument(f"--{prefix}stiffness", type=float, default=d.stiffness, metavar="N/M",
+                   help=f"gain of each finger's position servo, N/m, {rng('stiffness')} "
+                   f"(default {d.stiffness:g})")
+    g.add_argument(f"--{prefix}grip", type=float, default=d.grip, metavar="N",
+                   help=f"force limit of each finger, N, {rng('grip')} (default {d.grip:g})")
+    g.add_argument(f"--{prefix}size", type=float, default=d.size, metavar="M",
+                   help=f"the part's bounding-box diagonal in the simulation, m, {rng('size')} "
+                   f"(default {d.size:g})")
+    g.add_argument(f"--{prefix}density", type=float, default=d.density, metavar="KG/M3",
+                   help=f"the part's density, {rng('density')} (default {d.density:g}, water)")
+    g.add_argument(f"--{prefix}shake", type=float, default=d.shake, metavar="G",
+                   help=f"peak acceleration of the shake along x, y and z, in g, 0 to 100 "
+                   f"(default {d.shake:g}; 0: no shake)")
+
+
+def settings_from_args(args: argparse.Namespace, prefix: str = "", seed: int = 0):
+    """:class:`synth.sim.SimSettings` from the options, each checked against its range."""
+    from synth.sim.settings import RANGES, SimSettings
+
+    key = prefix.replace("-", "_")
+    values = {name: getattr(args, key + name) for name in
+              ("stiffness", "grip", "size", "density", "shake")}
+    for name, value in values.items():
+        option = f"--{prefix}{name}"
+        if name == "shake":
+            real(option, value, 0, 100, unit=" g")
+        else:
+            real(option, value, *RANGES[name])
+    return SimSettings(seed=seed, **values)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Register ``synth sim``."""
+    from synth.limits import MAX_MU
+
+    p = sub.add_parser(
+        "sim",
+        help="simulate the grasps of a grasp file in MuJoCo: held or not, the largest push "
+        "held, the motion at failure",
+        description="Simulate every grasp of a grasp file (written by 'synth plan --out') "
+        "in MuJoCo with force-limited point fingers: squeeze, gravity, pushes along and "
+        "torques about +-x, +-y, +-z of the part until it moves, and a shake. Each grasp "
+        "gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, coacd).",
+        epilog="Exit status: 0 every grasp simulated (held or not; a simulation that "
+        "diverged is labelled so); 1 the file could not be written; 2 bad input (the line "
+        "says what is wrong, also when mujoco is not installed); 3 internal error (a bug in "
+        "synth). Non-convex bodies are decomposed with CoACD, cached in $SYNTH_CACHE_DIR "
+        "(default ~/.cache/synth).",
+    )
+    p.add_argument("grasps", metavar="GRASPS.json", help="grasp file written by synth plan")
+    p.add_argument("--mesh", default=None, metavar="MESH",
+                   help="the mesh file, when it is no longer where the grasp file's mesh.path "
+                   "says (it must have the same content)")
+    p.add_argument("--mu", type=float, default=None, metavar="MU",
+                   help=f"simulate with this friction coefficient, in [0, {MAX_MU:g}] "
+                   "(default: the grasps' own, params.mu)")
+    p.add_argument("--seed", type=int, default=0, metavar="SEED",
+                   help="seed of the convex decomposition of non-convex bodies (default 0)")
+    add_sim_options(p)
+    o = p.add_argument_group("output")
+    o.add_argument("--out", default=None, metavar="JSON",
+                   help="write the labelled grasp file here, ending in .json (default: "
+                   "update GRASPS.json in place)")
+    o.add_argument("--no-files", action="store_true", help="write no file, only print")
+    o.add_argument("--json", action="store_true",
+                   help="print the labelled JSON document, not a table")
+    o.add_argument("--quiet", action="store_true", help="no progress bar, no file list")
+    p.set_defaults(run=run)
+
+
+def format_sim_table(doc: dict) -> str:
+    """Table of a labelled document's grasps: measures beside the simulation's labels."""
+    lines = [f"{'#':>3}  {'d*':>8}  {'cond':>7}  {'held':<4}  {'failed at':<9}  "
+             f"{'force':>6}  {'torque':>6}  motion"]
+    for i, g in enumerate(doc["grasps"], 1):
+        s = g["sim"]
+        failed = s["failed_at"] or "-"
+        lines.append(f"{i:>3}  {g.get('d_star', math.nan):>8.5f}  "
+                     f"{g.get('conditioning', math.nan):>7.4f}  "
+                     f"{'yes' if s['held'] else 'no':<4}  {failed:<9}  "
+                     f"{s['force_min']:>6.3f}  {s['torque_min']:>6.3f}  "
+                     + (f"{s['motion_at']}: {s['motion_words']}" if s["motion_words"] else "-")
+                     + ("" if s["escape_cos"] is None else
+                        f" (cos {s['escape_cos']:+.2f} to the predicted escape)"))
+    return "\n".join(lines)
+
+
+def summary(doc: dict) -> str:
+    """One line: how many grasps held and what the figures mean."""
+    s = doc["sim"]
+    n = len(doc["grasps"])
+    st = s["settings"]
+    bodies = f"{s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'}"
+    dec = "" if not s["decomposed"] else (
+        f"; {bodies} decomposed into {s['pieces']} convex pieces with the others (volume "
+        f"error {s['decomposition_error']:.1%})" if s["decomposition_error"] is not None
+        else f"; {bodies} (open) decomposed into {s['pieces']} convex pieces with the others")
+    return (f"{s['held']} of {n} grasps held (fingers {st['stiffness']:g} N/m, grip "
+            f"{st['grip']:g} N, shake {st['shake']:g} g; force and torque: the weakest push "
+            f"held, over the grip force and grip force x size){dec} in {s['seconds']:.1f} s")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``synth sim``."""
+    from synth.cli.progress import LineProgress
+    from synth.files import write_atomic
+    from synth.limits import MAX_MU, MAX_SEED
+    from synth.sim import (
+        ContactModel,
+        labelled_document,
+        read_grasp_file,
+        require_sim,
+        simulate_file,
+    )
+
+    real("--mu", args.mu, 0, MAX_MU)
+    integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
+    settings = settings_from_args(args, seed=args.seed)
+    out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
+    require_sim()
+    file = read_grasp_file(args.grasps)
+    if args.mesh is not None:
+        from dataclasses import replace
+
+        file = replace(file, mesh_path=Path(args.mesh))
+    contact = None if args.mu is None else ContactModel(args.mu)
+    bar = LineProgress(enabled=not (args.quiet or args.json))
+    try:
+        report = simulate_file(file, settings, contact=contact,
+                               progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
+    finally:
+        bar.close()
+    doc = labelled_document(file, report)
+    text = json.dumps(doc, indent=1) + "\n"
+    if out is not None:
+        write_atomic(out, text)
+    if args.json:
+        print(text, end="")
+    else:
+        print(format_sim_table(doc))
+        print(summary(doc))
+        if out is not None and not args.quiet:
+            print(f"wrote {out}")
+    return 0

@@ -1,0 +1,247 @@
+"""Read a ``synth.grasps`` document (what ``synth plan --out`` writes) for simulation.
+
+A grasp file may come from another version of synth or from another tool that imitates the
+format, so every field the simulation uses is checked where it enters, one by one: a bad
+field raises :class:`~synth.errors.InputError` naming the file, the field (``grasps[3].fingers
+.tip_centers``), what was expected and what was found. Fields the simulation does not use are
+not checked, and are written back untouched.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from synth.errors import InputError, shown
+
+__all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "check_document"]
+
+#: The format and version the simulation reads (see the README's "Output file format").
+FORMAT, VERSION = "synth.grasps", 1
+
+
+@dataclass(frozen=True)
+class SimGrasp:
+    """What the simulation needs of one grasp, in the mesh file's coordinates and units.
+
+    Attributes
+    ----------
+    points : (k, 3) float
+        Contact points.
+    normals : (k, 3) float
+        Unit contact normals the grasp was scored with, pointing into the part.
+    tip_centers : (f, 3) float
+        Fingertip centres.
+    approach : (f, 3) float
+        Unit approach directions, away from the part; each finger slides along ``-approach``.
+    tip_radius : float
+        Fingertip radius (> 0).
+    measures : dict of str to float
+        The grasp's scores as written (``d_star``, ``conditioning``, ``epsilon``, and
+        ``tolerance``, ``d_star_mesh``, ``d_star_smooth`` when present); NaN where absent.
+    """
+
+    points: NDArray[np.float64] = field(repr=False)
+    normals: NDArray[np.float64] = field(repr=False)
+    tip_centers: NDArray[np.float64] = field(repr=False)
+    approach: NDArray[np.float64] = field(repr=False)
+    tip_radius: float
+    measures: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class GraspFile:
+    """A checked grasp document.
+
+    Attributes
+    ----------
+    path : str
+        Where it was read from (for messages).
+    mesh_path : pathlib.Path
+        The mesh file, resolved: as written if absolute or found from the current folder,
+        else relative to the grasp file's folder.
+    sha256 : str or None
+        The mesh file's digest as planned.
+    length : float
+        The part's bounding-box diagonal, mesh units.
+    center_mass : (3,) float
+    volume : float
+        Volume of the part's closed bodies (0 for a part of open surfaces only).
+    mu : float
+        Friction coefficient the grasps were planned with (0: frictionless).
+    grasps : tuple of SimGrasp
+    document : dict
+        The whole document as read, to write back with the simulation's labels.
+    """
+
+    path: str
+    mesh_path: Path
+    sha256: str | None
+    length: float
+    center_mass: NDArray[np.float64] = field(repr=False)
+    volume: float
+    mu: float
+    grasps: tuple[SimGrasp, ...] = field(repr=False)
+    document: dict[str, Any] = field(repr=False)
+
+
+def _where(name: str, key: str) -> str:
+    return f"{name}: field {key}"
+
+
+def _get(obj: Any, key: str, where: str, name: str) -> Any:
+    if not isinstance(obj, dict):
+        raise InputError(f"{_where(name, where)}: expected an object, got "
+                         f"{type(obj).__name__}")
+    if key not in obj:
+        raise InputError(f"{_where(name, f'{where}.{key}' if where else key)}: missing")
+    return obj[key]
+
+
+def _number(value: Any, key: str, name: str, lo: float = -math.inf,
+            lo_open: bool = False) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not math.isfinite(value) or value < lo or (lo_open and value == lo):
+        bound = "" if lo == -math.inf else f" {'>' if lo_open else '>='} {lo:g}"
+        raise InputError(f"{_where(name, key)}: expected a finite number{bound}, got "
+                         f"{shown(value)}")
+    return float(value)
+
+
+def _array(value: Any, key: str, name: str, rows: int | None = None,
+           unit: bool = False) -> NDArray[np.float64]:
+    want = f"({rows if rows is not None else 'n'}, 3) numbers"
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{_where(name, key)}: expected {want}, got {shown(value)}") from None
+    if a.ndim != 2 or a.shape[1] != 3 or len(a) == 0 or (rows is not None and len(a) != rows):
+        raise InputError(f"{_where(name, key)}: expected {want}, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise InputError(f"{_where(name, key)}: NaN or infinite values")
+    if unit:
+        norms = np.linalg.norm(a, axis=1)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-6)
+        if len(bad):
+            raise InputError(f"{_where(name, f'{key}[{bad[0]}]')}: expected a unit vector, "
+                             f"got length {norms[bad[0]]:.6g}")
+    return a
+
+
+def _measure(g: dict[str, Any], key: str, where: str, name: str) -> float:
+    value = g.get(key)
+    if value is None:
+        return float("nan")
+    return _number(value, f"{where}.{key}", name)
+
+
+def _grasp(g: Any, i: int, name: str) -> SimGrasp:
+    where = f"grasps[{i}]"
+    points = _array(_get(g, "points", where, name), f"{where}.points", name)
+    k = len(points)
+    normals = _array(_get(g, "normals", where, name), f"{where}.normals", name, k, unit=True)
+    fingers = _get(g, "fingers", where, name)
+    fw = f"{where}.fingers"
+    centers = _array(_get(fingers, "tip_centers", fw, name), f"{fw}.tip_centers", name)
+    approach = _array(_get(fingers, "approach", fw, name), f"{fw}.approach", name,
+                      len(centers), unit=True)
+    radius = _number(_get(fingers, "tip_radius", fw, name), f"{fw}.tip_radius", name, 0.0,
+                     lo_open=True)
+    measures = {key: _measure(g, key, where, name) for key in
+                ("d_star", "conditioning", "epsilon", "tolerance", "d_star_mesh",
+                 "d_star_smooth")}
+    return SimGrasp(points, normals, centers, approach, radius, measures)
+
+
+def _mesh_path(text: Any, name: str) -> Path:
+    if not isinstance(text, str) or not text:
+        raise InputError(f"{_where(name, 'mesh.path')}: expected the mesh file's path, got "
+                         f"{shown(text)}")
+    p = Path(text)
+    if p.is_absolute() or p.exists():
+        return p
+    return Path(name).parent / p
+
+
+def check_document(doc: Any, name: str = "<document>") -> GraspFile:
+    """Check a parsed grasp document field by field and return what the simulation needs.
+
+    Parameters
+    ----------
+    doc : object
+        The parsed JSON.
+    name : str
+        The file's name, for messages.
+
+    Returns
+    -------
+    GraspFile
+
+    Raises
+    ------
+    InputError
+        A field is missing or of the wrong type, shape or range; the message names it.
+
+    Examples
+    --------
+    >>> check_document({"format": "other"}, "g.json")  # doctest: +SKIP
+    synth.errors.InputError: g.json: field format: expected 'synth.grasps', got 'other'
+    """
+    if not isinstance(doc, dict):
+        raise InputError(f"{name}: expected a synth.grasps JSON object, got "
+                         f"{type(doc).__name__}")
+    fmt = _get(doc, "format", "", name)
+    if fmt != FORMAT:
+        raise InputError(f"{_where(name, 'format')}: expected {FORMAT!r}, got {shown(fmt)} "
+                         "(write grasp files with 'synth plan --out')")
+    version = _get(doc, "version", "", name)
+    if version != VERSION:
+        raise InputError(f"{_where(name, 'version')}: expected {VERSION}, got "
+                         f"{shown(version)} (a file from another version of synth)")
+    mesh = _get(doc, "mesh", "", name)
+    mesh_path = _mesh_path(_get(mesh, "path", "mesh", name), name)
+    sha = mesh.get("sha256")
+    if sha is not None and not isinstance(sha, str):
+        raise InputError(f"{_where(name, 'mesh.sha256')}: expected a hex digest or null, got "
+                         f"{shown(sha)}")
+    length = _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)
+    com = np.asarray(_array([_get(mesh, "center_mass", "mesh", name)], "mesh.center_mass",
+                            name, 1)[0])
+    volume = _number(_get(mesh, "volume", "mesh", name), "mesh.volume", name, 0.0)
+    params = _get(doc, "params", "", name)
+    mu = _number(_get(params, "mu", "params", name), "params.mu", name, 0.0)
+    grasps = _get(doc, "grasps", "", name)
+    if not isinstance(grasps, list):
+        raise InputError(f"{_where(name, 'grasps')}: expected a list, got "
+                         f"{type(grasps).__name__}")
+    return GraspFile(name, mesh_path, sha, length, com, volume, mu,
+                     tuple(_grasp(g, i, name) for i, g in enumerate(grasps)), doc)
+
+
+def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
+    """Read and check a grasp file (see :func:`check_document`).
+
+    Raises
+    ------
+    InputError
+        The file is missing, not JSON, or a field is bad.
+    """
+    name = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{name}: no such file") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{name}: cannot be read ({getattr(e, 'strerror', None) or e})") from e
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{name}: not JSON ({e.msg} at line {e.lineno})") from None
+    return check_document(doc, name)

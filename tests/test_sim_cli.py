@@ -1,0 +1,92 @@
+"""``synth sim`` and ``synth plan --sim``: labels in the JSON, one line for bad input."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from synth.cli import main  # noqa: E402
+from tests.sim_support import CUBE6, write_cube, write_grasps  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_sim_labels_every_grasp_in_place(tmp_path, capsys):
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
+    assert main(["sim", str(path), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "0 of 1 grasps held" in out and "shake: translate along" in out
+    doc = json.loads(path.read_text())
+    s = doc["grasps"][0]["sim"]
+    assert s["held"] is False and s["failed_at"] == "shake" and s["escape_cos"] > 0.98
+    assert doc["sim"]["contact"]["condim"] == 1 and doc["sim"]["settings"]["grip"] == 10.0
+    assert doc["grasps"][0]["d_star"] == 0.5  # the rest of the file is kept
+
+
+def test_sim_out_and_no_files(tmp_path, capsys):
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
+    before = path.read_text()
+    assert main(["sim", str(path), "--out", str(tmp_path / "labelled.json"), "--quiet",
+                 "--shake", "0"]) == 0
+    assert path.read_text() == before
+    capsys.readouterr()
+    assert "sim" in json.loads((tmp_path / "labelled.json").read_text())["grasps"][0]
+    assert main(["sim", str(path), "--no-files", "--json", "--shake", "0"]) == 0
+    assert json.loads(capsys.readouterr().out)["grasps"][0]["sim"]["failed_at"] is None
+
+
+def test_without_mujoco_the_command_names_the_extra(tmp_path, capsys, monkeypatch):
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco raises ImportError
+    assert main(["sim", str(path)]) == 2
+    assert "pip install 'synth[sim]'" in _one_line(capsys.readouterr().err)
+    assert main(["plan", str(path.parent / "cube.stl"), "--sim", "--no-files"]) == 2
+    assert "mujoco is not installed" in _one_line(capsys.readouterr().err)
+
+
+def test_bad_input_is_one_line(tmp_path, capsys):
+    mesh = write_cube(tmp_path)
+    path = write_grasps(tmp_path, mesh, *CUBE6)
+    assert main(["sim", str(path), "--grip", "-1"]) == 2
+    assert "--grip" in _one_line(capsys.readouterr().err)
+    doc = json.loads(path.read_text())
+    doc["grasps"][0]["fingers"]["tip_radius"] = "big"
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["sim", str(bad)]) == 2
+    assert "field grasps[0].fingers.tip_radius" in _one_line(capsys.readouterr().err)
+    doc = json.loads(path.read_text())
+    doc["mesh"]["sha256"] = hashlib.sha256(b"another mesh").hexdigest()
+    bad.write_text(json.dumps(doc))
+    assert main(["sim", str(bad)]) == 2
+    assert "has changed since the grasps were planned" in _one_line(capsys.readouterr().err)
+    doc["mesh"]["sha256"] = None
+    doc["mesh"]["path"] = str(tmp_path / "gone.stl")
+    bad.write_text(json.dumps(doc))
+    assert main(["sim", str(bad)]) == 2
+    assert "gone.stl: no such file" in _one_line(capsys.readouterr().err)
+    assert main(["sim", str(bad), "--mesh", str(mesh), "--no-files", "--shake", "0"]) == 0
+
+
+def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):
+    mesh = write_cube(tmp_path)
+    out = tmp_path / "cube.grasps.json"
+    assert main(["plan", str(mesh), "--sim", "--top", "1", "--evals", "2000", "--quiet",
+                 "--out", str(out), "--sim-shake", "0"]) == 0
+    doc = json.loads(out.read_text())
+    assert all("sim" in g for g in doc["grasps"]) and doc["sim"]["held"] >= 1
+    assert "grasps held" in capsys.readouterr().out

@@ -1,0 +1,80 @@
+"""Grasp files from elsewhere: every field the simulation reads is checked, one by one."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from synth.errors import InputError
+from synth.sim import check_document, read_grasp_file
+from tests.sim_support import CUBE7, write_cube, write_grasps
+
+
+@pytest.fixture
+def doc(tmp_path):
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE7)
+    return json.loads(path.read_text())
+
+
+def test_a_grasp_file_is_read(doc):
+    f = check_document(doc, "g.json")
+    g = f.grasps[0]
+    assert f.mu == 0 and f.length == pytest.approx(np.sqrt(3)) and len(f.grasps) == 1
+    assert g.points.shape == (7, 3) and g.tip_centers.shape == (7, 3) and g.tip_radius > 0
+    assert g.measures["d_star"] == 0.5 and np.isnan(g.measures["tolerance"])
+
+
+def _set(d, path, value):
+    *head, last = path
+    for key in head:
+        d = d[key]
+    if value is KeyError:
+        del d[last]
+    else:
+        d[last] = value
+
+
+@pytest.mark.parametrize("path, value, field", [
+    (("format",), "acronym", "format"),
+    (("version",), 2, "version"),
+    (("mesh",), KeyError, "mesh"),
+    (("mesh", "path"), 3, "mesh.path"),
+    (("mesh", "length"), -1.0, "mesh.length"),
+    (("mesh", "center_mass"), [0, 0], "mesh.center_mass"),
+    (("params", "mu"), "0.5", "params.mu"),
+    (("grasps",), {}, "grasps"),
+    (("grasps", 0, "points"), [[0, 0]] * 7, "grasps[0].points"),
+    (("grasps", 0, "normals"), [[0, 0, 2]] * 7, "grasps[0].normals[0]"),
+    (("grasps", 0, "normals"), [[0, 0, 1]] * 6, "grasps[0].normals"),
+    (("grasps", 0, "fingers", "tip_centers"), KeyError, "grasps[0].fingers.tip_centers"),
+    (("grasps", 0, "fingers", "approach"), [[0, 0, 1]], "grasps[0].fingers.approach"),
+    (("grasps", 0, "fingers", "tip_radius"), 0, "grasps[0].fingers.tip_radius"),
+    (("grasps", 0, "d_star"), float("nan"), "grasps[0].d_star"),
+])
+def test_every_field_is_checked(doc, path, value, field):
+    bad = copy.deepcopy(doc)
+    _set(bad, path, value)
+    pattern = field.replace("[", ".").replace("]", ".")  # brackets match any character
+    with pytest.raises(InputError, match=rf"g\.json: field {pattern}"):
+        check_document(bad, "g.json")
+
+
+def test_files_that_are_not_grasp_files(tmp_path):
+    with pytest.raises(InputError, match="no such file"):
+        read_grasp_file(tmp_path / "none.json")
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(InputError, match="bad.json: not JSON"):
+        read_grasp_file(tmp_path / "bad.json")
+    (tmp_path / "list.json").write_text("[]")
+    with pytest.raises(InputError, match="expected a synth.grasps JSON object"):
+        read_grasp_file(tmp_path / "list.json")
+
+
+def test_a_relative_mesh_path_is_found_next_to_the_grasp_file(tmp_path, doc):
+    write_cube(tmp_path)
+    doc["mesh"]["path"] = "cube.stl"
+    (tmp_path / "g.json").write_text(json.dumps(doc))
+    assert read_grasp_file(tmp_path / "g.json").mesh_path == tmp_path / "cube.stl"

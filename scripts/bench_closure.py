@@ -11,7 +11,7 @@ numba is installed; ``SYNTH_SIMPLEX`` forces each route, see
    and 7 contacts, against linprog of the same LP (edge intensities, normal intensities in
    [d, 1]);
 3. ``synth score`` end to end on 100,000 candidates of 7 contacts (read, score, rank, print the
-   top rows, write --json), from NPZ and from JSON, as a separate process.
+   top rows, write --out), from NPZ and from JSON, as a separate process.
 
 Each timing is the best of ``--repeat`` runs, interleaved (numpy, numba, loop, numpy, ...),
 so load from other jobs on the machine affects every side alike. Usage:
@@ -150,7 +150,7 @@ def score_cli() -> None:
     P, N = contacts(rng, B, 7)
     names = [f"g{i}" for i in range(B)]
     print(f"\nsynth score, {B} candidates of 7 contacts (read, score, rank, print the top 20, "
-          "write --json; a new process)")
+          "write --out; a new process)")
     with tempfile.TemporaryDirectory() as tmp:
         npz, js, out = Path(tmp) / "c.npz", Path(tmp) / "c.json", Path(tmp) / "out.json"
         np.savez(npz, points=P, normals=N, names=np.array(names))

@@ -114,16 +114,14 @@ class _Child:
         self.receive: BinaryIO = self.proc.stdout  # type: ignore[assignment]
         pickle.dump(list(sys.path), self.send)  # the parent's imports work in the child
 
-    def call(self, function: str, args: tuple[Any, ...]) -> Any:
+    def call(self, function: str, args: tuple[Any, ...]) -> tuple[bool, Any]:
+        """``(True, result)`` or ``(False, the exception the function raised)``."""
         try:
             pickle.dump((function, args), self.send, protocol=pickle.HIGHEST_PROTOCOL)
             self.send.flush()
-            ok, value = pickle.load(self.receive)
+            return pickle.load(self.receive)  # type: ignore[no-any-return]
         except (EOFError, BrokenPipeError, pickle.UnpicklingError):
             raise NativeCrash(function, self.proc.wait()) from None
-        if not ok:
-            raise value
-        return value
 
     def close(self) -> None:
         try:
@@ -131,6 +129,12 @@ class _Child:
         except OSError:
             pass
         self.proc.wait()
+
+    def kill(self) -> None:
+        """End the child at once (a call was abandoned: its answer must not be read as the
+        next call's)."""
+        self.proc.kill()
+        self.close()
 
 
 _lock = threading.Lock()
@@ -164,11 +168,18 @@ def call_isolated(function: str, *args: Any) -> Any:
         if _child is None:
             _child = _Child()
         try:
-            return _child.call(function, args)
+            ok, value = _child.call(function, args)
         except NativeCrash:
             _child.close()
             _child = None
             raise
+        except BaseException:  # Ctrl-C, a time limit's alarm: the call is abandoned midway
+            _child.kill()
+            _child = None
+            raise
+    if not ok:
+        raise value
+    return value
 
 
 @atexit.register

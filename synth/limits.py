@@ -9,7 +9,7 @@ the candidate readers check them.
 
 from __future__ import annotations
 
-__all__ = ["MAX_COORDINATE", "MAX_FACES", "MAX_LENGTH", "MAX_FINGERS", "AUTO_MAX_FINGERS",
+__all__ = ["SURFACES", "DEFAULT_SURFACE", "MAX_COORDINATE", "MAX_FACES", "MAX_LENGTH", "MAX_FINGERS", "AUTO_MAX_FINGERS",
            "MAX_CONTACTS", "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU",
            "MAX_TOP", "MAX_SEED"]
 
@@ -42,3 +42,8 @@ MAX_MU = 100.0
 MAX_TOP = 1000
 #: Largest random seed (seeds are 0 to 2**63 - 1, so they fit every integer column).
 MAX_SEED = 2**63 - 1
+
+#: The surface models a grasp can be scored with, default first (see
+#: :mod:`synth.scores.surface`): which normals it must hold with.
+SURFACES: tuple[str, ...] = ("both", "mesh", "smooth")
+DEFAULT_SURFACE: str = SURFACES[0]

@@ -99,6 +99,7 @@ PLAN_OPTIONS = {
     "--contacts": _in(7, lim.MAX_CONTACTS, kind=int),  # 7: the defaults are frictionless
     "--fingers": lambda t: t == "auto" or _in(2, lim.MAX_FINGERS, kind=int)(t),
     "--mu": _in(0, lim.MAX_MU),
+    "--edges": _in(lim.MIN_EDGES, lim.MAX_EDGES, kind=int),
     "--top": _in(1, lim.MAX_TOP, kind=int),
     "--time": _in(0, math.inf, open_lo=True, open_hi=True),
     "--evals": _in(lim.MIN_EVALS, lim.MAX_EVALS, kind=int),
@@ -108,7 +109,8 @@ PLAN_OPTIONS = {
     **FINGER_OPTIONS,
 }
 RANK_OPTIONS = {"--mu": _in(0, lim.MAX_MU), "--max-distance": _in(0, lim.MAX_LENGTH),
-                **FINGER_OPTIONS}
+                "--edges": _in(lim.MIN_EDGES, lim.MAX_EDGES, kind=int),
+                "--top": _in(0, math.inf, open_hi=True, kind=int), **FINGER_OPTIONS}
 SCORE_OPTIONS = {"--mu": _in(0, lim.MAX_MU),
                  "--edges": _in(lim.MIN_EDGES, lim.MAX_EDGES, kind=int),
                  "--top": _in(0, math.inf, open_hi=True, kind=int)}

@@ -373,9 +373,11 @@ def test_one_vocabulary_across_commands():
 
 def test_db_build_takes_every_planning_option_of_plan(box, tmp_path, capsys):
     """A database holds what plan gives for the same part: every option of plan that is
-    not about its output files is an option of db build, and reaches the planner."""
+    not about its output files (nor about simulating the grasps found, ``--sim``, whose
+    labels a database does not store) is an option of db build, and reaches the planner."""
     output = {"--out", "--png", "--glb", "--no-files", "--json", "--quiet", "-h", "--help"}
-    missing = set(_options("plan")) - output - set(_options("db", "build"))
+    simulation = {o for o in _options("plan") if o.startswith("--sim")}
+    missing = set(_options("plan")) - output - simulation - set(_options("db", "build"))
     assert not missing, missing
     db = tmp_path / "g.sqlite"
     code, _, err = _run(capsys, "db", "build", box, "--out", db, "--workers", "0", "--quiet",
@@ -441,3 +443,22 @@ def test_a_closed_pipe_ends_the_output_quietly(tmp_path):
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 128 + signal.SIGPIPE, err
     assert err == ""
+
+
+def test_a_hidden_point_of_a_single_body_is_not_blamed_on_another_body(tmp_path, capsys):
+    """A point in a slot narrower than a fingertip's step off the surface, on a part of one
+    body: hidden, and the message says where (a crevice), not "another body"."""
+    import manifold3d as mf
+
+    cut = mf.Manifold.cube([1, 1, 1], True) - mf.Manifold.cube([0.001, 2, 0.6], True).translate(
+        [0, 0, 0.3])
+    mesh = cut.to_mesh()
+    path = tmp_path / "slot.stl"
+    trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3],
+                    np.asarray(mesh.tri_verts)).export(path)
+    c = tmp_path / "c.json"
+    points = [[0.0005, 0.1, 0.3]] + CUBE_FC["points"][1:]  # the first on the slot's wall
+    c.write_text(json.dumps([{"name": "slot", "points": points}]))
+    line = _refused(capsys, "rank", path, c, "--units", "mm")
+    assert "point 0 lies on a hidden part of the surface (in a crevice of the part" in line
+    assert "another body" not in line

@@ -218,6 +218,10 @@ def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> 
     assert "failures:" in r.stdout and "empty.stl" in r.stdout
     r = _cli("top", str(out), "ico", "-k", "2")
     assert r.returncode == 0 and r.stdout.count("form closure") == 2
+    r = _cli("top", str(out), "random.stl", "--json")  # a failed mesh says so, as the table does
+    top = json.loads(r.stdout)
+    assert (top["status"], top["error_kind"], top["grasps"]) == ("failed", "mesh", [])
+    assert top["error"].startswith("cannot load mesh")
     r = _cli("export", str(out), "--format", "json", "--out", str(tmp_path / "e.json"))
     assert r.returncode == 0 and json.loads((tmp_path / "e.json").read_text())["meshes"]
 
@@ -230,7 +234,7 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
     missing = str(tmp_path / "missing.sqlite")
     for code, args in ((2, ("info", str(bad))), (2, ("top", str(bad), "box")),
                        (2, ("build", str(tmp_path / "nope"), "--out", str(bad))),
-                       (2, ("info", missing)), (2, ("top", missing, "box")),
+                       (2, ("info", missing)),
                        (2, ("export", missing, "--out", str(tmp_path / "e.json")))):  # fmt: skip
         r = _cli(*args)
         assert r.returncode == code, r.stderr

@@ -77,6 +77,27 @@ def test_a_crash_in_the_child_process_is_reported_and_survived() -> None:
         call_isolated("math:sqrt", -1.0)  # what the function raises is raised here
 
 
+def test_an_abandoned_call_leaves_no_answer_behind() -> None:
+    """A call cut short in the parent (Ctrl-C, a database worker's time limit) ends the
+    child: the next call gets its own answer, not the abandoned one's."""
+
+    class Stop(Exception):
+        pass
+
+    def stop(*_: object) -> None:
+        raise Stop
+
+    before = signal.signal(signal.SIGALRM, stop)
+    signal.setitimer(signal.ITIMER_REAL, 0.3)
+    try:
+        with pytest.raises(Stop):
+            call_isolated("time:sleep", 1.0)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, before)
+    assert call_isolated("math:hypot", 3.0, 4.0) == 5.0
+
+
 def test_a_repair_that_crashes_is_skipped_with_a_warning(monkeypatch: pytest.MonkeyPatch
                                                          ) -> None:
     """A crash of manifold3d closing one body: the part loads, the body stays open, the

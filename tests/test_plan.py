@@ -20,6 +20,7 @@ from synth import (
     plan_part,
     wrench_matrix,
 )
+from synth.plan.ranking import shown_d_star
 
 MESHES = Path(__file__).resolve().parent.parent / "meshes"
 SAMPLES = sorted(p.name for p in MESHES.glob("*.stl"))
@@ -43,7 +44,8 @@ def test_cube_reaches_the_optimum(cube_plan):
 def test_grasps_are_diverse_and_ranked(cube_plan):
     g = cube_plan.grasps
     assert len(g) == 10
-    assert all(a.d_star >= b.d_star - 1e-6 for a, b in zip(g, g[1:]))
+    shown = [shown_d_star(x.d_star) for x in g]
+    assert shown == sorted(shown, reverse=True)
     L = load_part(MESHES / "cube.stl").length
     for i in range(len(g)):
         for j in range(i):
@@ -58,12 +60,27 @@ def test_surfaces_of_revolution(name):
     plan = plan_part(part, PlanParams(evals=3000))
     assert plan.grasps == ()
     assert "rotate about" in plan.message and plan.escape
+    # no number of contacts stops the turn: a larger budget is offered only if it is not one
+    assert "if it is not, a budget above --evals 3000 may find one" in plan.message
+    assert "contacts; a budget" not in plan.message
     fr = plan_part(part, PlanParams(contacts=4, mu=0.5, evals=3000, top=3))
     assert fr.grasps, fr.message
     for g in fr.grasps:
         r = frictional_form_closure(g.points, g.normals, 0.5)
         assert r.closure == "frictional form"
         assert r.d_star == pytest.approx(g.d_star, abs=1e-6)
+
+
+def test_fingers_too_large_for_the_part_are_named():
+    """A cube with fingertips of radius 10: every candidate puts two tips on top of each
+    other; the message says so, not that the part may be a surface of revolution."""
+    part = load_part(MESHES / "cube.stl")
+    plan = plan_part(part, PlanParams(evals=100, finger_radius=10.0))
+    assert plan.grasps == ()
+    assert "fingers are too large for this part" in plan.message
+    assert "two fingertips of radius 10 would overlap" in plan.message
+    assert "try a smaller --finger-radius" in plan.message
+    assert "rotate" not in plan.message and "revolution" not in plan.message
 
 
 def test_surface_models_on_a_tessellated_cylinder():

@@ -18,10 +18,10 @@ from typing import Any
 
 from synth.cli.checks import integer, real
 from synth.errors import OptionError
-from synth.limits import (AUTO_MAX_FINGERS, MAX_CONTACTS, MAX_EDGES, MAX_EVALS, MAX_FINGERS,
-                          MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES, MIN_EVALS)
+from synth.limits import (AUTO_MAX_FINGERS, DEFAULT_SURFACE, MAX_CONTACTS, MAX_EDGES, MAX_EVALS,
+                          MAX_FINGERS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES,
+                          MIN_EVALS, SURFACES)
 from synth.plan.params import RANK_BY, PlanParams
-from synth.scores.surface import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_planning_options",
            "check_part_options", "check_finger_options", "check_planning_options",

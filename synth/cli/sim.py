@@ -146,8 +146,8 @@ def run(args: argparse.Namespace) -> int:
     integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
     settings = settings_from_args(args, seed=args.seed)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
+    file = read_grasp_file(args.grasps)  # a bad file is said first, installed or not
     require_sim()
-    file = read_grasp_file(args.grasps)
     if args.mesh is not None:
         from dataclasses import replace
 

@@ -157,7 +157,8 @@ class BuildReport:
             f"{self.database}: {self.found} mesh files, {self.planned} planned "
             f"({self.done} done, {self.failed} failed), {self.skipped} already recorded, "
             f"{self.duplicates} duplicates; {self.grasps} grasps stored in "
-            f"{format_duration(self.elapsed_s)} ({self.engine}, {self.workers} workers)"
+            f"{format_duration(self.elapsed_s)} ({self.engine}, "
+            + (f"{self.workers} workers)" if self.workers else "in this process)")
         ]
         for path, reason in self.failures[:20]:
             lines.append(f"  failed: {path}: {reason}")

@@ -230,7 +230,9 @@ def _top(args: argparse.Namespace) -> int:
         mesh = db.mesh(args.mesh)
         grasps = db.top(args.mesh, args.top, args.rank_by)
     if args.json:
-        print(json.dumps({"mesh": mesh.path, "grasps": [g.to_dict() for g in grasps]}, indent=1))
+        print(json.dumps({"mesh": mesh.path, "status": mesh.status, "error_kind":
+                          mesh.error_kind, "error": mesh.error,
+                          "grasps": [g.to_dict() for g in grasps]}, indent=1))
         return 0
     note = f" ({mesh.error})" if mesh.status != "done" and mesh.error else ""
     print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} grasps")

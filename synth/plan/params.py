@@ -16,6 +16,7 @@ import numpy as np
 from synth.errors import InputError, shown
 from synth.limits import (
     AUTO_MAX_FINGERS,
+    DEFAULT_SURFACE,
     MAX_CONTACTS,
     MAX_EDGES,
     MAX_EVALS,
@@ -26,8 +27,8 @@ from synth.limits import (
     MAX_TOP,
     MIN_EDGES,
     MIN_EVALS,
+    SURFACES,
 )
-from synth.scores.surface import DEFAULT_SURFACE, SURFACES
 
 __all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",

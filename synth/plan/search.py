@@ -183,17 +183,23 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif rejected:
         message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
                    f"{_dropped(rejected, prm)}")
+    elif not stopped_by_time and len(archive) and not (
+            (archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
+            (archive.d > 0).any() or not (archive.fit > _OVERLAP).any()):
+        message = _crowded(archive, prm, fingers, L)
     else:
         escape = _why_none(archive, prm, score)
         kind = "with friction mu = %g" % prm.mu if prm.mu > 0 else "without friction"
         message = f"no {k}-contact closure grasp {kind} was found" + (
             f"; the best candidate is {escape}" if escape else "")
-        if prm.mu == 0 and escape and "rotate about" in escape:
+        turn = prm.mu == 0 and escape and "rotate about" in escape
+        if turn:
             message += (". If the part is a surface of revolution (sphere, cylinder, torus), no "
                         "number of frictionless contacts stops that turn: try mu > 0 with 3 or "
                         "4 contacts")
         if prm.evals < PlanParams().evals:
-            message += f"; a budget above --evals {prm.evals} may find one"
+            message += (f"; {'if it is not, ' if turn else ''}a budget above --evals "
+                        f"{prm.evals} may find one")
     if stopped_by_time:
         message += _cut_note(prm, score, budget)
     say(1.0, "done")
@@ -303,6 +309,24 @@ def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
         parts.append(f"{rejected[_LOW_TOLERANCE]} with a placement tolerance below "
                      f"--min-tolerance {prm.min_tolerance:g}")
     return "; ".join(parts)
+
+
+#: The fitness of a candidate whose fingertips overlap (:mod:`synth.plan.batch`).
+_OVERLAP = -2.0
+
+
+def _crowded(archive: GraspBatch, prm: PlanParams, fingers: Fingers, L: float) -> str:
+    """The message of a search whose every candidate that could hold the part (or every
+    candidate at all) puts two fingertips on top of each other: the fingers are too large."""
+    from synth.fingers.model import DEFAULT_TIP_RELATIVE_RADIUS
+
+    r, share = float(fingers.tip_radius), DEFAULT_TIP_RELATIVE_RADIUS
+    which = "every candidate with d* > 0" if (archive.d > 0).any() else "every candidate"
+    return (f"no {prm.contacts}-contact grasp with its fingertips apart was found: in {which}, "
+            f"two fingertips of radius {r:.4g} would overlap (their centres closer than "
+            f"{2 * r:.4g}), so the fingers are too large for this part ({L:.4g} across its "
+            f"bounding box); try a smaller --finger-radius (the default is {100 * share:g}% "
+            f"of that, {share * L:.3g})")
 
 
 def _cut_note(prm: PlanParams, score: Scorer, budget: int) -> str:

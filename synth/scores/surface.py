@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
+from synth.limits import DEFAULT_SURFACE, SURFACES
 from synth.scores.batch import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import scaled_wrenches
@@ -44,9 +45,6 @@ from synth.scores.quality import scaled_wrenches
 __all__ = ["SURFACES", "DEFAULT_SURFACE", "SAME_NORMAL_TOL", "SurfaceScores", "check_surface",
            "readings", "differs", "surface_scores", "worst_reading"]
 
-#: The surface models, default first.
-SURFACES: tuple[str, ...] = ("both", "mesh", "smooth")
-DEFAULT_SURFACE: str = "both"
 #: Two readings of a grasp whose normals differ by at most this (per component) are the same
 #: reading: it is scored once. The effect of such a difference on d* is of the same order,
 #: far below the LPs' accuracy (1e-7).

@@ -11,37 +11,33 @@ optional extra ``synth[sim]`` (mujoco, coacd).
 
 from __future__ import annotations
 
-from synth.sim.contact import ContactModel
-from synth.sim.document import GraspFile, SimGrasp, check_document, read_grasp_file
-from synth.sim.label import Escape, SimLabel, label_run, predicted_escape
-from synth.sim.pieces import ConvexPieces, cache_dir, convex_pieces
-from synth.sim.protocol import DIRECTIONS, SimRun, run_protocol
-from synth.sim.scene import Scene, build_scene
-from synth.sim.settings import SimSettings
-from synth.sim.simulate import SimReport, check_mesh, labelled_document, require_sim, simulate_file
+import importlib
+from typing import Any
 
-__all__ = [
-    "ContactModel",
-    "GraspFile",
-    "SimGrasp",
-    "check_document",
-    "read_grasp_file",
-    "Escape",
-    "SimLabel",
-    "label_run",
-    "predicted_escape",
-    "ConvexPieces",
-    "cache_dir",
-    "convex_pieces",
-    "DIRECTIONS",
-    "SimRun",
-    "run_protocol",
-    "Scene",
-    "build_scene",
-    "SimSettings",
-    "SimReport",
-    "check_mesh",
-    "labelled_document",
-    "require_sim",
-    "simulate_file",
-]
+#: Each public name and the module that defines it. The modules load on first use, so the
+#: command line can read the settings' ranges (:mod:`synth.sim.settings`) without loading
+#: trimesh, scipy or MuJoCo.
+_WHERE = {
+    "ContactModel": "contact",
+    "GraspFile": "document", "SimGrasp": "document", "check_document": "document",
+    "read_grasp_file": "document",
+    "Escape": "label", "SimLabel": "label", "label_run": "label", "predicted_escape": "label",
+    "ConvexPieces": "pieces", "cache_dir": "pieces", "convex_pieces": "pieces",
+    "DIRECTIONS": "protocol", "SimRun": "protocol", "run_protocol": "protocol",
+    "Scene": "scene", "build_scene": "scene",
+    "SimSettings": "settings",
+    "SimReport": "simulate", "check_mesh": "simulate", "labelled_document": "simulate",
+    "require_sim": "simulate", "simulate_file": "simulate",
+}  # fmt: skip
+
+__all__ = list(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'synth.sim' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"synth.sim.{_WHERE[name]}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

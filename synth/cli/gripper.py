@@ -68,18 +68,25 @@ def _gravity(text: str | None) -> tuple[float, float, float] | None:
     return v  # type: ignore[return-value]
 
 
-def format_gripper_table(plan: Any) -> str:
-    """Ranked table of a gripper plan's grasps."""
+def format_gripper_table(plan: Any, doc: dict[str, Any] | None = None) -> str:
+    """Ranked table of a gripper plan's grasps; with a simulated document (``--sim``), whether
+    each held and where it failed."""
     mm = 1000.0 / plan.gripper.unit_scale
+    sim = doc is not None and "sim" in doc
     lines = [f"{'#':>3}  {'width mm':>8}  {'margin':>7}  {'squeeze N':>9}  {'N/weight':>8}  "
-             f"{'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  contacts"]
+             f"{'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  "
+             + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "contacts"]
     for i, g in enumerate(plan.grasps, 1):
         margin = "-" if g.margin is None else f"{g.margin:.2f}"
         squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.3g}"
         pts = "  ".join("(" + ", ".join(f"{c:.4g}" for c in p) + ")" for p in g.points)
+        held = ""
+        if sim:
+            lab = doc["grasps"][i - 1]["sim"]  # type: ignore[index]
+            held = f"{'yes' if lab['held'] else 'no':<4}  {lab['failed_at'] or '-':<9}  "
         lines.append(f"{i:>3}  {g.width * mm:>8.1f}  {margin:>7}  {squeeze:>9}  "
                      f"{g.squeeze_per_weight:>8.3f}  {g.mu_min:>8.2g}  {g.epsilon:>8.4f}  "
-                     f"{g.d_star:>6.3f}  {pts}")
+                     f"{g.d_star:>6.3f}  {held}{pts}")
     return "\n".join(lines)
 
 
@@ -89,9 +96,6 @@ def gripper_params(args: argparse.Namespace) -> Any:
     from synth.limits import MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP
     from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams
 
-    if getattr(args, "sim", False):
-        raise OptionError("--sim simulates point-finger grasps; gripper grasps are not "
-                          "simulated yet (leave out --sim or --gripper)")
     mu = 0.5 if args.mu is None else args.mu
     real("--mu", mu, 0, MAX_MU, open_lo=True)
     integer("--top", args.top, 1, MAX_TOP)
@@ -122,6 +126,13 @@ def run_gripper(args: argparse.Namespace) -> int:
     from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
 
     params = gripper_params(args)
+    settings = None
+    if getattr(args, "sim", False):
+        from synth.cli.sim import settings_from_args
+        from synth.sim import require_sim
+
+        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        require_sim()
     from synth.fingers.gripper import load_gripper
 
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read
@@ -134,7 +145,12 @@ def run_gripper(args: argparse.Namespace) -> int:
     part = load_part_from_args(args)
     report_part(part, args.quiet or args.json)
     plan = plan_gripper(part, params)
-    text = json.dumps(plan.to_json(), indent=1) + "\n"
+    doc = plan.to_json()
+    if settings is not None and plan.grasps:
+        from synth.sim.jaws import simulate_jaw_document
+
+        doc = simulate_jaw_document(doc, part, args.mesh, settings)
+    text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):
             with writing(paths[0]):
@@ -147,8 +163,12 @@ def run_gripper(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         if plan.grasps:
-            print(format_gripper_table(plan))
+            print(format_gripper_table(plan, doc))
         print(plan.message)
+        if "sim" in doc:
+            from synth.cli.sim import summary
+
+            print(summary(doc))
         if paths is not None and not args.quiet:
             print(f"wrote {', '.join(map(str, paths))}")
     return 0 if plan.grasps else 1

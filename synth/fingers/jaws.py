@@ -82,6 +82,18 @@ class JawContacts:
         """Poses whose pads both touch within the opening."""
         return self.status == LANDED
 
+    def take(self, rows: NDArray[np.int64]) -> JawContacts:
+        """The poses ``rows``."""
+        return JawContacts(self.poses[rows], self.width[rows], self.points[rows],
+                           self.normals[rows], self.patch[rows], self.status[rows])
+
+    @staticmethod
+    def concatenate(parts: list[JawContacts]) -> JawContacts:
+        """The poses of several results, in order."""
+        return JawContacts(*(np.concatenate([getattr(j, f) for j in parts])
+                             for f in ("poses", "width", "points", "normals", "patch",
+                                       "status")))
+
 
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
               n: int, rect: tuple[float, float, float, float], sign: float, tol: float

@@ -8,8 +8,8 @@ The gripper route of the planner (``synth plan --gripper``), in the data path's 
    method Dex-Net samples antipodal grasps with), and the pair is kept when the line between
    them lies inside both friction cones;
 2. **poses**: each pair gives the closing axis ``x`` (the bisector of the two outward normals),
-   and ``APPROACHES`` approach directions ``z`` about it (every 90 degrees); the tool centre
-   point is put at the pair's midpoint;
+   and ``APPROACHES`` approach directions ``z`` about it (every 90 degrees), tried in turn
+   until one is clear; the tool centre point is put at the pair's midpoint;
 3. **jaws** (:func:`synth.fingers.jaws.close_jaws`): the jaws close from the open width until
    both pads touch; the contacts are where the pads land (patches on faces, the pad's
    normal);
@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
-from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, close_jaws
+from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws
 from synth.plan.gripper_refine import Scored, refine
 from synth.scores.cones import cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
@@ -419,29 +419,47 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
 
 
 def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperParams,
-          counts: dict[str, int]) -> tuple[Any, NDArray[np.int64], float | None]:
-    """Steps 1 to 4: the jaws of every pose, the collision-free ones landing on distinct
-    contacts, and the narrowest width found."""
+          counts: dict[str, int]) -> tuple[JawContacts, NDArray[np.int64], float | None]:
+    """Steps 1 to 4: each pair's first approach (of ``APPROACHES``) whose jaws land and whose
+    gripper is clear, the ones landing on distinct contacts, and the narrowest width found.
+
+    The approaches are tried in rounds: all pairs at the first angle, then the pairs still
+    without a clear pose at the next, and so on (the measures depend on the contacts only;
+    the refinement turns the best poses about their closing axis again)."""
     rng = np.random.default_rng(params.seed)
     p, q, axis = _sample_pairs(part, params.samples, params.mu, rng)
-    poses = _poses(p, q, axis, gripper.tcp, APPROACHES)
-    counts.update(pairs=len(p), poses=len(poses))
+    poses = _poses(p, q, axis, gripper.tcp, APPROACHES).reshape(len(p), APPROACHES, 4, 4)
     mesh = part.mesh
     touch = part.surface_tolerance  # follows the part's size and coordinate precision
-    jaws = close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
-                      np.asarray(mesh.face_normals), poses, gripper, touch)
-    landed = np.flatnonzero(jaws.status == LANDED)
-    counts.update(landed=len(landed), too_wide=int((jaws.status == TOO_WIDE).sum()),
-                  edge_touch=int((jaws.status == EDGE_TOUCH).sum()))
-    widths = jaws.width[np.isfinite(jaws.width)]
-    narrowest = float(widths.min()) if len(widths) else None
-    clear = landed[checker.check(jaws.poses[landed], jaws.width[landed]) == CLEAR]
-    counts["collision_free"] = len(clear)
-    # the measures depend on the contacts only: poses landing on the same contacts (to
-    # DEDUPE_RTOL of the part's size) are scored once, the first one standing for them
-    clear = clear[_unique_contacts(jaws.points[clear], DEDUPE_RTOL * part.length)]
+    V, F, FN = (np.asarray(a) for a in (mesh.vertices, mesh.faces, mesh.face_normals))
+    pending = np.arange(len(p))
+    found: list[JawContacts] = []
+    tried = landed_n = too_wide = edge = 0
+    narrowest = np.inf
+    for a in range(APPROACHES):
+        if not len(pending):
+            break
+        jaws = close_jaws(V, F, FN, poses[pending, a], gripper, touch)
+        tried += len(pending)
+        landed = np.flatnonzero(jaws.status == LANDED)
+        landed_n += len(landed)
+        too_wide += int((jaws.status == TOO_WIDE).sum())
+        edge += int((jaws.status == EDGE_TOUCH).sum())
+        if np.isfinite(jaws.width).any():
+            narrowest = min(narrowest, float(np.nanmin(jaws.width)))
+        clear = landed[checker.check(jaws.poses[landed], jaws.width[landed]) == CLEAR]
+        found.append(jaws.take(clear))
+        keep = np.ones(len(pending), bool)
+        keep[clear] = False
+        pending = pending[keep]
+    jaws = JawContacts.concatenate(found) if found else close_jaws(V, F, FN, poses[:0, 0],
+                                                                     gripper, touch)
+    counts.update(pairs=len(p), poses=tried, landed=landed_n, too_wide=too_wide,
+                  edge_touch=edge, collision_free=len(jaws.status))
+    # poses landing on the same contacts (to DEDUPE_RTOL of the part's size) are scored once
+    clear = _unique_contacts(jaws.points, DEDUPE_RTOL * part.length)
     counts["distinct_contacts"] = len(clear)
-    return jaws, clear, narrowest
+    return jaws, clear, float(narrowest) if np.isfinite(narrowest) else None
 
 
 def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams,

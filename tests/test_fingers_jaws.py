@@ -69,3 +69,27 @@ def test_a_part_wider_than_the_opening():
     box = trimesh.creation.box(extents=(0.1, 0.03, 0.03))
     res = _close(box, [_pose([0, 0, 0])])
     assert res.status.tolist() == [TOO_WIDE] and res.width[0] == pytest.approx(0.1)
+
+
+def test_a_pad_closes_on_the_near_wall_not_on_the_part_behind_the_other_pad():
+    # a mug's rim in section: the wall grasped (4 mm thick, at x = 0) and the far wall 60 mm
+    # away, beyond the -x pad's open position (40 mm): the pads close on the near wall
+    near = trimesh.creation.box(extents=(0.004, 0.05, 0.06))
+    far = trimesh.creation.box(extents=(0.004, 0.05, 0.06))
+    far.apply_translation([-0.06, 0, 0])
+    res = _close(trimesh.util.concatenate([near, far]), [_pose([0, 0, 0])])
+    assert res.status.tolist() == [LANDED]
+    assert res.width[0] == pytest.approx(0.004, abs=1e-12)
+    assert np.allclose(res.points[0, :, 0], [0.002, -0.002], atol=1e-12)
+
+
+def test_a_ridge_across_the_pad_is_a_contact():
+    # a square bar turned 45 degrees about z: its vertical edges cross each pad from bottom to
+    # top (every candidate point of the touch lies on the pad's rim, the middle does not)
+    bar = trimesh.creation.box(extents=(0.03, 0.03, 0.1))
+    bar.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 4, [0, 0, 1]))
+    half = 0.015 * np.sqrt(2.0)
+    res = _close(bar, [_pose([0, 0, 0])])
+    assert res.status.tolist() == [LANDED]
+    assert res.width[0] == pytest.approx(2 * half, rel=1e-12)
+    assert np.allclose(res.points[0, :, :2], [[half, 0.0], [-half, 0.0]], atol=1e-12)

@@ -3,9 +3,12 @@
 In the gripper frame (approach +z, closing along x) each pad is a rectangle of the plane
 perpendicular to x: the +x pad spans ``y`` in ``pad_y +- width / 2`` and ``z`` in
 ``pad_z + rise +- height / 2``, and the -x pad is its half-turn about z. Closing from the open
-width, the +x pad moving along -x first touches the part where the part reaches furthest
-along +x inside the pad's prism (the rectangle swept along x); the -x pad where it reaches
-furthest along -x. That extreme is exact on a triangle mesh: it is the largest ``x`` among
+width ``W``, the +x pad moving along -x first touches the part where the part reaches furthest
+along +x inside the pad's prism (the rectangle swept along x) between the open pads
+(``x <= W / 2``; what lies beyond an open pad is behind it, where the collision check finds
+the finger in the part); the -x pad where it reaches furthest along -x (``x >= -W / 2``).
+So a pad can close on a wall with more of the part behind the other pad, such as a mug's rim.
+That extreme is exact on a triangle mesh: it is the largest ``x`` among
 
 * the mesh vertices inside the rectangle,
 * the points where mesh edges cross the rectangle's four sides, and
@@ -19,7 +22,10 @@ when that lies on the touched surface, else (a patch of several pieces, such as 
 the touching point nearest to it; its normal is the pad's. At a part's edge or vertex pressed
 into the pad the normal is the pad's too. A pad whose touch lies only on the rim of its
 rectangle against a face that is not parallel to it (the pad's own edge digging into a slope)
-makes no trustworthy contact: such poses are reported as ``EDGE_TOUCH`` and dropped. A
+makes no trustworthy contact: such poses are reported as ``EDGE_TOUCH`` and dropped. A pad
+pressed on an edge or ridge of the part that crosses its rectangle (a tessellated cylinder's
+edge, a mug's rim) touches a segment whose middle lies inside the rectangle and on the part:
+that is a contact, although its candidate points lie on the rim. A
 Robotiq pad rises as the jaws close (``finger_z``): its rectangle is placed at the rise of the
 width found, and the search is repeated until the width no longer changes (three rounds at
 most). Poses are processed in chunks, every pose of a chunk at once in numpy.
@@ -96,15 +102,17 @@ class JawContacts:
 
 
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
-              n: int, rect: tuple[float, float, float, float], sign: float, tol: float
-              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                         NDArray[np.bool_]]:
+              n: int, rect: tuple[float, float, float, float], sign: float, tol: float,
+              half: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                         NDArray[np.bool_], NDArray[np.float64]]:
     """For ``n`` poses at once: the largest ``sign * x`` of the mesh inside a pad's prism.
 
     ``Tg`` (K, 3, 3) are triangles in their pose's gripper frame, ``kb`` (K,) their pose,
-    ``FNg`` (K, 3) their outward normals there. Returns per pose the extreme ``x`` (NaN where
-    the pad misses), the touched patch's centre ``(y, z)`` (n, 2) and diagonal (n,), and
-    whether the touch is trustworthy (n,).
+    ``FNg`` (K, 3) their outward normals there; ``half`` is half the open width (points with
+    ``sign * x`` above it are behind the open pad). Returns per pose the extreme ``x`` between
+    the open pads (NaN where the pad misses), the touched patch's centre ``(y, z)`` (n, 2) and
+    diagonal (n,), whether the touch is trustworthy (n,), and the extreme over the whole prism
+    (n,), behind the open pad included.
     """
     y0, y1, z0, z1 = rect
     A = Tg
@@ -133,7 +141,13 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     eps = 1e-12 * max(1.0, float(np.nanmax(np.abs(Tg))) if Tg.size else 1.0)
     valid = np.isfinite(P[..., 0]) & (P[..., 1] >= y0 - eps) & (P[..., 1] <= y1 + eps) & (
         P[..., 2] >= z0 - eps) & (P[..., 2] <= z1 + eps)
+    # the extreme between the open pads; where nothing lies there, the extreme beyond them
+    # (the part is wider than the opening, or the open pad is inside it)
     sx = np.where(valid, sign * P[..., 0], -np.inf)
+    top_all = np.full(n, -np.inf)
+    np.maximum.at(top_all, kb, sx.max(axis=1))
+    valid &= sign * P[..., 0] <= half + eps
+    sx = np.where(valid, sx, -np.inf)
     top = np.full(n, -np.inf)
     np.maximum.at(top, kb, sx.max(axis=1))
     touch = valid & (sx >= (top[kb] - tol)[:, None])
@@ -169,6 +183,10 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
         sign * xc >= top[kb] - tol)
     centred = np.zeros(n, bool)
     np.logical_or.at(centred, kb, on)
+    # a ridge crossing the pad: the patch's middle is inside the rectangle and on the part
+    inner = (centre[:, 0] > y0 + tol) & (centre[:, 0] < y1 - tol) & (centre[:, 1] > z0 + tol) \
+        & (centre[:, 1] < z1 - tol)
+    good |= centred & inner
     off = has & ~centred[kb]
     if off.any():
         d2 = np.where(touch, (P[..., 1] - c[:, None, 0]) ** 2 + (P[..., 2] - c[:, None, 1]) ** 2,
@@ -182,7 +200,8 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
         _, pick = np.unique(kb[first], return_index=True)
         sel = first[pick]
         centre[kb[sel]] = P[sel, d2[sel].argmin(axis=1), 1:]
-    return x, centre, np.where(hit, diag, 0.0), good & hit
+    return x, centre, np.where(hit, diag, 0.0), good & hit, np.where(
+        np.isfinite(top_all), sign * top_all, np.nan)
 
 
 def close_jaws(
@@ -239,6 +258,7 @@ def close_jaws(
         ylo, yhi, zlo, zhi = ty.min(-1), ty.max(-1), tz.min(-1), tz.max(-1)
         xlo, xhi = tx.min(-1), tx.max(-1)
         w = np.full(n, gripper.max_opening)
+        half = 0.5 * gripper.max_opening
         for _ in range(rounds):
             zc = pz + gripper.rise(w)
             near = (yhi >= -reach) & (ylo <= reach) & (zhi >= (zc - ph / 2)[:, None]) & (
@@ -248,13 +268,18 @@ def close_jaws(
                 # a vertex inside the pad's rectangle bounds the extreme from below: triangles
                 # lying wholly behind it cannot reach it
                 inside = (Vg[..., 1] >= rect[0]) & (Vg[..., 1] <= rect[1]) & (
-                    np.abs(Vg[..., 2] - zc[:, None]) <= ph / 2)
+                    np.abs(Vg[..., 2] - zc[:, None]) <= ph / 2) & (sign * Vg[..., 0] <= half)
                 floor = np.where(inside, sign * Vg[..., 0], -np.inf).max(axis=1)
                 kb, kf = np.nonzero(near & (far >= (floor - touch_tol)[:, None]))
                 Tg = Tall[kb, kf] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
                                              axis=1)[:, None, :]  # pad centre at z = 0
-                found.append(_extremes(Tg, FNall[kb, kf], kb, n, rect, sign, touch_tol))
-            (xp, cp, dp, gp), (xm, cm, dm, gm) = found
+                found.append(_extremes(Tg, FNall[kb, kf], kb, n, rect, sign, touch_tol, half))
+            (xp, cp, dp, gp, xp_all), (xm, cm, dm, gm, xm_all) = found
+            # pads that see no gap between them (both inside a part wider than the opening):
+            # the width is the part's, over the whole prisms
+            inside = ~(xp - xm > 0) & (xp_all - xm_all > 0)
+            xp, xm = np.where(inside, xp_all, xp), np.where(inside, xm_all, xm)
+            gp, gm = gp & ~inside, gm & ~inside
             new_w = xp - xm
             done = ~np.isfinite(new_w) | (np.abs(new_w - w) <= touch_tol)
             w = np.where(np.isfinite(new_w), new_w, w)

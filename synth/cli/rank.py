@@ -98,7 +98,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("mesh", help="mesh file")
     p.add_argument("candidates", help="candidate file (.json or .npz)")
     p.add_argument("--mu", type=float, default=0.0,
-                   help=f"friction coefficient, in [0, {MAX_MU:g}] (default 0)")
+                   help=f"friction coefficient, in [0, {MAX_MU:g}] (default 0; 0.5 with --gripper)")
     p.add_argument("--edges", type=int, default=8, metavar="N",
                    help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} "
                    "(default 8)")
@@ -109,7 +109,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--regions", action="store_true",
                    help="compute each closure candidate's contact regions and placement "
                    "tolerance (as synth plan --regions)")
-    add_rank_by(p, "candidates (tolerance computes the regions)")
+    from synth.plan.gripper import GRIPPER_RANK_BY
+
+    add_rank_by(p, "candidates (tolerance computes the regions)", extra=GRIPPER_RANK_BY)
     p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
                    help="mark collision-free candidates whose placement tolerance is below R "
                    "(mesh units) as status 'tolerance', ranked after the usable ones "
@@ -123,7 +125,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    help="write the ranked candidates to this file, ending in .json")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--quiet", action="store_true", help="no summary line")
-    p.set_defaults(run=run)
+    from synth.cli.rank_gripper import add_rank_gripper_options
+
+    add_rank_gripper_options(p)
+    p.set_defaults(run=run, mu=None, rank_by=None)  # their defaults differ with --gripper
 
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
@@ -247,6 +252,15 @@ def run(args: argparse.Namespace) -> int:
     from synth.grasps import read_candidate_table
     from synth.cli.plan import load_part_from_args, report_part
 
+    if args.gripper is not None:
+        from synth.cli.rank_gripper import run_rank_gripper
+
+        return run_rank_gripper(args)
+    from synth.cli.rank_gripper import refuse_rank_gripper_options
+
+    refuse_rank_gripper_options(args)
+    args.mu = 0.0 if args.mu is None else args.mu
+    args.rank_by = args.rank_by or "d_star"
     real("--mu", args.mu, 0, MAX_MU)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")

@@ -277,7 +277,7 @@ def close_jaws(
             (xp, cp, dp, gp, xp_all), (xm, cm, dm, gm, xm_all) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms
-            inside = ~(xp - xm > 0) & (xp_all - xm_all > 0)
+            inside = (xp - xm <= 0) & (xp_all - xm_all > 0)
             xp, xm = np.where(inside, xp_all, xp), np.where(inside, xm_all, xm)
             gp, gm = gp & ~inside, gm & ~inside
             new_w = xp - xm

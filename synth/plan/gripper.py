@@ -55,7 +55,8 @@ from synth.scores.mu_min import mu_min_batch
 from synth.scores.quality import epsilon_quality
 
 __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "GripperGrasp",
-           "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M"]
+           "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M",
+           "grasp_results", "rank_order", "part_mass", "unit_scale"]
 
 #: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
 APPROACHES: int = 4
@@ -243,7 +244,8 @@ class GripperPlan:
                 "grasps": [g.to_json() for g in self.grasps]}
 
 
-def _unit_scale(part: Any) -> float:
+def unit_scale(part: Any) -> float:
+    """Lengths of the part's unit per metre (its unit must be known)."""
     import trimesh
 
     if part.units is None:
@@ -252,7 +254,9 @@ def _unit_scale(part: Any) -> float:
     return float(trimesh.units.unit_conversion("meters", part.units))
 
 
-def _mass(part: Any, params: GripperParams, scale: float) -> float | None:
+def part_mass(part: Any, params: GripperParams, scale: float) -> float | None:
+    """The part's mass in kg from ``params`` (``mass``, or ``density`` times the closed
+    bodies' volume, ``scale`` part units per metre), None when neither is given."""
     if params.mass is not None:
         return float(params.mass)
     if params.density is None:
@@ -360,8 +364,9 @@ def _distinct(P: NDArray[np.float64], order: NDArray[np.int64], size: float, top
     return np.array(chosen, np.int64)
 
 
-def _order(rank_by: str, spw: NDArray[np.float64], d: NDArray[np.float64],
-           mumin: NDArray[np.float64], eps: NDArray[np.float64]) -> NDArray[np.int64]:
+def rank_order(rank_by: str, spw: NDArray[np.float64], d: NDArray[np.float64],
+               mumin: NDArray[np.float64], eps: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices of grasps in ``rank_by`` order (ties by the squeeze, then by d*)."""
     if rank_by == "margin":
         return np.lexsort((-d, spw))
     if rank_by == "d_star":
@@ -390,9 +395,9 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
                          f"of {', '.join(GRIPPER_RANK_BY)}")
     if not params.mu > 0:
         raise InputError(f"--mu: jaw grasps need friction, expected mu > 0, got {params.mu!r}")
-    scale = _unit_scale(part)
+    scale = unit_scale(part)
     gripper = load_gripper(params.gripper).scaled(scale)
-    mass = _mass(part, params, scale)
+    mass = part_mass(part, params, scale)
     gamma = TORSION_M * scale if params.torsion is None else float(params.torsion)
     counts: dict[str, int] = {}
     checker = GripperChecker(part, gripper, PREGRASP_M * scale,
@@ -411,7 +416,7 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
                             for f in Scored.__dataclass_fields__))
             ranked = np.argsort(pool.spw, kind="stable")
         best = pool.take(_distinct(pool.points, ranked, size, params.top))
-        grasps = _grasps(best, part, gripper, params, gamma, mass)
+        grasps = grasp_results(best, part, gripper, params, gamma, mass)
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     cone = cone_name(params.edges, gamma > 0)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
@@ -486,9 +491,9 @@ def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams
         mm = mu_min_batch(P, N, gamma, params.edges, compiled=False).mu_min
         ee = np.array([epsilon_quality(P[i], N[i], part.center_mass, part.length, params.mu,
                                        params.edges, gamma) for i in range(len(P))])
-        order = _order(params.rank_by, spw, d, mm, ee)
+        order = rank_order(params.rank_by, spw, d, mm, ee)
     else:
-        order = _order(params.rank_by, spw, d, spw, spw)
+        order = rank_order(params.rank_by, spw, d, spw, spw)
     order = order[np.isfinite(spw[order])]
     return _pool(jaws, clear[order], P[order], N[order], d[order], hold, order)
 
@@ -538,9 +543,13 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     return plan_gripper(part, GripperParams(**prm)).to_json()
 
 
-def _grasps(best: Scored, part: Any, gripper: Gripper, params: GripperParams, gamma: float,
-            mass: float | None) -> list[GripperGrasp]:
-    """The result objects, with mu_min and epsilon computed for them."""
+def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperParams,
+                  gamma: float, mass: float | None, closure: list[str] | None = None
+                  ) -> list[GripperGrasp]:
+    """The result objects of scored grasps, with mu_min and epsilon computed for them.
+
+    ``closure`` names each grasp's closure class (default: every one frictional form
+    closure, as the planner keeps only those)."""
     mm = mu_min_batch(best.points, best.normals, gamma, params.edges, compiled=False).mu_min
     out = []
     for j, pose in enumerate(best.poses):
@@ -548,7 +557,8 @@ def _grasps(best: Scored, part: Any, gripper: Gripper, params: GripperParams, ga
         out.append(GripperGrasp(
             pose=pose, tcp=pose[:3, :3] @ gripper.tcp + pose[:3, 3], width=float(best.width[j]),
             points=best.points[j], normals=best.normals[j], patch=best.patch[j],
-            d_star=float(best.d_star[j]), closure="frictional form", mu_min=float(mm[j]),
+            d_star=float(best.d_star[j]),
+            closure="frictional form" if closure is None else closure[j], mu_min=float(mm[j]),
             epsilon=epsilon_quality(best.points[j], best.normals[j], part.center_mass,
                                     part.length, params.mu, params.edges, gamma),
             squeeze_per_weight=float(best.spw[j]), squeeze_sampled=float(best.sampled[j]),

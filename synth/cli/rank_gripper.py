@@ -1,0 +1,148 @@
+"""``synth rank MESH POSES --gripper NAME|FILE``: rank gripper poses from another tool."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from synth.errors import InputError, OptionError
+
+__all__ = ["add_rank_gripper_options", "refuse_rank_gripper_options", "run_rank_gripper"]
+
+_ONLY_GRIPPER = ("gripper", "mass", "density", "gravity", "torsion", "table")
+
+
+def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:
+    """The gripper options of ``synth rank``."""
+    from synth.fingers.gripper import BUILTIN_GRIPPERS
+
+    g = p.add_argument_group("gripper (CANDIDATES are gripper poses)")
+    g.add_argument("--gripper", default=None, metavar="NAME|FILE",
+                   help=f"rank gripper poses of a parallel-jaw gripper: "
+                   f"{', '.join(BUILTIN_GRIPPERS)} or a JSON description")
+    g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
+                   help="torsional friction of the pads, a length in the mesh's units "
+                   "(default 5 mm)")
+    g.add_argument("--mass", type=float, default=None, metavar="KG",
+                   help="the part's mass in kg (for the least squeeze in newtons and the margin)")
+    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
+                   help="or its density, times the closed bodies' volume")
+    g.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                   help="hold against gravity in this direction only (default: every "
+                   "orientation)")
+    g.add_argument("--table", type=float, default=None, metavar="Z",
+                   help="a support plane z = Z in the part's frame that the hand may not cross")
+
+
+def refuse_rank_gripper_options(args: argparse.Namespace) -> None:
+    """Gripper options are refused when the candidates are contact sets."""
+    from synth.plan.params import RANK_BY
+
+    for name in _ONLY_GRIPPER[1:]:
+        if getattr(args, name) is not None:
+            raise OptionError(f"--{name} applies to gripper poses: add --gripper NAME|FILE")
+    if args.rank_by is not None and args.rank_by not in RANK_BY:
+        raise OptionError(f"--rank-by {args.rank_by} applies to gripper poses; contact sets "
+                          f"rank by {', '.join(RANK_BY)}")
+
+
+def _cell(x: float | None, spec: str, width: int) -> str:
+    return f"{'-':>{width}}" if x is None else f"{x:>{width}{spec}}"
+
+
+def format_table(rows: list[Any], mm: float) -> str:
+    """The ranked table: ranked candidates with their measures, the others with the reason."""
+    w = max([4] + [len(r.name) for r in rows])
+    lines = [f"{'#':>3}  {'index':>5}  {'name':<{w}}  {'width mm':>8}  {'margin':>7}  "
+             f"{'N/weight':>8}  {'mu_min':>8}  {'epsilon':>8}  {'closure':<15}  status"]
+    for k, r in enumerate(rows, 1):
+        g = r.grasp
+        same = "" if r.same_as is None else f" (same jaw grasp as {r.same_as})"
+        status = r.status + ("" if r.reason is None else f": {r.reason}") + same
+        if g is None:
+            nums = f"{'-':>8}  {'-':>7}  {'-':>8}  {'-':>8}  {'-':>8}  {'-':<15}"
+        else:
+            spw = g.squeeze_per_weight if g.closure == "frictional form" else None
+            nums = (f"{g.width * mm:>8.1f}  {_cell(g.margin if spw else None, '.2f', 7)}  "
+                    f"{_cell(spw, '.3f', 8)}  {g.mu_min:>8.2g}  {g.epsilon:>8.4f}  "
+                    f"{g.closure:<15}")
+        lines.append(f"{k:>3}  {r.index:>5}  {r.name:<{w}}  {nums}  {status}")
+    return "\n".join(lines)
+
+
+def run_rank_gripper(args: argparse.Namespace) -> int:
+    """Run ``synth rank --gripper``; exit status 2 when a candidate was malformed (the others
+    are ranked) or none could be read."""
+    import trimesh
+
+    from synth.cli.checks import integer, output_path
+    from synth.cli.gripper import gripper_params
+    from synth.cli.plan import load_part_from_args, report_part
+    from synth.cli.options import check_part_options
+    from synth.files import write_atomic
+    from synth.fingers.gripper import load_gripper
+    from synth.formats import read_gripper_poses
+    from synth.plan.gripper_rank import rank_gripper_poses
+
+    for name in ("regions",):
+        if getattr(args, name):
+            raise OptionError(f"--{name} applies to contact sets, not to gripper poses")
+    if args.min_tolerance or args.max_distance is not None:
+        raise OptionError("--min-tolerance and --max-distance apply to contact sets, not to "
+                          "gripper poses")
+    integer("--top", args.top, 0)
+    check_part_options(args)
+    args.seed, args.samples = 0, None
+    top = args.top
+    args.top = 1  # gripper_params checks the planner's --top; rank prints its own
+    params = gripper_params(args)
+    args.top = top
+    load_gripper(args.gripper)  # a bad description is refused before any file is read
+    out = None if args.out is None else output_path("--out", args.out, ".json")
+    poses = read_gripper_poses(args.candidates)
+    if len(poses.errors) == len(poses.poses):
+        more = f" (and {len(poses.errors) - 1} more malformed)" if len(poses.errors) > 1 else ""
+        first = poses.errors[0][1] if poses.errors else f"{args.candidates}: no poses"
+        raise InputError(f"no candidate could be used: {first}{more}")
+    part = load_part_from_args(args)
+    report_part(part, args.quiet or args.json)
+    metres = None if part.units is None else float(
+        trimesh.units.unit_conversion(part.units, "meters"))
+    where = poses.to_part(metres, part.units)
+    if not args.quiet:
+        print(f"poses: {where.applied}", file=sys.stderr)
+    ranking = rank_gripper_poses(part, where.poses, where.metres_per_unit, params,
+                                 dict(poses.errors), poses.names, poses.labels)
+    rows = list(ranking.rows)
+    p = params
+    doc = {"format": "synth.ranked_gripper", "version": 1,
+           "mesh": {"path": part.source, "sha256": part.sha256, "units": part.units,
+                    "metres_per_unit": where.metres_per_unit, "length": part.length},
+           "poses": {"path": poses.path, "format": poses.format, "unit": poses.unit_name,
+                     "object_scale": poses.object_scale, "object_file": poses.object_file,
+                     "label": poses.label_name, "applied": where.applied},
+           "gripper": ranking.gripper.to_json(),
+           "model": {"mu": p.mu, "torsion": ranking.torsion, "mass": ranking.mass,
+                     "gravity": None if p.gravity is None else list(p.gravity),
+                     "rank_by": p.rank_by, "edges": p.edges},
+           "counts": ranking.counts, "seconds": ranking.seconds,
+           "candidates": [r.to_dict() for r in rows]}
+    text = json.dumps(doc, indent=1) + "\n"
+    if out is not None:
+        write_atomic(out, text)
+    shown = rows if args.top == 0 else rows[:20 if args.top is None else args.top]
+    if args.json:
+        print(text, end="")
+    else:
+        print(format_table(shown, 1000.0 * where.metres_per_unit))
+    for _, message in poses.errors:
+        print(f"synth: error: {message}", file=sys.stderr)
+    if not args.quiet:
+        c = ranking.counts
+        more = (f"; showing the best {len(shown)} (--top 0 for all)"
+                if len(shown) < len(rows) and not args.json else "")
+        print(f"{len(rows)} candidates: " + ", ".join(f"{v} {k}" for k, v in c.items())
+              + f"{more}", file=sys.stderr)
+    return 2 if poses.errors else 0

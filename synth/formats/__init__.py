@@ -1,0 +1,80 @@
+"""The ecosystem's grasp formats: gripper poses read from other tools, databases written for them.
+
+Readers return :class:`~synth.formats.poses.GripperPoses` (the poses as the file gives them,
+converted to a part by :meth:`~synth.formats.poses.GripperPoses.to_part`); writers take
+:class:`~synth.formats.objects.ObjectGrasps` (one object's grasps in metres).
+
+==============  =====================================  ===============================  ======
+format          reader                                 writer                           module
+==============  =====================================  ===============================  ======
+ACRONYM HDF5    ``.h5``, ``.hdf5``                     ``synth db export --format acronym``  acronym
+GraspGen JSON   ``.json`` with ``object`` and ``grasps.transforms``  ``--format graspgen``  graspgen
+isaac_grasp     ``.yaml``, ``.yml``                    ``--format isaac``               isaac
+arrays          ``.npz``; other ``.json``              --                               arrays
+==============  =====================================  ===============================  ======
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from synth.errors import InputError
+from synth.formats.objects import ObjectGrasps
+from synth.formats.poses import GripperPoses, PartPoses
+
+__all__ = ["GripperPoses", "ObjectGrasps", "PartPoses", "read_gripper_poses", "WRITERS"]
+
+#: ``synth db export --format`` names of the writers, and their file extensions.
+WRITERS: dict[str, str] = {"acronym": ".h5", "graspgen": ".json", "isaac": ".yaml"}
+
+
+def read_gripper_poses(path: str | Path) -> GripperPoses:
+    """Read gripper poses from any format above, chosen by extension and content.
+
+    Parameters
+    ----------
+    path : path
+
+    Returns
+    -------
+    GripperPoses
+        Malformed poses are listed in ``errors``; a file that cannot be read at all raises.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or one without poses.
+    """
+    where = str(path)
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{where}: no such file")
+    ext = p.suffix.lower()
+    if ext in (".h5", ".hdf5"):
+        from synth.formats.acronym import read_acronym
+
+        return read_acronym(p)
+    if ext in (".yaml", ".yml"):
+        from synth.formats.isaac import read_isaac
+
+        return read_isaac(p)
+    if ext == ".npz":
+        from synth.formats.arrays import read_npz
+
+        return read_npz(p)
+    if ext != ".json":
+        raise InputError(f"{where}: unknown pose file extension {ext!r}; expected .h5/.hdf5 "
+                         "(ACRONYM), .json (GraspGen, or arrays), .yaml/.yml (isaac_grasp) or "
+                         ".npz")
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(f"{where}: not a readable JSON file: {e}") from e
+    from synth.formats.graspgen import is_graspgen, read_graspgen
+
+    if is_graspgen(doc):
+        return read_graspgen(p, doc)
+    from synth.formats.arrays import read_json_poses
+
+    return read_json_poses(p, doc)

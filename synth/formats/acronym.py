@@ -1,0 +1,140 @@
+"""ACRONYM's grasp files (HDF5): read their poses, write a database's grasps in their layout.
+
+ACRONYM (Eppner et al., 2021; github.com/NVlabs/acronym) stores one object per HDF5 file:
+
+=========================================  ===================================================
+dataset                                    meaning
+=========================================  ===================================================
+``grasps/transforms``  (n, 4, 4) float     gripper base frame (approach +z, closing x) to the
+                                           object frame, metres
+``grasps/qualities/flex/object_in_gripper``  (n,) int: 1 when the object stayed in the gripper
+                                           in ACRONYM's FleX simulation
+``object/file``                            the mesh file, relative to a mesh root folder
+``object/scale``                           the object frame is the mesh file's coordinates
+                                           times this (the loader scales the mesh, then applies
+                                           the poses)
+``object/mass``                            kg
+``gripper/type``                           the gripper's name (``panda``)
+=========================================  ===================================================
+
+synth writes the same layout, its measures under ``grasps/qualities/synth/<measure>``, the
+grasp widths under ``grasps/widths`` (metres), and says in attributes what each dataset holds:
+the file's ``units`` (``m``), and ``object_in_gripper``'s ``meaning`` (synth's verdict, not a
+FleX simulation).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from synth.errors import InputError
+from synth.formats.objects import ObjectGrasps
+from synth.formats.poses import GripperPoses
+
+__all__ = ["read_acronym", "write_acronym", "LABEL"]
+
+#: Where ACRONYM's loader reads its success label.
+LABEL = "grasps/qualities/flex/object_in_gripper"
+
+
+def _h5py() -> Any:
+    try:
+        import h5py
+    except ImportError as e:
+        raise InputError('ACRONYM files are HDF5, which needs h5py: pip install "synth[h5]"'
+                         ) from e
+    return h5py
+
+
+def _text(value: Any) -> str:
+    return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+
+def read_acronym(path: str | Path) -> GripperPoses:
+    """The gripper poses of an ACRONYM HDF5 grasp file.
+
+    Parameters
+    ----------
+    path : path
+        With ``grasps/transforms`` (n, 4, 4) and ``object/scale``.
+
+    Returns
+    -------
+    GripperPoses
+        Poses in metres on the mesh scaled by ``object/scale``; labels from
+        ``grasps/qualities/flex/object_in_gripper`` when present.
+    """
+    h5py = _h5py()
+    where = str(path)
+    try:
+        f = h5py.File(where, "r")
+    except OSError as e:
+        raise InputError(f"{where}: not a readable HDF5 file: {e}") from e
+    with f:
+        if "grasps/transforms" not in f:
+            raise InputError(f"{where}: missing dataset 'grasps/transforms' (ACRONYM's (n, 4, 4) "
+                             "gripper poses)")
+        T = np.asarray(f["grasps/transforms"][()], dtype=float)
+        if T.ndim != 3 or T.shape[1:] != (4, 4):
+            raise InputError(f"{where}: dataset 'grasps/transforms' has shape {T.shape}, "
+                             "expected (n, 4, 4)")
+        if "object/scale" not in f:
+            raise InputError(f"{where}: missing dataset 'object/scale' (the scale of the mesh "
+                             "the poses refer to)")
+        scale = float(np.asarray(f["object/scale"][()]).reshape(-1)[0])
+        if not (np.isfinite(scale) and scale > 0):
+            raise InputError(f"{where}: dataset 'object/scale' is {scale!r}, expected a "
+                             "positive number")
+        unit_name = _text(f.attrs.get("units", "m"))
+        if unit_name != "m":
+            raise InputError(f"{where}: attribute 'units' is {unit_name!r}; ACRONYM files are "
+                             "in metres ('m')")
+        labels = np.asarray(f[LABEL][()], float) if LABEL in f else None
+        if labels is not None and labels.shape != (len(T),):
+            raise InputError(f"{where}: dataset '{LABEL}' has shape {labels.shape}, expected "
+                             f"({len(T)},)")
+        widths = np.asarray(f["grasps/widths"][()], float) if "grasps/widths" in f else None
+        if widths is not None and widths.shape != (len(T),):
+            raise InputError(f"{where}: dataset 'grasps/widths' has shape {widths.shape}, "
+                             f"expected ({len(T)},)")
+        obj = _text(f["object/file"][()]) if "object/file" in f else None
+    poses = GripperPoses(where, "acronym", T, tuple(str(i) for i in range(len(T))), 1.0, "m",
+                         scale, obj, widths, labels, LABEL if labels is not None else None)
+    return poses.with_checks("grasps/transforms[{i}]")
+
+
+def write_acronym(path: str | Path, obj: ObjectGrasps) -> None:
+    """Write one object's grasps in ACRONYM's layout (see the module).
+
+    Parameters
+    ----------
+    path : path
+        The ``.h5`` file to write.
+    obj : ObjectGrasps
+    """
+    h5py = _h5py()
+    text = h5py.string_dtype("utf-8")
+    with h5py.File(str(path), "w") as f:
+        f.attrs["format"] = "acronym"
+        f.attrs["written_by"] = obj.written_by
+        f.attrs["units"] = "m"
+        f.attrs["frame"] = obj.frame
+        t = f.create_dataset("grasps/transforms", data=obj.poses)
+        t.attrs["units"] = "m"
+        w = f.create_dataset("grasps/widths", data=obj.widths)
+        w.attrs["units"] = "m"
+        lab = f.create_dataset(LABEL, data=obj.label.astype(np.int64))
+        lab.attrs["meaning"] = obj.label_meaning
+        for name, values in obj.measures.items():
+            d = f.create_dataset(f"grasps/qualities/synth/{name}", data=values)
+            d.attrs["units"] = obj.measure_units[name]
+        f.create_dataset("object/file", data=obj.object_file, dtype=text)
+        s = f.create_dataset("object/scale", data=obj.object_scale)
+        s.attrs["meaning"] = "metres per mesh unit: the poses refer to the mesh scaled by this"
+        m = f.create_dataset("object/mass", data=np.nan if obj.mass is None else obj.mass)
+        m.attrs["units"] = "kg"
+        m.attrs["meaning"] = obj.mass_note
+        f.create_dataset("gripper/type", data=obj.gripper, dtype=text)

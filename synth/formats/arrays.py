@@ -1,0 +1,100 @@
+"""Plain arrays of gripper poses: NPZ, or JSON lists of 4 x 4 matrices.
+
+NPZ: ``poses`` (or ``transforms``) of shape (n, 4, 4), optional ``widths`` (n,) and a 0-d
+string ``units`` (default ``m``, the ecosystem's convention; any trimesh unit name).
+JSON: a list of 4 x 4 matrices, or an object with ``poses`` (or ``transforms``), optional
+``widths`` and ``units``; or synth's own ``synth.gripper_grasps`` document (``synth plan
+--gripper``), whose poses and widths are in its ``units``. There is no object scale: the poses
+are on the mesh at its own size in their unit.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from synth.errors import InputError, shown
+from synth.formats.graspgen import matrices
+from synth.formats.poses import GripperPoses
+
+__all__ = ["read_npz", "read_json_poses", "unit_metres"]
+
+
+def unit_metres(name: Any, where: str, key: str = "units") -> float:
+    """Metres per unit of a unit name (``m``, ``mm``, ``meters``, ...)."""
+    import trimesh
+
+    try:
+        return float(trimesh.units.unit_conversion(str(name), "meters"))
+    except Exception as e:  # trimesh raises bare errors for unknown names
+        raise InputError(f"{where}: field '{key}' is {shown(name)}, expected a length unit "
+                         "(m, mm, cm, in, ...)") from e
+
+
+def _widths(value: Any, n: int, where: str) -> np.ndarray | None:
+    if value is None:
+        return None
+    try:
+        w = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        w = np.zeros(0)
+    if w.shape != (n,):
+        raise InputError(f"{where}: field 'widths' is {shown(value)}, expected {n} numbers")
+    return w
+
+
+def read_npz(path: str | Path) -> GripperPoses:
+    """The gripper poses of an NPZ file (see the module)."""
+    where = str(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as e:
+        raise InputError(f"{where}: not a readable NPZ file: {e}") from e
+    key = "poses" if "poses" in arrays else "transforms"
+    if key not in arrays:
+        raise InputError(f"{where}: missing array 'poses' (or 'transforms') of shape (n, 4, 4); "
+                         f"found {sorted(arrays)}")
+    T = np.asarray(arrays[key], dtype=float)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise InputError(f"{where}: array '{key}' has shape {T.shape}, expected (n, 4, 4)")
+    units = str(arrays["units"]) if "units" in arrays else "m"
+    poses = GripperPoses(where, "npz", T, tuple(str(i) for i in range(len(T))),
+                         unit_metres(units, where), units, None, None,
+                         _widths(arrays.get("widths"), len(T), where))
+    return poses.with_checks(key + "[{i}]")
+
+
+def read_json_poses(path: str | Path, doc: Any) -> GripperPoses:
+    """The gripper poses of a parsed JSON document (see the module)."""
+    where = str(path)
+    widths: Any = None
+    units: Any = "m"
+    if isinstance(doc, dict) and doc.get("format") == "synth.gripper_grasps":
+        grasps = doc.get("grasps")
+        if not isinstance(grasps, list):
+            raise InputError(f"{where}: field 'grasps' is {shown(grasps)}, expected a list")
+        items = [g.get("pose") if isinstance(g, dict) else None for g in grasps]
+        widths = [g.get("width") if isinstance(g, dict) else None for g in grasps]
+        units, key, fmt = doc.get("units"), "grasps[].pose", "synth.gripper_grasps"
+    elif isinstance(doc, dict):
+        key = "poses" if "poses" in doc else "transforms"
+        if key not in doc:
+            raise InputError(f"{where}: expected a list of 4 x 4 poses, or an object with "
+                             f"'poses' (or 'transforms'); found keys {sorted(doc)[:8]}")
+        items, widths, units, fmt = doc[key], doc.get("widths"), doc.get("units", "m"), "json"
+    else:
+        items, key, fmt = doc, "poses", "json"
+    T, errors = matrices(items, where, key)
+    try:
+        w = _widths(widths, len(T), where)
+    except InputError:
+        if fmt != "synth.gripper_grasps":
+            raise
+        w = None
+    poses = GripperPoses(where, fmt, T, tuple(str(i) for i in range(len(T))),
+                         unit_metres(units, where), str(units), None, None, w,
+                         errors=tuple(errors))
+    return poses.with_checks(key.replace("[]", "[{i}]") if "[]" in key else key + "[{i}]")

@@ -1,0 +1,118 @@
+"""Ranking gripper poses from elsewhere (``synth rank --gripper``): statuses, the half-turn,
+and the planner's own grasps read back with the planner's contacts and measures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth.cli import main
+from synth.fingers.gripper import half_turn, load_gripper
+from synth.part import load_part
+from synth.plan.gripper import GripperParams, plan_gripper
+from synth.plan.gripper_rank import rank_gripper_poses
+
+TCP = load_gripper("franka").tcp
+BOX = (0.04, 0.09, 0.06)  # metres: 40 mm across x fits the Franka Hand, 90 mm across y not
+
+
+@pytest.fixture(scope="module")
+def part():
+    return load_part(trimesh.creation.box(extents=BOX), units="m")
+
+
+def _from_above(centre, closing=(1.0, 0.0, 0.0)):
+    """A pose approaching along -z of the part, closing along ``closing``, TCP at ``centre``."""
+    x = np.asarray(closing, float)
+    z = np.array([0.0, 0.0, -1.0])
+    R = np.column_stack([x, np.cross(z, x), z])
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = np.asarray(centre, float) - R @ TCP
+    return T
+
+
+def _rank(part, poses, malformed=None, **kw):
+    return rank_gripper_poses(part, np.asarray(poses), 1.0, GripperParams(**kw), malformed)
+
+
+def test_each_candidate_gets_one_status(part):
+    pinch = _from_above([0.0, 0.0, 0.0])
+    deep = _from_above([0.0, 0.0, -0.03])  # the palm in the part's top
+    wide = _from_above([0.0, 0.0, 0.0], closing=(0.0, 1.0, 0.0))  # 90 mm across the pads
+    away = _from_above([0.5, 0.0, 0.0])
+    nan = np.full((4, 4), np.nan)
+    r = _rank(part, [away, wide, deep, nan, pinch], {3: "candidate 3: field 'x' bad"})
+    by = {row.index: row for row in r.rows}
+    assert [row.index for row in r.rows] == [4, 0, 1, 2, 3]  # the ranked first
+    assert by[4].status == "ranked" and by[4].grasp.closure == "frictional form"
+    up = TCP[2] - load_gripper("franka").pad_center[1]  # the pad's centre, 0.05 mm above the TCP
+    assert np.allclose(by[4].grasp.points, [[0.02, 0, up], [-0.02, 0, up]], atol=1e-12)
+    assert by[4].grasp.width == pytest.approx(0.04, abs=1e-12)
+    assert by[2].status == "collision" and "hits the part" in by[2].reason
+    assert by[1].status == "no contact" and "wider than the opening" in by[1].reason
+    assert by[0].status == "misses the part"
+    assert by[3].status == "malformed" and by[3].reason.endswith("field 'x' bad")
+    assert r.counts == {"ranked": 1, "collision": 1, "no contact": 1, "misses the part": 1,
+                        "malformed": 1}
+
+
+def test_a_pose_and_its_half_turn_are_the_same_jaw_grasp(part):
+    T = _from_above([0.003, 0.01, 0.005])
+    T[:3, :3] = T[:3, :3] @ trimesh.transformations.rotation_matrix(0.3, [1, 0, 0])[:3, :3]
+    r = _rank(part, [T, T @ half_turn()], mass=0.2)
+    a, b = sorted(r.rows, key=lambda row: row.index)
+    assert a.status == b.status == "ranked" and b.same_as == 0 and a.same_as is None
+    assert np.array_equal(a.grasp.points, b.grasp.points[::-1])
+    assert np.array_equal(a.grasp.pose @ half_turn(), b.grasp.pose)
+    assert a.grasp.to_json()["measures"] == b.grasp.to_json()["measures"]
+
+
+def test_the_planners_grasps_read_back_with_its_contacts_and_measures():
+    part = load_part(trimesh.creation.box(extents=(0.05, 0.03, 0.07)), units="m")
+    plan = plan_gripper(part, GripperParams(samples=40, top=3, mass=0.2))
+    assert len(plan.grasps) == 3
+    poses = np.array([g.pose for g in plan.grasps])
+    r = _rank(part, poses[::-1], mass=0.2)  # in reverse: ranked back into the plan's order
+    assert [row.index for row in r.rows] == [2, 1, 0]
+    for g, row in zip(plan.grasps, r.rows):
+        h = row.grasp
+        assert np.abs(h.points - g.points).max() <= 1e-9 * part.length
+        assert np.abs(h.pose - g.pose).max() <= 1e-9 * part.length
+        for key in ("squeeze_per_weight", "squeeze_sampled", "mu_min", "epsilon", "d_star",
+                    "margin", "width"):
+            assert getattr(h, key) == pytest.approx(getattr(g, key), rel=1e-9, abs=1e-12), key
+
+
+def test_the_command_ranks_a_graspgen_file_and_reports_a_malformed_pose(tmp_path, capsys):
+    mesh = tmp_path / "box.stl"
+    trimesh.creation.box(extents=BOX).export(mesh)
+    good = _from_above([0.0, 0.0, 0.0])
+    bad = good.copy()
+    bad[:3, :3] *= 2.0
+    doc = {"object": {"file": "box.stl", "scale": 0.001},  # the mesh in mm, read as metres
+           "grasps": {"transforms": [good.tolist(), bad.tolist()],
+                      "object_in_gripper": [True, True]}}
+    (tmp_path / "g.json").write_text(json.dumps(doc))
+    # the STL's numbers are metres; the file says one mesh unit is 1 mm: refused with --units m
+    code = main(["rank", str(mesh), str(tmp_path / "g.json"), "--gripper", "franka",
+                 "--units", "m"])
+    err = capsys.readouterr().err
+    assert code == 2 and "object scale" in err and "another size" in err
+    doc["object"]["scale"] = 1.0
+    (tmp_path / "g.json").write_text(json.dumps(doc))
+    code = main(["rank", str(mesh), str(tmp_path / "g.json"), "--gripper", "franka",
+                 "--out", str(tmp_path / "r.json")])
+    out, err = capsys.readouterr()
+    assert code == 2
+    lines = [x for x in err.splitlines() if x.startswith("synth: error:")]
+    assert len(lines) == 1 and "candidate 1" in lines[0] and "grasps.transforms[1]" in lines[0]
+    assert "g.json" in lines[0]
+    assert "poses: 2 poses from graspgen file" in err and "object scale 1" in err
+    res = json.loads((tmp_path / "r.json").read_text())
+    assert [c["status"] for c in res["candidates"]] == ["ranked", "malformed"]
+    assert res["candidates"][0]["label"] == 1.0 and res["poses"]["format"] == "graspgen"
+    assert "ranked" in out.splitlines()[1]

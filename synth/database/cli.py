@@ -153,11 +153,20 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "database built with --regions: by that measure, largest first)")
     t.add_argument("--json", action="store_true", help="print the grasps as JSON")
 
-    e = sub.add_parser("export", help="export a database to HDF5, NPZ or JSON", description="Export a database to HDF5, NPZ or JSON.")
+    e = sub.add_parser(
+        "export", help="export a database to HDF5, NPZ or JSON, or to ACRONYM, GraspGen or "
+        "isaac_grasp files", description="Export a database to HDF5, NPZ or JSON (one file, "
+        "synth's columns), or its gripper grasps to the layouts of ACRONYM (HDF5), GraspGen "
+        "(JSON) or isaac_grasp (YAML): one file per mesh in the folder --out, poses in metres.")
     e.add_argument("database", help="database file")
-    e.add_argument("--format", choices=("h5", "npz", "json"), default=None,
-                   help="default: from the extension of --out")
-    e.add_argument("--out", required=True, help="output file (.h5, .npz or .json)")
+    e.add_argument("--format", choices=("h5", "npz", "json", "acronym", "graspgen", "isaac"),
+                   default=None, help="default: from the extension of --out (h5, npz, json)")
+    e.add_argument("--out", required=True,
+                   help="output file (.h5, .npz or .json), or a folder for acronym, graspgen "
+                   "and isaac")
+    e.add_argument("--units", default=None, metavar="UNIT",
+                   help="length unit of meshes whose unit the database does not know (acronym, "
+                   "graspgen, isaac: their poses are in metres)")
     return db  # type: ignore[no-any-return]
 
 
@@ -249,7 +258,20 @@ def _top(args: argparse.Namespace) -> int:
 
 def _export(args: argparse.Namespace) -> int:
     from synth.database.export import export_database
+    from synth.formats import WRITERS
 
+    if args.format in WRITERS:
+        from synth.database.export_objects import export_objects
+
+        paths = export_objects(args.database, args.out, args.format, args.units)
+        print(f"exported {args.database} to {len(paths)} {args.format} files in {args.out} "
+              "(poses in metres)", file=sys.stderr)
+        return 0
+    if args.units is not None:
+        from synth.errors import OptionError
+
+        raise OptionError("--units applies to --format acronym, graspgen and isaac (h5, npz "
+                          "and json keep each mesh's own unit)")
     fmt = export_database(args.database, args.out, args.format)
     print(f"exported {args.database} to {args.out} ({fmt})", file=sys.stderr)
     return 0

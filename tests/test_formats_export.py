@@ -1,0 +1,142 @@
+"""``synth db export --format acronym|graspgen|isaac``: files the other tools load, checked with
+ACRONYM's own loading code (tests/acronym_tools_load.py, MIT) and GraspGen's and isaac_grasp's
+documented keys, and read back by ``synth rank`` with the planner's contacts and scores."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from synth import GraspDatabase
+from synth.cli import main
+from synth.formats import read_gripper_poses
+from synth.part import load_part
+from synth.plan.gripper import GripperParams
+from synth.plan.gripper_rank import rank_gripper_poses
+
+h5py = pytest.importorskip("h5py")
+yaml = pytest.importorskip("yaml")
+acronym = pytest.importorskip("tests.acronym_tools_load")
+
+ROOT = Path(__file__).resolve().parents[1]
+CM = 0.009999999999999998  # the cube's unit, metres (trimesh's centimetre, to the last bit)
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """A gripper database of the sample cube (in cm), with a mass: (folder, database)."""
+    tmp = tmp_path_factory.mktemp("db")
+    folder = tmp / "meshes"
+    folder.mkdir()
+    shutil.copy(ROOT / "meshes" / "cube.stl", folder / "cube.stl")
+    out = tmp / "g.sqlite"
+    assert main(["db", "build", str(folder), "--out", str(out), "--gripper", "franka",
+                 "--units", "cm", "--top", "3", "--samples", "60", "--mass", "0.05",
+                 "--workers", "0", "--quiet"]) == 0
+    return folder, out
+
+
+def _stored(db_path):
+    with GraspDatabase(db_path) as db:
+        return list(db.gripper_grasps("cube.stl"))
+
+
+def test_acronym_loads_the_export_with_its_own_code(built, tmp_path):
+    folder, db = built
+    assert main(["db", "export", str(db), "--format", "acronym", "--out", str(tmp_path)]) == 0
+    path = str(tmp_path / "cube.h5")
+    T, success = acronym.load_grasps(path)
+    mesh = acronym.load_mesh(path, mesh_root_dir="")  # object/file is the absolute path
+    stored = _stored(db)
+    assert T.shape == (len(stored), 4, 4) and success.tolist() == [1] * len(stored)
+    assert np.allclose(mesh.extents, load_part(folder / "cube.stl").mesh.extents * CM,
+                       rtol=1e-12)
+    marker = acronym.create_gripper_marker()  # ACRONYM's Franka: fingers from z 0.066 up
+    z_lo, z_hi = 0.0659, marker.bounds[1, 2]
+    for g, pose in zip(stored, T):
+        pts = g.points * CM  # synth's contacts, in the frame ACRONYM's loader builds
+        closest, dist, _ = trimesh.proximity.closest_point(mesh, pts)
+        assert dist.max() <= 1e-9 * np.linalg.norm(mesh.extents)
+        local = (pts - pose[:3, 3]) @ pose[:3, :3]  # into the gripper frame of the pose
+        assert np.allclose(local[:, 0], [g.width * CM / 2, -g.width * CM / 2], atol=1e-12)
+        assert np.all((local[:, 2] >= z_lo) & (local[:, 2] <= z_hi))
+        assert np.all(np.abs(local[:, 1]) <= 0.0085 + 1e-12)  # within the pad's width
+    with h5py.File(path) as f:
+        assert f.attrs["units"] == "m" and f["grasps/transforms"].attrs["units"] == "m"
+        meaning = f["grasps/qualities/flex/object_in_gripper"].attrs["meaning"]
+        assert "not a simulation" in meaning and "margin >= 1" in meaning
+        assert f["object/mass"][()] == pytest.approx(0.05, rel=1e-12)
+        assert f["gripper/type"][()] == b"franka"
+        assert f["object/scale"][()] == CM
+        assert np.array_equal(f["grasps/qualities/synth/squeeze_per_weight"][()],
+                              [g.squeeze_per_weight for g in stored])
+
+
+def test_graspgen_and_isaac_files_have_their_documented_keys(built, tmp_path):
+    _, db = built
+    n = len(_stored(db))
+    assert main(["db", "export", str(db), "--format", "graspgen", "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "cube.json").read_text())
+    grasps = np.array(doc["grasps"]["transforms"])
+    mask = np.array(doc["grasps"]["object_in_gripper"])
+    assert isinstance(doc["object"]["file"], str) and doc["object"]["scale"] == CM
+    assert grasps.shape == (n, 4, 4) and mask.dtype == bool and len(grasps[mask]) == n
+    assert doc["synth"]["units"] == "m" and "not a simulation" in doc["synth"][
+        "object_in_gripper"]
+    assert main(["db", "export", str(db), "--format", "isaac", "--out", str(tmp_path)]) == 0
+    y = yaml.safe_load((tmp_path / "cube.yaml").read_text())
+    assert y["format"] == "isaac_grasp" and y["format_version"] == 1.0
+    assert len(y["grasps"]) == n
+    for g in y["grasps"].values():
+        assert set(g) == {"confidence", "position", "orientation"}
+        assert len(g["position"]) == 3 and set(g["orientation"]) == {"w", "xyz"}
+        q = np.array([g["orientation"]["w"], *g["orientation"]["xyz"]])
+        assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-12)
+    assert y["synth"]["units"] == "m"
+
+
+@pytest.mark.parametrize("fmt, ext", [("acronym", "h5"), ("graspgen", "json"),
+                                      ("isaac", "yaml")])
+def test_each_export_reads_back_with_the_planners_contacts_and_scores(built, tmp_path, fmt,
+                                                                      ext):
+    folder, db = built
+    assert main(["db", "export", str(db), "--format", fmt, "--out", str(tmp_path)]) == 0
+    poses = read_gripper_poses(tmp_path / f"cube.{ext}")
+    part = load_part(folder / "cube.stl", units="cm")
+    at = poses.to_part(CM, "cm")
+    assert at.metres_per_unit == pytest.approx(CM, rel=1e-15)
+    r = rank_gripper_poses(part, at.poses, at.metres_per_unit,
+                           GripperParams(mass=0.05), dict(poses.errors))
+    stored = _stored(db)
+    assert sorted(row.index for row in r.rows) == list(range(len(stored)))
+    for row in r.rows:  # the cube's grasps tie on the measures: compared by index
+        g, h = stored[row.index], row.grasp
+        assert row.status == "ranked" and h.closure == "frictional form"
+        assert np.abs(h.points - g.points).max() <= 1e-9 * part.length
+        for key in ("squeeze_per_weight", "mu_min", "epsilon", "d_star", "margin",
+                    "least_squeeze"):
+            assert getattr(h, key) == pytest.approx(getattr(g, key), rel=1e-9), key
+
+
+def test_a_mesh_of_unknown_unit_is_refused_unless_named(built, tmp_path, capsys):
+    _, db = built
+    copy = tmp_path / "u.sqlite"
+    shutil.copy(db, copy)
+    with sqlite3.connect(copy) as conn:
+        conn.execute("UPDATE meshes SET units = NULL")
+    conn.close()
+    assert main(["db", "export", str(copy), "--format", "acronym", "--out",
+                 str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err
+    assert "cube.stl" in err and "unit is unknown" in err and "--units" in err
+    assert not (tmp_path / "a" / "cube.h5").exists()
+    assert main(["db", "export", str(copy), "--format", "acronym", "--out",
+                 str(tmp_path / "a"), "--units", "cm"]) == 0
+    with h5py.File(tmp_path / "a" / "cube.h5") as f:
+        assert f["object/scale"][()] == CM

@@ -67,6 +67,12 @@ def test_export_h5_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
                 f["grasps/tip_centers"][fstart[i] : fstart[i + 1]], g.tip_centers
             )
             assert f["grasps/d_star"][i] == g.d_star and f["grasps/rank"][i] == g.rank
+            # a frame per finger: origin at the tip centre, +z along the approach to the part
+            frames = f["grasps/finger_frames"][fstart[i] : fstart[i + 1]]
+            np.testing.assert_array_equal(frames[:, :3, 3], g.tip_centers)
+            np.testing.assert_allclose(frames[:, :3, 2], -g.approach, atol=1e-15)
+            assert np.allclose(np.linalg.det(frames[:, :3, :3]), 1.0)
+        assert "mesh's unit" in f.attrs["units"]
 
 
 def test_export_npz_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:

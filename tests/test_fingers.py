@@ -97,7 +97,13 @@ def test_tip_on_cube_face_is_accepted_with_its_placement(cube):
     np.testing.assert_allclose(pl.approach, [[0.0, 0.0, 1.0]], atol=1e-12)
     assert pl.contact_finger.tolist() == [0]
     d = pl.to_dict()
-    assert set(d) == {"tip_centers", "tip_radius", "approach", "body_length", "body_radius"}
+    assert set(d) == {"tip_centers", "tip_radius", "approach", "body_length", "body_radius",
+                      "frames"}
+    # the finger's frame: origin at the tip centre, +z along the approach (towards the part)
+    F = np.array(d["frames"])
+    assert F.shape == (1, 4, 4) and np.allclose(F[0, :3, 3], pl.tip_centers[0])
+    assert np.allclose(F[0, :3, 2], -pl.approach[0]) and np.linalg.det(F[0, :3, :3]) > 0
+    assert np.allclose(F[0, :3, :3].T @ F[0, :3, :3], np.eye(3), atol=1e-12)
     assert json.loads(json.dumps(d)) == d and d["body_length"] == 1.0
 
 

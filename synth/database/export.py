@@ -32,6 +32,8 @@ features               (c,) str      feature kind of each contact
 regions                (c,) int64    region of each contact
 finger_start           (n+1,) int64  offsets into the finger arrays
 tip_centers, approach  (g, 3) f8     finger tip centres and approach directions
+finger_frames          (g, 4, 4) f8  a frame per finger: origin at the tip centre, +z along
+                                     its approach towards the part
 tip_radius,            (n,) float64  finger geometry of each grasp
 body_length,
 body_radius
@@ -41,9 +43,10 @@ contact_regions        (n,) str      JSON text of the grasp's contact regions, `
 
 In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix) and
 the others of the group ``grasps``; datasets are chunked and gzip-compressed; the file's
-attributes hold ``format``, ``schema_version``, ``params`` (JSON) and ``planner``. NPZ uses the
-flat names above plus ``params`` and ``planner`` (0-d strings). JSON is one object with
-``meshes``, each carrying its loading ``report`` (an object, or null) and its ``grasps`` in the
+attributes hold ``format``, ``schema_version``, ``params`` (JSON), ``planner`` and ``units``
+(``UNITS``: every length is in its mesh's unit). NPZ uses the flat names above plus ``params``,
+``planner`` and ``units`` (0-d strings). JSON is one object with ``units`` and ``meshes``, each
+carrying its unit, its loading ``report`` (an object, or null) and its ``grasps`` in the
 planner's format.
 """
 
@@ -60,11 +63,16 @@ from synth.database.schema import SCHEMA_VERSION, canonical_json
 from synth.database.store import GraspDatabase
 from synth.errors import InputError
 from synth.files import atomic_path
+from synth.fingers.model import finger_frames
 
-__all__ = ["EXPORT_FORMATS", "export_columns", "export_database"]
+__all__ = ["EXPORT_FORMATS", "UNITS", "export_columns", "export_database"]
 
 EXPORT_FORMATS = ("h5", "npz", "json")
 _FORMAT_TAG = "synth.grasps.db-export"
+#: What the exports say about the unit of their numbers.
+UNITS = ("every length (points, tip centres, radii, tolerances, frames) is in its mesh's unit: "
+         "mesh_units ('' when the mesh file did not say); d_star, conditioning and epsilon are "
+         "unitless")
 
 
 def _str_array(values: list[str]) -> np.ndarray:
@@ -98,8 +106,8 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         k: []
         for k in (
             "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
-            "regions tip_centers approach tip_radius body_length body_radius tolerance "
-            "contact_regions"
+            "regions tip_centers approach finger_frames tip_radius body_length body_radius "
+            "tolerance contact_regions"
         ).split()
     }
     contact_start, finger_start = [0], [0]
@@ -114,6 +122,7 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         lists["regions"].append(g.regions)
         lists["tip_centers"].append(g.tip_centers)
         lists["approach"].append(g.approach)
+        lists["finger_frames"].append(finger_frames(g.tip_centers, g.approach))
         lists["tolerance"].append(np.nan if g.tolerance is None else g.tolerance)
         lists["contact_regions"].append(
             "" if g.contact_regions is None else canonical_json(g.contact_regions))
@@ -129,6 +138,8 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
     cols["features"] = _str_array(lists["features"])
     for name in ("points", "normals", "tip_centers", "approach"):
         cols[name] = np.concatenate(lists[name]) if lists[name] else np.zeros((0, 3))
+    cols["finger_frames"] = (np.concatenate(lists["finger_frames"]) if lists["finger_frames"]
+                             else np.zeros((0, 4, 4)))
     cols["regions"] = (
         np.concatenate(lists["regions"]).astype(np.int64) if lists["regions"] else
         np.zeros(0, dtype=np.int64)
@@ -151,6 +162,7 @@ def _write_h5(db: GraspDatabase, out: Path) -> None:
         f.attrs["schema_version"] = SCHEMA_VERSION
         f.attrs["params"] = json.dumps(db.params, sort_keys=True)
         f.attrs["planner"] = db.planner
+        f.attrs["units"] = UNITS
         groups = {"meshes": f.create_group("meshes"), "grasps": f.create_group("grasps")}
         for name, arr in cols.items():
             group, key = (
@@ -186,6 +198,7 @@ def _write_json(db: GraspDatabase, out: Path) -> None:
         "schema_version": SCHEMA_VERSION,
         "params": db.params,
         "planner": db.planner,
+        "units": UNITS,
         "meshes": meshes,
     }
     with open(out, "w", encoding="utf-8") as fh:
@@ -237,6 +250,7 @@ def export_database(
             cols = export_columns(db)
             cols["params"] = np.array(json.dumps(db.params, sort_keys=True))
             cols["planner"] = np.array(db.planner)
+            cols["units"] = np.array(UNITS)
             with open(tmp, "wb") as fh:  # a file object: numpy adds no ".npz" to the name
                 np.savez_compressed(fh, **cols)
         else:

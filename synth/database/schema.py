@@ -130,6 +130,7 @@ from typing import Any
 import numpy as np
 
 from synth.errors import DatabaseError, DatabaseFileError
+from synth.fingers.model import finger_frames
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -405,6 +406,7 @@ class GraspRecord:
                 "approach": self.approach.tolist(),
                 "body_length": self.body_length,
                 "body_radius": self.body_radius,
+                "frames": finger_frames(self.tip_centers, self.approach).tolist(),
             },
             "tolerance": self.tolerance,
             "contact_regions": self.contact_regions,

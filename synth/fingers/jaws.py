@@ -50,8 +50,8 @@ JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                               EDGE_TOUCH: "a pad's rim digs into a slope"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
-#: Poses per chunk times faces: a chunk's triangles in its poses' frames take about
-#: 72 bytes times this (about 30 MB).
+#: Poses per chunk times faces: a chunk's face centres in its poses' frames take about 16
+#: bytes times this, and only the triangles near a pad are transformed whole.
 _CHUNK_ENTRIES = 400_000
 
 
@@ -99,6 +99,16 @@ class JawContacts:
         return JawContacts(*(np.concatenate([getattr(j, f) for j in parts])
                              for f in ("poses", "width", "points", "normals", "patch",
                                        "status")))
+
+
+def _lo(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least of the three columns of ``a`` (K, 3) (faster than a reduction over 3)."""
+    return np.minimum(np.minimum(a[:, 0], a[:, 1]), a[:, 2])
+
+
+def _hi(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Largest of the three columns of ``a`` (K, 3)."""
+    return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
 
 
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
@@ -246,34 +256,46 @@ def close_jaws(
     reach = abs(py) + pw / 2
     plus_rect = (py - pw / 2, py + pw / 2, -ph / 2, ph / 2)
     minus_rect = (-py - pw / 2, -py + pw / 2, -ph / 2, ph / 2)  # the half-turn of the +x pad
+    tri = Vp[F]
+    centre = tri.mean(axis=1)
+    radius = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1) * (1 + 1e-9) + 1e-300
+    z_low = pz + float(gripper.finger_z[:, 1].min()) - ph / 2
+    z_high = pz + float(gripper.finger_z[:, 1].max()) + ph / 2
     step = max(1, _CHUNK_ENTRIES // max(1, len(F)))
     for lo in range(0, B, step):
         idx = np.arange(lo, min(lo + step, B))
         n = len(idx)
         R, t = poses[idx, :3, :3], poses[idx, :3, 3]
-        Vg = np.einsum("bvi,bij->bvj", Vp[None] - t[:, None], R)  # the part in each frame
-        Tall = Vg[:, F]  # (n, f, 3, 3)
-        FNall = np.einsum("fi,bij->bfj", FN, R)
-        ty, tz, tx = Tall[..., 1], Tall[..., 2], Tall[..., 0]
-        ylo, yhi, zlo, zhi = ty.min(-1), ty.max(-1), tz.min(-1), tz.max(-1)
-        xlo, xhi = tx.min(-1), tx.max(-1)
+        # the (pose, triangle) pairs whose bounding sphere meets a pad's slab (|y| <= reach,
+        # z within the pads' travel): the only triangles a pad can touch
+        yz = (centre[None] - t[:, None]) @ R[:, :, 1:]  # (n, f, 2)
+        kb0, kf0 = np.nonzero((np.abs(yz[..., 0]) <= reach + radius) & (
+            yz[..., 1] >= z_low - radius) & (yz[..., 1] <= z_high + radius))
+        Tp = np.einsum("kvi,kij->kvj", tri[kf0] - t[kb0][:, None], R[kb0])  # (K, 3, 3)
+        FNp = np.einsum("ki,kij->kj", FN[kf0], R[kb0])
+        ty, tz, tx = Tp[..., 1], Tp[..., 2], Tp[..., 0]
+        ylo, yhi, zlo, zhi = _lo(ty), _hi(ty), _lo(tz), _hi(tz)
+        xlo, xhi = _lo(tx), _hi(tx)
         w = np.full(n, gripper.max_opening)
         half = 0.5 * gripper.max_opening
         for _ in range(rounds):
             zc = pz + gripper.rise(w)
-            near = (yhi >= -reach) & (ylo <= reach) & (zhi >= (zc - ph / 2)[:, None]) & (
-                zlo <= (zc + ph / 2)[:, None])
+            zk = zc[kb0]
+            near = (yhi >= -reach) & (ylo <= reach) & (zhi >= zk - ph / 2) & (zlo <= zk + ph / 2)
             found = []
             for rect, sign, far in ((plus_rect, 1.0, xhi), (minus_rect, -1.0, -xlo)):
                 # a vertex inside the pad's rectangle bounds the extreme from below: triangles
                 # lying wholly behind it cannot reach it
-                inside = (Vg[..., 1] >= rect[0]) & (Vg[..., 1] <= rect[1]) & (
-                    np.abs(Vg[..., 2] - zc[:, None]) <= ph / 2) & (sign * Vg[..., 0] <= half)
-                floor = np.where(inside, sign * Vg[..., 0], -np.inf).max(axis=1)
-                kb, kf = np.nonzero(near & (far >= (floor - touch_tol)[:, None]))
-                Tg = Tall[kb, kf] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
-                                             axis=1)[:, None, :]  # pad centre at z = 0
-                found.append(_extremes(Tg, FNall[kb, kf], kb, n, rect, sign, touch_tol, half))
+                # (every vertex inside it is a corner of a triangle of the pairs)
+                inside = (ty >= rect[0]) & (ty <= rect[1]) & (
+                    np.abs(tz - zk[:, None]) <= ph / 2) & (sign * tx <= half)
+                floor = np.full(n, -np.inf)
+                np.maximum.at(floor, kb0, _hi(np.where(inside, sign * tx, -np.inf)))
+                sel = np.flatnonzero(near & (far >= floor[kb0] - touch_tol))
+                kb = kb0[sel]
+                Tg = Tp[sel] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
+                                        axis=1)[:, None, :]  # pad centre at z = 0
+                found.append(_extremes(Tg, FNp[sel], kb, n, rect, sign, touch_tol, half))
             (xp, cp, dp, gp, xp_all), (xm, cm, dm, gm, xm_all) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms

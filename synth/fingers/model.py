@@ -46,6 +46,7 @@ __all__ = [
     "DEFAULT_BODY_RELATIVE_RADIUS",
     "Fingers",
     "FingerPlacement",
+    "finger_frames",
     "default_fingers",
     "tip_centers",
     "part_mesh",
@@ -215,14 +216,48 @@ class FingerPlacement:
         return int(self.tip_centers.shape[0])
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict with keys tip_centers, tip_radius, approach, body_length, body_radius."""
+        """JSON-ready dict with keys tip_centers, tip_radius, approach, body_length,
+        body_radius and frames (:func:`finger_frames`)."""
         return {
             "tip_centers": np.asarray(self.tip_centers, dtype=float).tolist(),
             "tip_radius": float(self.tip_radius),
             "approach": np.asarray(self.approach, dtype=float).tolist(),
             "body_length": float(self.body_length),
             "body_radius": float(self.body_radius),
+            "frames": finger_frames(self.tip_centers, self.approach).tolist(),
         }
+
+
+def finger_frames(tip_centers: Any, approach: Any) -> np.ndarray:
+    """A 4 x 4 frame per finger: origin at the tip centre, +z along the finger's approach
+    (towards the part, the gripper convention's approach axis), x the world axis least
+    aligned with z made perpendicular to it, y = z x x.
+
+    Parameters
+    ----------
+    tip_centers : (f, 3) float
+    approach : (f, 3) float
+        Unit directions pointing away from the part (as :class:`FingerPlacement` holds them).
+
+    Returns
+    -------
+    (f, 4, 4) float
+
+    Examples
+    --------
+    >>> T = finger_frames([[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]])[0]  # a tip above the part
+    >>> (T[:3, 2] + 0.0).tolist(), T[:3, 3].tolist()  # approaching along -z
+    ([0.0, 0.0, -1.0], [0.0, 0.0, 1.0])
+    """
+    c = np.asarray(tip_centers, float).reshape(-1, 3)
+    z = -np.asarray(approach, float).reshape(-1, 3)
+    z = z / np.linalg.norm(z, axis=1, keepdims=True)
+    e = np.eye(3)[np.argmin(np.abs(z), axis=1)]
+    x = e - np.einsum("ij,ij->i", e, z)[:, None] * z
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    T = np.tile(np.eye(4), (len(c), 1, 1))
+    T[:, :3, 0], T[:, :3, 1], T[:, :3, 2], T[:, :3, 3] = x, np.cross(z, x), z, c
+    return T
 
 
 def part_mesh(part: Any) -> Any:

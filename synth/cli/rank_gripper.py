@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from typing import Any
 
@@ -66,7 +67,8 @@ def format_table(rows: list[Any], mm: float) -> str:
         else:
             spw = g.squeeze_per_weight if g.closure == "frictional form" else None
             nums = (f"{g.width * mm:>8.1f}  {_cell(g.margin if spw else None, '.2f', 7)}  "
-                    f"{_cell(spw, '.3f', 8)}  {g.mu_min:>8.2g}  {g.epsilon:>8.4f}  "
+                    f"{_cell(spw, '.3f', 8)}  {g.mu_min:>8.2g}  "
+                    f"{_cell(None if math.isnan(g.epsilon) else g.epsilon, '.4f', 8)}  "
                     f"{g.closure:<15}")
         lines.append(f"{k:>3}  {r.index:>5}  {r.name:<{w}}  {nums}  {status}")
     return "\n".join(lines)
@@ -113,8 +115,10 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     where = poses.to_part(metres, part.units)
     if not args.quiet:
         print(f"poses: {where.applied}", file=sys.stderr)
+    shown_n = 20 if args.top is None else args.top
     ranking = rank_gripper_poses(part, where.poses, where.metres_per_unit, params,
-                                 dict(poses.errors), poses.names, poses.labels)
+                                 dict(poses.errors), poses.names, poses.labels,
+                                 None if shown_n == 0 else shown_n)
     rows = list(ranking.rows)
     p = params
     doc = {"format": "synth.ranked_gripper", "version": 1,
@@ -126,13 +130,16 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
            "gripper": ranking.gripper.to_json(),
            "model": {"mu": p.mu, "torsion": ranking.torsion, "mass": ranking.mass,
                      "gravity": None if p.gravity is None else list(p.gravity),
-                     "rank_by": p.rank_by, "edges": p.edges},
+                     "rank_by": p.rank_by, "edges": p.edges,
+                     "epsilon": "computed for every ranked grasp" if shown_n == 0 or
+                     p.rank_by in ("mu_min", "epsilon") else f"computed for the best {shown_n} "
+                     "ranked grasps (--top; null for the others)"},
            "counts": ranking.counts, "seconds": ranking.seconds,
            "candidates": [r.to_dict() for r in rows]}
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:
         write_atomic(out, text)
-    shown = rows if args.top == 0 else rows[:20 if args.top is None else args.top]
+    shown = rows if shown_n == 0 else rows[:shown_n]
     if args.json:
         print(text, end="")
     else:

@@ -101,6 +101,15 @@ class JawContacts:
                                        "status")))
 
 
+def _rotate(D: NDArray[np.float64], R: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``D @ R`` row by row for ``D`` (..., 3) and rotations ``R`` (..., 3, 3) broadcast
+    against it, summed in the order ``einsum`` sums (twice as fast on many small arrays)."""
+    out = np.empty(np.broadcast_shapes(D.shape, R.shape[:-1]))
+    for j in range(3):
+        out[..., j] = D[..., 0] * R[..., 0, j] + D[..., 1] * R[..., 1, j] + D[..., 2] * R[..., 2, j]
+    return out
+
+
 def _lo(a: NDArray[np.float64]) -> NDArray[np.float64]:
     """Least of the three columns of ``a`` (K, 3) (faster than a reduction over 3)."""
     return np.minimum(np.minimum(a[:, 0], a[:, 1]), a[:, 2])
@@ -259,8 +268,9 @@ def close_jaws(
     tri = Vp[F]
     centre = tri.mean(axis=1)
     radius = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1) * (1 + 1e-9) + 1e-300
-    z_low = pz + float(gripper.finger_z[:, 1].min()) - ph / 2
-    z_high = pz + float(gripper.finger_z[:, 1].max()) + ph / 2
+    y_lim = reach + radius
+    z_lim = (pz + float(gripper.finger_z[:, 1].min()) - ph / 2 - radius,
+             pz + float(gripper.finger_z[:, 1].max()) + ph / 2 + radius)
     step = max(1, _CHUNK_ENTRIES // max(1, len(F)))
     for lo in range(0, B, step):
         idx = np.arange(lo, min(lo + step, B))
@@ -269,10 +279,11 @@ def close_jaws(
         # the (pose, triangle) pairs whose bounding sphere meets a pad's slab (|y| <= reach,
         # z within the pads' travel): the only triangles a pad can touch
         yz = (centre[None] - t[:, None]) @ R[:, :, 1:]  # (n, f, 2)
-        kb0, kf0 = np.nonzero((np.abs(yz[..., 0]) <= reach + radius) & (
-            yz[..., 1] >= z_low - radius) & (yz[..., 1] <= z_high + radius))
-        Tp = np.einsum("kvi,kij->kvj", tri[kf0] - t[kb0][:, None], R[kb0])  # (K, 3, 3)
-        FNp = np.einsum("ki,kij->kj", FN[kf0], R[kb0])
+        kb0, kf0 = np.nonzero((np.abs(yz[..., 0]) <= y_lim) & (yz[..., 1] >= z_lim[0]) & (
+            yz[..., 1] <= z_lim[1]))
+        Rk = R[kb0]
+        Tp = _rotate(tri[kf0] - t[kb0][:, None], Rk[:, None])  # (K, 3, 3)
+        FNp = _rotate(FN[kf0], Rk)
         ty, tz, tx = Tp[..., 1], Tp[..., 2], Tp[..., 0]
         ylo, yhi, zlo, zhi = _lo(ty), _hi(ty), _lo(tz), _hi(tz)
         xlo, xhi = _lo(tx), _hi(tx)

@@ -142,6 +142,7 @@ class GripperGrasp:
     closure : str
     mu_min : float
     epsilon : float
+        NaN where it was not computed (``synth rank --gripper`` beyond its ``--top`` rows).
     squeeze_per_weight : float
         Least squeeze / weight that holds the part (every orientation: a certified bound).
     squeeze_sampled : float
@@ -182,7 +183,7 @@ class GripperGrasp:
                              "squeeze_per_weight_sampled": num(self.squeeze_sampled),
                              "worst_gravity": self.worst_gravity.tolist(),
                              "d_star": self.d_star, "closure": self.closure,
-                             "mu_min": num(self.mu_min), "epsilon": self.epsilon}}
+                             "mu_min": num(self.mu_min), "epsilon": num(self.epsilon)}}
 
 
 @dataclass(frozen=True)
@@ -544,12 +545,13 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
 
 
 def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperParams,
-                  gamma: float, mass: float | None, closure: list[str] | None = None
-                  ) -> list[GripperGrasp]:
+                  gamma: float, mass: float | None, closure: list[str] | None = None,
+                  epsilon: NDArray[np.bool_] | None = None) -> list[GripperGrasp]:
     """The result objects of scored grasps, with mu_min and epsilon computed for them.
 
     ``closure`` names each grasp's closure class (default: every one frictional form
-    closure, as the planner keeps only those)."""
+    closure, as the planner keeps only those); ``epsilon`` says which grasps get their
+    epsilon computed (default all; the others get NaN)."""
     mm = mu_min_batch(best.points, best.normals, gamma, params.edges, compiled=False).mu_min
     out = []
     for j, pose in enumerate(best.poses):
@@ -560,7 +562,8 @@ def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperPara
             d_star=float(best.d_star[j]),
             closure="frictional form" if closure is None else closure[j], mu_min=float(mm[j]),
             epsilon=epsilon_quality(best.points[j], best.normals[j], part.center_mass,
-                                    part.length, params.mu, params.edges, gamma),
+                                    part.length, params.mu, params.edges, gamma)
+            if epsilon is None or epsilon[j] else math.nan,
             squeeze_per_weight=float(best.spw[j]), squeeze_sampled=float(best.sampled[j]),
             worst_gravity=best.worst[j], least_squeeze=least,
             margin=None if least is None else gripper.grip_force / least))

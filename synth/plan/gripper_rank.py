@@ -124,7 +124,8 @@ def _turn_back(g: GripperGrasp) -> GripperGrasp:
 def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: float,
                        params: GripperParams, malformed: dict[int, str] | None = None,
                        names: tuple[str, ...] | None = None,
-                       labels: NDArray[np.float64] | None = None) -> PoseRanking:
+                       labels: NDArray[np.float64] | None = None,
+                       epsilon_top: int | None = None) -> PoseRanking:
     """Close, check and score gripper poses on a part (see the module).
 
     Parameters
@@ -142,6 +143,10 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
     names : tuple of str, optional
     labels : (n,) float, optional
         The file's labels, carried to the rows.
+    epsilon_top : int, optional
+        Compute epsilon (a convex hull per grasp, about 10 ms) for the best this many ranked
+        grasps only, as the planner does for the grasps it returns; None: for all. Ranking
+        by ``mu_min`` or ``epsilon`` computes it for all.
 
     Returns
     -------
@@ -170,11 +175,10 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
     hit = np.full(len(U), CLEAR, np.int64)
     hit[landed] = checker.check(jaws.poses[landed], jaws.width[landed])
     clear = landed[hit[landed] == CLEAR]
-    results = _score(part, jaws.take(clear), gripper, params, gamma, mass)
+    every = epsilon_top is None or params.rank_by in ("mu_min", "epsilon")
+    results, order = _score(part, jaws.take(clear), gripper, params, gamma, mass,
+                            None if every else epsilon_top)
     grasp_of = dict(zip(clear.tolist(), results))
-    order = rank_order(params.rank_by, *(np.array(v, float) for v in zip(*(
-        (g.squeeze_per_weight if g.closure == "frictional form" else np.inf, g.d_star,
-         g.mu_min, g.epsilon) for g in results)))) if results else np.zeros(0, np.int64)
     position = {int(clear[k]): r for r, k in enumerate(order)}
     rows: list[RankedPose] = []
     ranked: list[tuple[int, RankedPose]] = []
@@ -204,11 +208,13 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
 
 
 def _score(part: Any, jaws: Any, gripper: Gripper, params: GripperParams, gamma: float,
-           mass: float | None) -> list[GripperGrasp]:
-    """Every landed, collision-free pose scored as the planner scores the grasps it returns."""
+           mass: float | None, epsilon_top: int | None
+           ) -> tuple[list[GripperGrasp], NDArray[np.int64]]:
+    """Every landed, collision-free pose scored as the planner scores the grasps it returns,
+    and their order (epsilon for the best ``epsilon_top`` of the order only, None: all)."""
     P, N = jaws.points, jaws.normals
     if not len(P):
-        return []
+        return [], np.zeros(0, np.int64)
     fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
                                        edges=params.edges, compiled=False, torsion=gamma)
     spw = np.full(len(P), np.inf)
@@ -223,4 +229,13 @@ def _score(part: Any, jaws: Any, gripper: Gripper, params: GripperParams, gamma:
         worst[closing] = hold.worst_direction
     scored = Scored(jaws.poses, jaws.width, P, N, jaws.patch, fc.d_star, spw, sampled, worst)
     closure = ["frictional form" if c else "none" for c in fc.closure]
-    return grasp_results(scored, part, gripper, params, gamma, mass, closure)
+    if epsilon_top is None:
+        grasps = grasp_results(scored, part, gripper, params, gamma, mass, closure)
+        order = rank_order(params.rank_by, spw, fc.d_star,
+                           np.array([g.mu_min for g in grasps]),
+                           np.array([g.epsilon for g in grasps]))
+        return grasps, order
+    order = rank_order(params.rank_by, spw, fc.d_star, spw, spw)  # margin or d_star
+    head = np.zeros(len(P), bool)
+    head[order[:epsilon_top]] = True
+    return grasp_results(scored, part, gripper, params, gamma, mass, closure, head), order

@@ -145,3 +145,13 @@ def test_a_pose_and_its_half_turn_have_one_representative():
     b, tb = canonical_half_turn(T @ H)
     assert np.array_equal(a, b) and np.array_equal(ta, ~tb)
     assert np.array_equal(np.where(ta[:, None, None], T @ H, T), a)
+
+
+def test_isaac_files_without_pyyaml_name_the_extra(tmp_path, monkeypatch):
+    import sys
+
+    y = tmp_path / "g.yaml"
+    y.write_text("format: isaac_grasp\n")
+    monkeypatch.setitem(sys.modules, "yaml", None)  # as if PyYAML were not installed
+    with pytest.raises(InputError, match=r'synth\[formats\]'):
+        read_gripper_poses(y)

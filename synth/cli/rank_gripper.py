@@ -88,12 +88,9 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     from synth.formats import read_gripper_poses
     from synth.plan.gripper_rank import rank_gripper_poses
 
-    for name in ("regions",):
-        if getattr(args, name):
-            raise OptionError(f"--{name} applies to contact sets, not to gripper poses")
-    if args.min_tolerance or args.max_distance is not None:
-        raise OptionError("--min-tolerance and --max-distance apply to contact sets, not to "
-                          "gripper poses")
+    if args.regions or args.min_tolerance or args.max_distance is not None:
+        raise OptionError("--regions, --min-tolerance and --max-distance apply to contact "
+                          "sets, not to gripper poses")
     integer("--top", args.top, 0)
     check_part_options(args)
     args.seed, args.samples = 0, None

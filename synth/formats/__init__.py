@@ -4,14 +4,13 @@ Readers return :class:`~synth.formats.poses.GripperPoses` (the poses as the file
 converted to a part by :meth:`~synth.formats.poses.GripperPoses.to_part`); writers take
 :class:`~synth.formats.objects.ObjectGrasps` (one object's grasps in metres).
 
-==============  =====================================  ===============================  ======
-format          reader                                 writer                           module
-==============  =====================================  ===============================  ======
-ACRONYM HDF5    ``.h5``, ``.hdf5``                     ``synth db export --format acronym``  acronym
-GraspGen JSON   ``.json`` with ``object`` and ``grasps.transforms``  ``--format graspgen``  graspgen
-isaac_grasp     ``.yaml``, ``.yml``                    ``--format isaac``               isaac
-arrays          ``.npz``; other ``.json``              --                               arrays
-==============  =====================================  ===============================  ======
+* ACRONYM HDF5 (``.h5``, ``.hdf5``): :mod:`synth.formats.acronym`, read and written
+  (``synth db export --format acronym``);
+* GraspGen JSON (``.json`` with ``object`` and ``grasps.transforms``):
+  :mod:`synth.formats.graspgen`, read and written (``--format graspgen``);
+* isaac_grasp YAML (``.yaml``, ``.yml``): :mod:`synth.formats.isaac`, read and written
+  (``--format isaac``);
+* pose arrays (``.npz``; any other ``.json``): :mod:`synth.formats.arrays`, read.
 """
 
 from __future__ import annotations

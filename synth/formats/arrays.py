@@ -88,12 +88,7 @@ def read_json_poses(path: str | Path, doc: Any) -> GripperPoses:
     else:
         items, key, fmt = doc, "poses", "json"
     T, errors = matrices(items, where, key)
-    try:
-        w = _widths(widths, len(T), where)
-    except InputError:
-        if fmt != "synth.gripper_grasps":
-            raise
-        w = None
+    w = _widths(widths, len(T), where)
     poses = GripperPoses(where, fmt, T, tuple(str(i) for i in range(len(T))),
                          unit_metres(units, where), str(units), None, None, w,
                          errors=tuple(errors))

@@ -1,8 +1,9 @@
 """The SQLite schema of a synth grasp database (schema version 4) and its record types.
 
 A grasp database is one SQLite file in WAL mode, written by ``synth db build`` (one writer, the
-parent process) and readable by anyone while it is written. It holds four tables: ``grasps``
-for point-finger plans, ``gripper_grasps`` for gripper plans (``synth db build --gripper``).
+parent process) and readable by anyone while it is written. It holds four tables: ``meta``,
+``meshes``, ``grasps`` for point-finger plans and ``gripper_grasps`` for gripper plans
+(``synth db build --gripper``).
 
 ``meta`` -- one row per key, text values:
 
@@ -10,7 +11,7 @@ for point-finger plans, ``gripper_grasps`` for gripper plans (``synth db build -
 key                value
 =================  ===========================================================================
 application        ``synth.grasps.db`` (also ``PRAGMA application_id = 0x53594E54``)
-schema_version     ``2`` (also ``PRAGMA user_version = 2``)
+schema_version     ``4`` (also ``PRAGMA user_version = 4``)
 synth_version      the library version that created the file
 params             canonical JSON of the planner parameters every mesh of this file is planned with
 planner            the planner used, ``"module:function"``

@@ -17,6 +17,12 @@ asserted):
 * grasps that should fail: the best grasp of each part with one contact (and its finger)
   removed, three times at random: how many still hold, and the cosine between the motion
   at failure and synth's predicted escape twist;
+* grasps the facets reject: the part planned again with ``--surface smooth`` (closure with
+  the interpolated normals alone); of its top grasps, those that are not form closure with
+  the mesh's own normals (``d_star_mesh`` 0, or a wrench matrix of lower rank) are simulated
+  with the default hand beside the ones the facets accept: how many hold, where they fail,
+  and the cosine between the motion at failure and the escape twist synth predicts from the
+  mesh's normals;
 * time per grasp.
 
 Usage:
@@ -25,6 +31,7 @@ Usage:
     python scripts/bench_sim.py --part 1/2 --dump a.json &  # two processes, then
     python scripts/bench_sim.py --part 2/2 --dump b.json
     python scripts/bench_sim.py --merge a.json b.json
+    python scripts/bench_sim.py --smooth-only [--part 1/2 --dump c.json]  # the last part only
 
 Convex decompositions are cached (see ``synth.sim.cache_dir``); the first run decomposes
 every non-convex body with CoACD, which takes minutes.
@@ -46,7 +53,7 @@ import numpy as np  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
 from synth import PlanParams, load_part, plan_part  # noqa: E402
-from synth.sim import SimSettings, check_document, simulate_file  # noqa: E402
+from synth.sim import SimSettings, check_document, predicted_escape, simulate_file  # noqa: E402
 
 __all__ = ["main", "SETTINGS"]
 
@@ -102,6 +109,79 @@ def _correlations(rows: list[dict], m: str) -> str:
     return line
 
 
+def _hands(part, path: Path, name: str, args: argparse.Namespace, rng: np.random.Generator,
+           acc: dict) -> None:
+    """The planner's top grasps at every hand of ``SETTINGS``, and the best one with a contact
+    removed; one line per part, measurements added to ``acc``."""
+    plan = plan_part(part, PlanParams(top=args.top, evals=args.evals, seed=0, regions=True))
+    if not plan.grasps:
+        print(f"{name:<44} {'no grasp':>6}", flush=True)
+        return
+    doc = plan.to_json()
+    file = check_document(doc, str(path))
+    cells = []
+    report = None
+    for label, st in SETTINGS:
+        r = simulate_file(file, st)
+        report = report or r
+        for g, lab in zip(file.grasps, r.labels):
+            acc["rows"][label].append({"part": name, "held": lab.held, "force": lab.force_min,
+                                       "torque": lab.torque_min, **g.measures})
+        n_held = sum(lab.held for lab in r.labels)
+        acc["held"][label][0] += n_held
+        acc["held"][label][1] += len(r.labels)
+        cells.append(f"{n_held:>4}/{len(r.labels):<2}")
+        acc["seconds"].extend(lab.seconds for lab in r.labels)
+    assert report is not None
+    best = doc["grasps"][0]
+    for drop in rng.choice(len(best["points"]), size=min(3, len(best["points"])),
+                           replace=False):
+        one = check_document(_without(doc, best, int(drop)), str(path))
+        lab = simulate_file(one, SETTINGS[0][1]).labels[0]
+        acc["fails"].append([lab.held, lab.escape_cos, lab.failed_at])
+    p = report.pieces
+    dec = "-" if not p.decomposed else (f"{p.decomposed} {p.error:6.1%}" if p.error == p.error
+                                        else f"{p.decomposed} open")
+    print(f"{name:<44} {len(file.grasps):>6} {len(p.pieces):>6} {dec:>10}  "
+          + "  ".join(f"{cell:>13}" for cell in cells)
+          + f"   {np.mean([lab.seconds for lab in report.labels]):7.2f}", flush=True)
+
+
+def _smooth(part, path: Path, name: str, args: argparse.Namespace) -> list[dict]:
+    """The top grasps planned with ``--surface smooth``, each simulated with the default
+    hand and classified by form closure with the mesh's own normals; one line per part and
+    one per grasp the facets reject."""
+    plan = plan_part(part, PlanParams(top=args.top, evals=args.evals, seed=0,
+                                      surface="smooth"))
+    if not plan.grasps:
+        print(f"{name:<44} smooth: no grasp", flush=True)
+        return []
+    doc = plan.to_json()
+    file = check_document(doc, str(path))
+    labels = simulate_file(file, SETTINGS[0][1]).labels
+    out = []
+    for i, (g, lab) in enumerate(zip(file.grasps, labels), 1):
+        escape = predicted_escape(g.points, g.normals, file.mu, file.center_mass, file.length)
+        out.append({"part": name, "rank": i, "rejected": escape is not None,
+                    "d_star_smooth": g.measures["d_star_smooth"],
+                    "d_star_mesh": g.measures["d_star_mesh"],
+                    "conditioning": g.measures["conditioning"], "held": lab.held,
+                    "failed_at": lab.failed_at, "escape_cos": lab.escape_cos,
+                    "motion": lab.motion_words, "motion_at": lab.motion_at,
+                    "force": lab.force_min, "seconds": lab.seconds})
+    rej = [r for r in out if r["rejected"]]
+    acc = [r for r in out if not r["rejected"]]
+    print(f"{name:<44} smooth: {len(rej)} of {len(out)} rejected on the facets, "
+          f"{sum(r['held'] for r in rej)} of them held; {sum(r['held'] for r in acc)} of "
+          f"{len(acc)} accepted held", flush=True)
+    for r in rej:
+        cos = "" if r["escape_cos"] is None else f", cos {r['escape_cos']:+.2f} to the escape"
+        print(f"    #{r['rank']:<2} d* smooth {r['d_star_smooth']:.3f} mesh "
+              f"{r['d_star_mesh']:.3f}: {'held' if r['held'] else 'failed at ' + r['failed_at']}"
+              + ("" if r["held"] else f", {r['motion_at']}: {r['motion']}{cos}"), flush=True)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print its tables."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -112,77 +192,93 @@ def main(argv: list[str] | None = None) -> int:
                     help="also write the measurements to this file, for --merge")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
                     help="print the summary of the measurements in these --dump files")
+    ap.add_argument("--smooth-only", action="store_true",
+                    help="only the grasps planned with --surface smooth (not the hands)")
     ap.add_argument("--evals", type=int, default=PlanParams().evals)
     ap.add_argument("--top", type=int, default=10)
     args = ap.parse_args(argv)
     if args.merge:
         dumps = [json.loads(Path(f).read_text()) for f in args.merge]
-        print(f"{sum(len({r['part'] for r in d['rows'][SETTINGS[0][0]]}) for d in dumps)} parts")
-        _summary({name: [r for d in dumps for r in d["rows"][name]] for name, _ in SETTINGS},
-                 {name: [sum(d["held"][name][k] for d in dumps) for k in (0, 1)]
-                  for name, _ in SETTINGS},
-                 [tuple(f) for d in dumps for f in d["fails"]],
-                 [x for d in dumps for x in d["seconds"]], max(d["total_s"] for d in dumps))
+        acc = {"rows": {name: [r for d in dumps for r in d["rows"][name]] for name, _ in SETTINGS},
+               "held": {name: [sum(d["held"][name][k] for d in dumps) for k in (0, 1)]
+                        for name, _ in SETTINGS},
+               "fails": [f for d in dumps for f in d["fails"]],
+               "seconds": [x for d in dumps for x in d["seconds"]],
+               "smooth": [r for d in dumps for r in d["smooth"]]}
+        parts = {r["part"] for r in acc["rows"][SETTINGS[0][0]] + acc["smooth"]}
+        print(f"{len(parts)} parts")
+        _summary(acc, max(d["total_s"] for d in dumps))
         return 0
     corpus = [c for c in json.loads((CORPUS / "corpus.json").read_text())
               if c["expect"] == "plan" and (args.files is None or c["file"] in args.files)]
     i, n = (int(x) for x in args.part.split("/"))
     corpus = corpus[i - 1::n]
-    rows: dict[str, list[dict]] = {name: [] for name, _ in SETTINGS}  # one per grasp
-    held = {name: [0, 0] for name, _ in SETTINGS}
-    fails: list[list] = []  # [held, escape_cos, failed_at] per grasp with a contact removed
-    seconds: list[float] = []
-    print(f"{'part':<44} {'grasps':>6} {'pieces':>6} {'CoACD':>10}  "
-          + "  ".join(f"{name:>13}" for name, _ in SETTINGS) + "   s/grasp",
-          flush=True)
+    acc = {"rows": {name: [] for name, _ in SETTINGS},  # one per grasp
+           "held": {name: [0, 0] for name, _ in SETTINGS},
+           "fails": [],  # [held, escape_cos, failed_at] per grasp with a contact removed
+           "seconds": [], "smooth": []}
+    if not args.smooth_only:
+        print(f"{'part':<44} {'grasps':>6} {'pieces':>6} {'CoACD':>10}  "
+              + "  ".join(f"{name:>13}" for name, _ in SETTINGS) + "   s/grasp", flush=True)
     rng = np.random.default_rng(0)
     t_all = time.perf_counter()
     for c in corpus:
         path = CORPUS / c["file"]
         part = load_part(path, units=c.get("units"))
-        plan = plan_part(part, PlanParams(top=args.top, evals=args.evals, seed=0, regions=True))
-        if not plan.grasps:
-            print(f"{c['file']:<44} {'no grasp':>6}", flush=True)
-            continue
-        doc = plan.to_json()
-        file = check_document(doc, str(path))
-        cells = []
-        report = None
-        for name, st in SETTINGS:
-            r = simulate_file(file, st)
-            report = report or r
-            for g, lab in zip(file.grasps, r.labels):
-                rows[name].append({"part": c["file"], "held": lab.held, "force": lab.force_min,
-                                   "torque": lab.torque_min, **g.measures})
-            n_held = sum(lab.held for lab in r.labels)
-            held[name][0] += n_held
-            held[name][1] += len(r.labels)
-            cells.append(f"{n_held:>4}/{len(r.labels):<2}")
-            seconds.extend(lab.seconds for lab in r.labels)
-        assert report is not None
-        best = doc["grasps"][0]
-        for drop in rng.choice(len(best["points"]), size=min(3, len(best["points"])),
-                               replace=False):
-            one = check_document(_without(doc, best, int(drop)), str(path))
-            lab = simulate_file(one, SETTINGS[0][1]).labels[0]
-            fails.append([lab.held, lab.escape_cos, lab.failed_at])
-        p = report.pieces
-        dec = "-" if not p.decomposed else (f"{p.decomposed} {p.error:6.1%}" if p.error == p.error
-                                            else f"{p.decomposed} open")
-        print(f"{c['file']:<44} {len(file.grasps):>6} {len(p.pieces):>6} {dec:>10}  "
-              + "  ".join(f"{cell:>13}" for cell in cells)
-              + f"   {np.mean([lab.seconds for lab in report.labels]):7.2f}", flush=True)
+        if not args.smooth_only:
+            _hands(part, path, c["file"], args, rng, acc)
+        acc["smooth"].extend(_smooth(part, path, c["file"], args))
         if args.dump:  # after every part, so that a run cut short still counts
-            Path(args.dump).write_text(json.dumps({
-                "rows": rows, "held": held, "fails": fails, "seconds": seconds,
-                "total_s": time.perf_counter() - t_all}))
-
-    _summary(rows, held, fails, seconds, time.perf_counter() - t_all)
+            Path(args.dump).write_text(json.dumps({**acc,
+                                                   "total_s": time.perf_counter() - t_all}))
+    _summary(acc, time.perf_counter() - t_all)
     return 0
 
 
-def _summary(rows: dict, held: dict, fails: list, seconds: list, total: float) -> None:
-    """Print the shares, the correlations, the grasps that should fail, the times."""
+def _summary(acc: dict, total: float) -> None:
+    """Print the shares, the correlations, the grasps that should fail, the grasps the
+    facets reject, the times."""
+    if acc["seconds"]:
+        _hand_summary(acc["rows"], acc["held"], acc["fails"])
+    if acc["smooth"]:
+        _smooth_summary(acc["smooth"])
+    s = np.array(acc["seconds"] + [r["seconds"] for r in acc["smooth"]])
+    print(f"\ntime per grasp: median {np.median(s):.2f} s, mean {s.mean():.2f} s, max "
+          f"{s.max():.2f} s; whole benchmark {total:.0f} s")
+
+
+def _cosines(rows: list) -> str:
+    cos = np.array([c for c in rows if c is not None])
+    return (f"median {np.median(cos) if len(cos) else float('nan'):.2f}, above 0.9 in "
+            f"{int((cos > 0.9).sum())} of {len(cos)}")
+
+
+def _stages(failed_at: list) -> str:
+    return ", ".join(f"{s} {sum(1 for f in failed_at if f == s)}" for s in
+                     ("squeeze", "gravity", "shake", "diverged"))
+
+
+def _smooth_summary(rows: list[dict]) -> None:
+    """The grasps planned with ``--surface smooth``, rejected on the facets or not."""
+    rej = [r for r in rows if r["rejected"]]
+    acc = [r for r in rows if not r["rejected"]]
+    zero = sum(r["d_star_mesh"] == 0 for r in rej)
+    parts = len({r["part"] for r in rows})
+    print(f"\ngrasps planned with --surface smooth ({len(rows)} on {parts} parts), simulated "
+          f"with the default hand ({SETTINGS[0][0]}):")
+    print(f"  rejected on the facets (not form closure with the mesh's own normals): "
+          f"{len(rej)} on {len({r['part'] for r in rej})} parts (d_star_mesh 0: {zero}; "
+          f"d_star_mesh > 0 but rank < 6: {len(rej) - zero})")
+    print(f"    held: {sum(r['held'] for r in rej)} of {len(rej)}; failed at: "
+          f"{_stages([r['failed_at'] for r in rej])}")
+    print(f"    cosine of the motion at failure to the escape predicted from the mesh's "
+          f"normals: {_cosines([r['escape_cos'] for r in rej if not r['held']])}")
+    print(f"  accepted on the facets: {sum(r['held'] for r in acc)} of {len(acc)} held; "
+          f"failed at: {_stages([r['failed_at'] for r in acc])}")
+
+
+def _hand_summary(rows: dict, held: dict, fails: list) -> None:
+    """The hands of ``SETTINGS``: shares held, correlations, a contact removed."""
     print("\nshare of the top grasps that hold (squeeze, gravity, shake of 1 g):")
     for name, (h, n) in held.items():
         print(f"  {name}: {h} of {n} ({h / max(n, 1):.0%})")
@@ -205,16 +301,9 @@ def _summary(rows: dict, held: dict, fails: list, seconds: list, total: float) -
         for m in MEASURES:
             print(_correlations(rows[name], m))
     n_fail = sum(not h for h, _, _ in fails)
-    cos = np.array([c for h, c, _ in fails if c is not None and not h])
-    stages = {s: sum(1 for h, _, f in fails if f == s) for s in
-              ("squeeze", "gravity", "shake", "diverged")}
     print(f"\ngrasps with one contact removed: {n_fail} of {len(fails)} fail "
-          f"({', '.join(f'{k} {v}' for k, v in stages.items())}); cosine of the motion to "
-          f"the predicted escape: median {np.median(cos) if len(cos) else float('nan'):.2f}, "
-          f"above 0.9 in {int((cos > 0.9).sum())} of {len(cos)}")
-    s = np.array(seconds)
-    print(f"\ntime per grasp: median {np.median(s):.2f} s, mean {s.mean():.2f} s, max "
-          f"{s.max():.2f} s; whole benchmark {total:.0f} s")
+          f"({_stages([f for _, _, f in fails])}); cosine of the motion to the predicted "
+          f"escape: {_cosines([c for h, c, _ in fails if not h])}")
 
 
 if __name__ == "__main__":

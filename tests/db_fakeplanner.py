@@ -16,6 +16,7 @@ named by its pid there, so tests know the worker processes.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import time
 from typing import Any
@@ -131,6 +132,20 @@ def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     }
     if not grasps:
         doc["message"] = f"no form-closure grasp among {evals} random {k}-contact sets"
+    return doc
+
+
+def plan_for_sim(path: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Like :func:`plan_mesh_file`, with what ``synth.sim`` needs and synth's planner gives:
+    the mesh's digest, centre of mass and volume, and fingers approaching from outside."""
+    doc = plan_mesh_file(path, params)
+    mesh = _load(path)
+    with open(path, "rb") as fh:
+        digest = hashlib.sha256(fh.read()).hexdigest()
+    doc["mesh"].update(sha256=digest, center_mass=mesh.center_mass.tolist(),
+                       volume=float(mesh.volume))
+    for g in doc["grasps"]:
+        g["fingers"]["approach"] = (-np.asarray(g["normals"])).tolist()
     return doc
 
 

@@ -373,11 +373,10 @@ def test_one_vocabulary_across_commands():
 
 def test_db_build_takes_every_planning_option_of_plan(box, tmp_path, capsys):
     """A database holds what plan gives for the same part: every option of plan that is
-    not about its output files (nor about simulating the grasps found, ``--sim``, whose
-    labels a database does not store) is an option of db build, and reaches the planner."""
+    not about its output files (simulating the grasps found, ``--sim``, too) is an option of
+    db build, and reaches the planner."""
     output = {"--out", "--png", "--glb", "--no-files", "--json", "--quiet", "-h", "--help"}
-    simulation = {o for o in _options("plan") if o.startswith("--sim")}
-    missing = set(_options("plan")) - output - simulation - set(_options("db", "build"))
+    missing = set(_options("plan")) - output - set(_options("db", "build"))
     assert not missing, missing
     db = tmp_path / "g.sqlite"
     code, _, err = _run(capsys, "db", "build", box, "--out", db, "--workers", "0", "--quiet",

@@ -51,9 +51,10 @@ def test_a_v3_file_reads_and_migrates(meshes: Path, tmp_path: Path) -> None:
     args = ["db", "build", str(meshes), "--out", str(out), "--evals", "1000", "--top", "2",
             "--workers", "0", "--quiet"]
     assert main(args) == 0
-    conn = sqlite3.connect(out)  # make it a schema-3 file: no gripper_grasps table
+    conn = sqlite3.connect(out)  # make it a schema-3 file: no gripper_grasps, no grasps.sim
     with conn:
         conn.execute("DROP TABLE gripper_grasps")
+        conn.execute("ALTER TABLE grasps DROP COLUMN sim")
         conn.execute("UPDATE meta SET value = '3' WHERE key = 'schema_version'")
         conn.execute("PRAGMA user_version = 3")
     conn.close()
@@ -66,6 +67,10 @@ def test_a_v3_file_reads_and_migrates(meshes: Path, tmp_path: Path) -> None:
     with GraspDatabase(out) as db:
         assert db.schema_version == 4 and list(db.gripper_grasps()) == []
         assert len(list(db.grasps())) == 4
+    conn = sqlite3.connect(out)  # the full version 4
+    for table in ("grasps", "gripper_grasps"):
+        assert "sim" in {r[1] for r in conn.execute(f"PRAGMA table_info({table})")}
+    conn.close()
 
 
 def test_gripper_parameters_are_checked() -> None:

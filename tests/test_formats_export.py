@@ -140,3 +140,19 @@ def test_a_mesh_of_unknown_unit_is_refused_unless_named(built, tmp_path, capsys)
                  str(tmp_path / "a"), "--units", "cm"]) == 0
     with h5py.File(tmp_path / "a" / "cube.h5") as f:
         assert f["object/scale"][()] == CM
+
+
+def test_the_label_is_mujocos_where_the_grasp_was_simulated(built, tmp_path):
+    _, db = built
+    copy = tmp_path / "s.sqlite"
+    shutil.copy(db, copy)
+    with sqlite3.connect(copy) as conn:  # as db build --sim stores a dropped grasp's label
+        conn.execute("""UPDATE gripper_grasps SET sim = '{"held": false}' WHERE rank = 2""")
+    conn.close()
+    assert main(["db", "export", str(copy), "--format", "acronym", "--out", str(tmp_path)]) == 0
+    T, success = acronym.load_grasps(str(tmp_path / "cube.h5"))
+    assert success.tolist() == [1, 0, 1]
+    with h5py.File(tmp_path / "cube.h5") as f:
+        assert f["grasps/qualities/synth/simulated"][()].tolist() == [0, 1, 0]
+        meaning = f["grasps/qualities/flex/object_in_gripper"].attrs["meaning"]
+        assert "(1 of 3 grasps): MuJoCo's label" in meaning

@@ -82,6 +82,14 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     assert main(["sim", str(bad), "--mesh", str(mesh), "--no-files", "--shake", "0"]) == 0
 
 
+def test_a_gripper_grasp_file_is_one_line_saying_what_is_supported(tmp_path, capsys):
+    path = tmp_path / "jaws.json"
+    path.write_text(json.dumps({"format": "synth.gripper_grasps", "version": 1, "grasps": []}))
+    assert main(["sim", str(path)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "a gripper grasp file" in line and "synth plan --gripper NAME --sim" in line
+
+
 def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):
     mesh = write_cube(tmp_path)
     out = tmp_path / "cube.grasps.json"

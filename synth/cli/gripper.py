@@ -147,9 +147,9 @@ def run_gripper(args: argparse.Namespace) -> int:
     plan = plan_gripper(part, params)
     doc = plan.to_json()
     if settings is not None and plan.grasps:
-        from synth.sim.jaws import simulate_jaw_document
+        from synth.sim import simulate_plan
 
-        doc = simulate_jaw_document(doc, part, args.mesh, settings)
+        doc = simulate_plan(doc, args.mesh, settings, part=part)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):

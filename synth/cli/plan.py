@@ -115,16 +115,14 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
 def _simulate(doc: dict, mesh: str, settings, quiet: bool) -> dict:  # type: ignore[no-untyped-def]
     """The plan's document with every grasp simulated (``--sim``)."""
     from synth.cli.progress import LineProgress
-    from synth.sim import check_document, labelled_document, simulate_file
+    from synth.sim import simulate_plan
 
-    file = check_document(doc, mesh)
     bar = LineProgress(enabled=not quiet)
     try:
-        report = simulate_file(file, settings,
-                               progress=lambda i, n: bar(i / n, f"simulating grasp {i} of {n}"))
+        return simulate_plan(doc, mesh, settings,
+                             progress=lambda i, n: bar(i / n, f"simulating grasp {i} of {n}"))
     finally:
         bar.close()
-    return labelled_document(file, report)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,7 +13,8 @@ __all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings
 
 
 def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
-    """The simulated hand's options (``prefix`` "sim-" for ``synth plan --sim``)."""
+    """The simulated hand's options (``prefix`` "sim-" for ``synth plan --sim`` and ``synth db
+    build --sim``)."""
     from synth.sim.settings import RANGES, SimSettings
 
     d = SimSettings()
@@ -26,7 +27,7 @@ def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
     if prefix:
         g.add_argument("--sim", action="store_true",
                        help="simulate every grasp found in MuJoCo, as 'synth sim' does, and "
-                       "store its label in the JSON ('sim'); needs pip install 'synth[sim]'")
+                       "store its label with the grasp ('sim'); needs pip install 'synth[sim]'")
     g.add_argument(f"--{prefix}stiffness", type=float, default=d.stiffness, metavar="N/M",
                    help=f"gain of each finger's position servo, N/m, {rng('stiffness')} "
                    f"(default {d.stiffness:g})")

@@ -56,7 +56,10 @@ MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 #: :class:`synth.plan.PlanParams` (the same search effort as ``synth plan``) and the mesh
 #: options of :data:`synth.plan.LOAD_KEYS` (``sharp_angle`` in degrees), except the
 #: wall-clock cap: far above a normal plan, so the evaluation budget (not the machine's
-#: speed) decides the result; a plan the cap cuts is recorded as failed.
+#: speed) decides the result; a plan the cap cuts is recorded as failed. A build that
+#: simulates (``synth db build --sim``) has one parameter more, ``sim``: the
+#: :class:`synth.sim.SimSettings` fields every grasp found is simulated with (by the worker;
+#: the planner never sees it).
 DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
                                   "body": "largest", "sharp_angle": 30.0}
 #: What a parameter was before it existed, for databases built then: before ``surface``, grasps
@@ -186,6 +189,11 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     least 100, ...), so that a build with bad parameters fails before any file is touched,
     instead of recording every mesh as failed.
 
+    A ``sim`` key (the simulation settings of ``synth db build --sim``, a dict of
+    :class:`synth.sim.SimSettings` fields) is completed with the settings' defaults; None or
+    absent, there is none (a build without simulation has the parameters it had before
+    simulation existed).
+
     Raises
     ------
     InputError
@@ -198,10 +206,16 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     ...
     synth.errors.InputError: contacts: frictionless form closure in space needs at least 7 ...
     """
-    if params and "gripper" in params:
-        return _gripper_params(params)
+    given = dict(params or {})
+    sim = _check_sim(given.pop("sim", None))
+    out = _gripper_params(given) if "gripper" in given else _synth_params(given)
+    return out if sim is None else {**out, "sim": sim}
+
+
+def _synth_params(params: dict[str, Any]) -> dict[str, Any]:
+    """Parameters of a point-finger build, defaults filled in (see :func:`normalize_params`)."""
     out = dict(DEFAULT_PARAMS)
-    for key, value in (params or {}).items():
+    for key, value in params.items():
         if key not in DEFAULT_PARAMS:
             raise InputError(f"unknown planner parameter {key!r}; valid: {sorted(DEFAULT_PARAMS)}")
         out[key] = value
@@ -221,6 +235,27 @@ def normalize_params(params: dict[str, Any] | None = None) -> dict[str, Any]:
     _check_load_options(out)
     PlanParams(**{k: v for k, v in out.items() if k not in LOAD_KEYS})
     return out
+
+
+def _check_sim(sim: Any) -> dict[str, Any] | None:
+    """The ``sim`` parameter: None, or every :class:`synth.sim.SimSettings` field (so that
+    settings given in part and in full are one parameter set)."""
+    if sim is None:
+        return None
+    from synth.sim.settings import SimSettings
+
+    if not isinstance(sim, dict):
+        raise InputError(f"planner parameter 'sim' must be null or an object of simulation "
+                         f"settings, got {sim!r}")
+    fields = set(SimSettings().to_dict())
+    unknown = sorted(set(sim) - fields)
+    if unknown:
+        raise InputError(f"planner parameter 'sim': unknown setting {unknown[0]!r}; valid: "
+                         f"{sorted(fields)}")
+    try:
+        return SimSettings(**sim).to_dict()
+    except InputError as e:
+        raise InputError(f"planner parameter 'sim': {e}") from None
 
 
 def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
@@ -615,6 +650,8 @@ def build_database(
         The database file, created if missing, resumed if it exists.
     params : dict, optional
         Planner parameters (see :data:`DEFAULT_PARAMS`); must equal those of an existing file.
+        With ``sim`` (:class:`synth.sim.SimSettings` fields), each mesh's grasps are
+        simulated on the worker after planning and their labels stored (column ``sim``).
     workers : int, optional
         Worker processes (default: the CPUs available); ``0`` plans in this process (local).
     engine : {"local", "dask"}
@@ -640,7 +677,8 @@ def build_database(
     Raises
     ------
     InputError
-        On bad sources, parameters, engine or planner (nothing is written then).
+        On bad sources, parameters, engine or planner, or ``sim`` without mujoco and coacd
+        installed (nothing is written then).
     DatabaseError
         If ``out`` is not a synth database of this version or an older one (a schema-1 file is
         migrated to this version before the first write), was built with other parameters, or
@@ -668,6 +706,10 @@ def build_database(
         run_params = normalize_params(params)
         planner_name = resolve_planner(planner)
         load_planner(planner_name)  # fail now, not once per mesh
+        if "sim" in run_params:
+            from synth.sim import require_sim
+
+            require_sim()
         inputs = collect_mesh_files(sources)
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]

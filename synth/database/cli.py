@@ -136,6 +136,9 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, before it is "
                    "stopped and recorded as failed with kind 'timeout' (local engine)")
     b.add_argument("--quiet", action="store_true", help="no progress bar nor summary")
+    from synth.cli.sim import add_sim_options
+
+    add_sim_options(b, prefix="sim-")  # --sim: each mesh's grasps simulated on the worker
 
     i = sub.add_parser("info", help="counts, failures and parameters of a database", description="Counts, failures and parameters of a database.")
     i.add_argument("database", help="database file")
@@ -187,6 +190,10 @@ def _build(args: argparse.Namespace) -> int:
 
         params = {"units": args.units, **asdict(gripper_params(args))}
         planner = planner or "synth.plan:plan_gripper_file"
+    if args.sim:
+        from synth.cli.sim import settings_from_args
+
+        params["sim"] = settings_from_args(args, prefix="sim-", seed=args.seed).to_dict()
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
         scheduler=args.scheduler, planner=planner, retry_failed=args.retry_failed,
@@ -247,12 +254,17 @@ def _top(args: argparse.Namespace) -> int:
     print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} grasps")
     if grasps:
         show = any(g.tolerance is not None for g in grasps)
+        sim = any(g.sim is not None for g in grasps)
         print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
-              + (f"{'tolerance':>10}  " if show else "") + "closure")
+              + (f"{'tolerance':>10}  " if show else "")
+              + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "closure")
         for g in grasps:
             tol = "-" if g.tolerance is None else f"{g.tolerance:.3g}"
+            held = "" if not sim else (f"{'-':<4}  {'-':<9}  " if g.sim is None else
+                                       f"{'yes' if g.sim['held'] else 'no':<4}  "
+                                       f"{g.sim['failed_at'] or '-':<9}  ")
             print(f"{g.rank:>4}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
-                  + (f"{tol:>10}  " if show else "") + g.closure)
+                  + (f"{tol:>10}  " if show else "") + held + g.closure)
     return 0
 
 

@@ -39,6 +39,10 @@ body_length,
 body_radius
 tolerance              (n,) float64  placement tolerance, NaN where not computed
 contact_regions        (n,) str      JSON text of the grasp's contact regions, ``""`` if none
+sim                    (n,) str      JSON text of the grasp's simulation label (``synth db
+                                     build --sim``), ``""`` if not simulated
+sim_held               (n,) float64  1 if the simulated part held, 0 if not (also when the
+                                     simulation diverged), NaN if not simulated
 =====================  ============  ==========================================================
 
 In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix) and
@@ -47,7 +51,7 @@ attributes hold ``format``, ``schema_version``, ``params`` (JSON), ``planner`` a
 (``UNITS``: every length is in its mesh's unit). NPZ uses the flat names above plus ``params``,
 ``planner`` and ``units`` (0-d strings). JSON is one object with ``units`` and ``meshes``, each
 carrying its unit, its loading ``report`` (an object, or null) and its ``grasps`` in the
-planner's format.
+planner's format (with ``sim``, the label object or null).
 """
 
 from __future__ import annotations
@@ -107,7 +111,7 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         for k in (
             "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
             "regions tip_centers approach finger_frames tip_radius body_length body_radius "
-            "tolerance contact_regions"
+            "tolerance contact_regions sim sim_held"
         ).split()
     }
     contact_start, finger_start = [0], [0]
@@ -126,14 +130,17 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         lists["tolerance"].append(np.nan if g.tolerance is None else g.tolerance)
         lists["contact_regions"].append(
             "" if g.contact_regions is None else canonical_json(g.contact_regions))
+        lists["sim"].append("" if g.sim is None else canonical_json(g.sim))
+        lists["sim_held"].append(np.nan if g.sim is None else float(bool(g.sim["held"])))
         contact_start.append(contact_start[-1] + g.n_contacts)
         finger_start.append(finger_start[-1] + g.tip_centers.shape[0])
     for name in ("grasp_mesh_id", "rank"):
         cols[name] = np.array(lists[name], dtype=np.int64)
     for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius",
-                 "tolerance"):
+                 "tolerance", "sim_held"):
         cols[name] = np.array(lists[name], dtype=np.float64)
     cols["contact_regions"] = _str_array(lists["contact_regions"])
+    cols["sim"] = _str_array(lists["sim"])
     cols["closure"] = _str_array(lists["closure"])
     cols["features"] = _str_array(lists["features"])
     for name in ("points", "normals", "tip_centers", "approach"):

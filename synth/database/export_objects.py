@@ -8,10 +8,12 @@ synth planned it. A mesh whose unit the database does not know is refused with t
 unless ``units`` names it.
 
 The tools' success label (ACRONYM's ``grasps/qualities/flex/object_in_gripper``, GraspGen's
-``grasps.object_in_gripper``, isaac_grasp's ``confidence``) holds synth's analytic verdict:
-the grasp is frictional form closure with the pads' soft contacts, and, where the part's mass
-is known, the gripper's rated force holds it against gravity in every orientation (margin
->= 1). A database holds no simulation labels; the files say so where they store the label.
+``grasps.object_in_gripper``, isaac_grasp's ``confidence``) holds, per grasp, the MuJoCo label
+(``held``) when the grasp was simulated (``synth db build --sim``), otherwise synth's analytic
+verdict: the grasp is frictional form closure with the pads' soft contacts, and, where the
+part's mass is known, the gripper's rated force holds it against gravity in every orientation
+(margin >= 1). The measure ``simulated`` (1 or 0) says which, and the files say so where they
+store the label.
 """
 
 from __future__ import annotations
@@ -29,9 +31,10 @@ from synth.formats import WRITERS, ObjectGrasps
 __all__ = ["export_objects", "VERDICT"]
 
 #: What the success label of an export holds.
-VERDICT = ("synth's analytic verdict, not a simulation: 1 when the grasp is frictional form "
-           "closure with the pads' soft contacts (MuJoCo condim 4, mu {mu}, torsion {torsion}) "
-           "{mass}")
+VERDICT = ("per grasp, where the measure 'simulated' is 1 ({sims} of {n} grasps): MuJoCo's label "
+           "(synth db build --sim: 1 when the part stayed held); elsewhere synth's analytic "
+           "verdict, not a simulation: 1 when the grasp is frictional form closure with the "
+           "pads' soft contacts (MuJoCo condim 4, mu {mu}, torsion {torsion}) {mass}")
 _MEASURES = ("margin", "least_squeeze", "squeeze_per_weight", "mu_min", "epsilon", "d_star")
 
 
@@ -69,10 +72,13 @@ def _objects(db: GraspDatabase, units: str | None) -> list[ObjectGrasps]:
                "unknown: the build had no --mass nor --density")
         meas = {k: np.array([np.nan if getattr(g, k) is None else getattr(g, k)
                              for g in grasps], float) for k in _MEASURES}
-        label = np.array([g.d_star > 0 and (g.margin is None or g.margin >= 1.0)
+        simulated = np.array([g.sim is not None for g in grasps])
+        label = np.array([bool(g.sim["held"]) if g.sim is not None else
+                          g.d_star > 0 and (g.margin is None or g.margin >= 1.0)
                           for g in grasps])
+        meas["simulated"] = simulated.astype(float)
         verdict = VERDICT.format(
-            mu=params.get("mu"), torsion="default 5 mm" if params.get("torsion") is None
+            sims=int(simulated.sum()), n=len(grasps), mu=params.get("mu"), torsion="default 5 mm" if params.get("torsion") is None
             else f"{params['torsion']} mesh units",
             mass="and the gripper's rated grip force holds the part's weight in every "
             "orientation (margin >= 1); 0 otherwise" if known else

@@ -1,8 +1,9 @@
 """The SQLite schema of a synth grasp database (schema version 4) and its record types.
 
 A grasp database is one SQLite file in WAL mode, written by ``synth db build`` (one writer, the
-parent process) and readable by anyone while it is written. It holds four tables: ``grasps``
-for point-finger plans, ``gripper_grasps`` for gripper plans (``synth db build --gripper``).
+parent process) and readable by anyone while it is written. It holds four tables: ``meta``,
+``meshes``, ``grasps`` for point-finger plans and ``gripper_grasps`` for gripper plans
+(``synth db build --gripper``).
 
 ``meta`` -- one row per key, text values:
 
@@ -10,7 +11,7 @@ for point-finger plans, ``gripper_grasps`` for gripper plans (``synth db build -
 key                value
 =================  ===========================================================================
 application        ``synth.grasps.db`` (also ``PRAGMA application_id = 0x53594E54``)
-schema_version     ``2`` (also ``PRAGMA user_version = 2``)
+schema_version     ``4`` (also ``PRAGMA user_version = 4``)
 synth_version      the library version that created the file
 params             canonical JSON of the planner parameters every mesh of this file is planned with
 planner            the planner used, ``"module:function"``
@@ -29,7 +30,8 @@ sha256         TEXT       SHA-256 of the file's bytes (hex), NULL if the file co
 size           INTEGER    file size in bytes, NULL if unknown
 status         TEXT       ``pending``, ``done``, ``failed`` or ``duplicate``
 error_kind     TEXT       for ``failed``: ``mesh``, ``not_mesh``, ``unreadable``, ``no_grasp``,
-                          ``planner``, ``invalid_result``, ``timeout``, ``time_cap`` or
+                          ``planner``, ``invalid_result``, ``timeout``, ``time_cap``, ``sim``
+                          (a build with ``--sim`` could not simulate the grasps found) or
                           ``crashed`` (the worker died: the error names the signal); else NULL
 error          TEXT       readable reason of a failure, or the note of a duplicate
 duplicate_of   INTEGER    for ``duplicate``: id of the mesh with the same SHA-256 that is planned
@@ -79,6 +81,9 @@ tolerance      REAL       placement tolerance (:func:`synth.contact_regions`) in
                           units; NULL when the build did not compute regions (new in version 3)
 contact_regions TEXT      canonical JSON of the grasp's ``contact_regions`` object (polygons,
                           kinds, tolerance, limited_by, d_star_min, certified); NULL as above
+sim            TEXT       canonical JSON of the grasp's simulation label (``synth sim``'s
+                          ``sim`` object: held, failed_at, force_held, ...); NULL when the build
+                          did not simulate (``synth db build --sim``; new in version 4)
 =============  =========  ======================================================================
 
 ``gripper_grasps`` -- one row per gripper grasp, ``PRIMARY KEY (mesh_id, rank)``,
@@ -102,6 +107,8 @@ margin              REAL       rated grip force over the least squeeze, NULL wit
 mu_min              REAL       least closing friction coefficient, NULL if none closes
 epsilon             REAL       Ferrari-Canny epsilon with soft contacts
 d_star              REAL       Trinkle's frictional d* with soft contacts
+sim                 TEXT       canonical JSON of the grasp's simulation label, NULL as in
+                               ``grasps``
 ==================  =========  =================================================================
 
 Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)``,
@@ -112,12 +119,14 @@ sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``don
 
 Versions: schema version 1 lacks ``meshes.mesh_report``; versions 1 and 2 lack
 ``grasps.tolerance`` and ``grasps.contact_regions``; versions 1 to 3 lack the
-``gripper_grasps`` table. An older file is read as it is (the missing fields read as None, the
-missing table as no gripper grasps) and is migrated in place to version 4 -- the missing
-columns added with ``ALTER TABLE`` (NULL in existing rows), the ``grasps(tolerance)`` index and
-the ``gripper_grasps`` table created, ``meta.schema_version`` and ``PRAGMA user_version`` set
-to 4, in one transaction -- the first time a build writes to it (:func:`migrate_schema`). A file of a newer version than this synth's
-is refused.
+``gripper_grasps`` table and ``grasps.sim``. Files of version 4 written before ``sim`` existed
+(the day version 4 appeared) lack ``grasps.sim`` and ``gripper_grasps.sim``. An older file is
+read as it is (the missing fields read as None, the missing table as no gripper grasps) and is
+migrated in place to the full version 4 -- the missing columns added with ``ALTER TABLE`` (NULL
+in existing rows), the ``grasps(tolerance)`` index and the ``gripper_grasps`` table created,
+``meta.schema_version`` and ``PRAGMA user_version`` set to 4, in one transaction -- the first
+time a build writes to it (:func:`migrate_schema`, :func:`schema_current`). A file of a newer
+version than this synth's is refused.
 """
 
 from __future__ import annotations
@@ -147,6 +156,7 @@ __all__ = [
     "check_schema",
     "schema_version",
     "migrate_schema",
+    "schema_current",
     "pack_array",
     "unpack_array",
 ]
@@ -208,6 +218,7 @@ CREATE TABLE grasps (
     body_radius  REAL NOT NULL,
     tolerance    REAL,
     contact_regions TEXT,
+    sim          TEXT,
     PRIMARY KEY (mesh_id, rank)
 ) WITHOUT ROWID;
 CREATE INDEX grasps_d_star ON grasps(d_star);
@@ -230,6 +241,7 @@ CREATE TABLE gripper_grasps (
     mu_min             REAL,
     epsilon            REAL NOT NULL,
     d_star             REAL NOT NULL,
+    sim                TEXT,
     PRIMARY KEY (mesh_id, rank)
 ) WITHOUT ROWID;
 """
@@ -357,6 +369,9 @@ class GraspRecord:
         Placement tolerance, None when not computed (or in a file older than version 3).
     contact_regions : dict or None
         The grasp's ``contact_regions`` JSON object, None as above.
+    sim : dict or None
+        The grasp's simulation label (the ``sim`` object of ``synth sim``), None when the
+        build did not simulate (or in a file without the column).
     """
 
     mesh_id: int
@@ -376,6 +391,7 @@ class GraspRecord:
     body_radius: float
     tolerance: float | None = None
     contact_regions: dict[str, Any] | None = None
+    sim: dict[str, Any] | None = None
 
     @property
     def n_contacts(self) -> int:
@@ -389,7 +405,8 @@ class GraspRecord:
         return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
 
     def to_dict(self) -> dict[str, Any]:
-        """The grasp in the planner's JSON format (format version 1), plus ``rank``."""
+        """The grasp in the planner's JSON format (format version 1), plus ``rank``; ``sim``
+        as ``synth plan --sim`` writes it, or None."""
         return {
             "rank": self.rank,
             "points": self.points.tolist(),
@@ -410,6 +427,7 @@ class GraspRecord:
             },
             "tolerance": self.tolerance,
             "contact_regions": self.contact_regions,
+            "sim": self.sim,
         }
 
     @classmethod
@@ -436,7 +454,14 @@ class GraspRecord:
             body_radius=row["body_radius"],
             tolerance=row["tolerance"] if "tolerance" in keys else None,
             contact_regions=None if regions is None else json.loads(regions),
+            sim=_decode_sim(row),
         )
+
+
+def _decode_sim(row: sqlite3.Row) -> dict[str, Any] | None:
+    """The decoded ``sim`` of a grasp row; None if NULL or the file has no such column."""
+    text = row["sim"] if "sim" in row.keys() else None
+    return None if text is None else dict(json.loads(text))
 
 
 @dataclass(frozen=True, eq=False)
@@ -454,6 +479,8 @@ class GripperGraspRecord:
     squeeze_per_weight : float
     least_squeeze, margin, mu_min : float or None
     epsilon, d_star : float
+    sim : dict or None
+        The simulation label, as in :class:`GraspRecord`.
     """
 
     mesh_id: int
@@ -470,6 +497,7 @@ class GripperGraspRecord:
     mu_min: float | None
     epsilon: float
     d_star: float
+    sim: dict[str, Any] | None = None
 
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> GripperGraspRecord:
@@ -481,7 +509,7 @@ class GripperGraspRecord:
             normals=unpack_array(row["normals"], (2, 3)),
             squeeze_per_weight=row["squeeze_per_weight"], least_squeeze=row["least_squeeze"],
             margin=row["margin"], mu_min=row["mu_min"], epsilon=row["epsilon"],
-            d_star=row["d_star"],
+            d_star=row["d_star"], sim=_decode_sim(row),
         )  # fmt: skip
 
 
@@ -583,15 +611,37 @@ def schema_version(meta: dict[str, str]) -> int:
     return int(meta["schema_version"])
 
 
+#: Columns version 4 gained after files of it were written: (table, column, type).
+_LATE_COLUMNS = (("grasps", "sim", "TEXT"), ("gripper_grasps", "sim", "TEXT"))
+
+
+def _missing_columns(conn: sqlite3.Connection) -> list[tuple[str, str, str]]:
+    """The columns of :data:`_LATE_COLUMNS` missing from tables that exist."""
+    missing = []
+    for table, column, kind in _LATE_COLUMNS:
+        have = {r[1] for r in conn.execute(f"PRAGMA table_info({table})")}
+        if have and column not in have:
+            missing.append((table, column, kind))
+    return missing
+
+
+def schema_current(conn: sqlite3.Connection, version: int) -> bool:
+    """Whether a file of schema ``version`` (from its meta) is the full current schema: this
+    version, with every column (a version-4 file written before ``sim`` existed is not)."""
+    return version == SCHEMA_VERSION and not _missing_columns(conn)
+
+
 def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
     """Upgrade a readable database of an older schema version to this one, in one transaction.
 
     Version 1 to 2: ``ALTER TABLE meshes ADD COLUMN mesh_report TEXT``; 2 to 3: ``grasps``
     gains ``tolerance REAL`` and ``contact_regions TEXT`` and the ``grasps(tolerance)`` index
-    (NULL in every existing row); 3 to 4: the ``gripper_grasps`` table; then
-    ``meta.schema_version`` and ``PRAGMA user_version`` are set to 4. The version is read
-    again inside the transaction, so a file another process has just migrated is left alone.
-    Either the whole migration is committed or nothing is.
+    (NULL in every existing row); 3 to 4: the ``gripper_grasps`` table and ``grasps.sim``;
+    a version-4 file written before ``sim`` existed gains ``grasps.sim`` and
+    ``gripper_grasps.sim``; then ``meta.schema_version`` and ``PRAGMA user_version`` are set
+    to 4. The version and the columns are read again inside the transaction, so a file
+    another process has just migrated is left alone. Either the whole migration is committed
+    or nothing is.
 
     Returns
     -------
@@ -621,6 +671,8 @@ def migrate_schema(conn: sqlite3.Connection, path: str) -> int:
                 conn.execute("CREATE INDEX grasps_tolerance ON grasps(tolerance)")
             if before < 4:
                 conn.execute(GRIPPER_GRASPS_DDL)
+            for table, column, kind in _missing_columns(conn):
+                conn.execute(f"ALTER TABLE {table} ADD COLUMN {column} {kind}")
             if before != SCHEMA_VERSION:
                 conn.execute(
                     "UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),)

@@ -18,7 +18,6 @@ from typing import Any
 
 from synth.database.access import open_reader, open_writer, release, rest
 from synth.database.schema import (
-    SCHEMA_VERSION,
     GraspRecord,
     GripperGraspRecord,
     MeshRecord,
@@ -26,6 +25,7 @@ from synth.database.schema import (
     check_schema,
     create_schema,
     migrate_schema,
+    schema_current,
     schema_version,
 )
 from synth.database.worker import PlanOutcome
@@ -109,6 +109,19 @@ def _probe(conn: sqlite3.Connection, path: str) -> None:
         raise DatabaseError(f"{path}: cannot read grasp database ({e}{why})") from e
 
 
+def _differences(old: dict[str, Any], new: dict[str, Any]) -> dict[str, tuple[Any, Any]]:
+    """The parameters that differ, by name; of two settings objects (``sim``), the settings
+    that differ, as ``sim.shake``; an absent object as None."""
+    diff: dict[str, tuple[Any, Any]] = {}
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k), new.get(k)
+        if isinstance(a, dict) and isinstance(b, dict):
+            diff.update({f"{k}.{sub}": v for sub, v in _differences(a, b).items()})
+        elif a != b:
+            diff[k] = (a, b)
+    return diff
+
+
 class GraspDatabase:
     """A synth grasp database (SQLite), opened for reading unless ``mode="w"``.
 
@@ -154,6 +167,7 @@ class GraspDatabase:
             raise
         #: Schema version of the file (older than ``SCHEMA_VERSION`` until migrated).
         self.schema_version: int = schema_version(self.meta)
+        self._current = False  # known to be the full current schema (see _require_write)
 
     # -- opening --------------------------------------------------------------------------
     def _connect(self, meta: dict[str, str] | None) -> sqlite3.Connection:
@@ -418,10 +432,12 @@ class GraspDatabase:
         """Refuse writes on a read-only handle; migrate an older schema before the first write."""
         if self.mode != "w":
             raise DatabaseError(f"{self.path}: opened read-only")
-        if migrate and self.schema_version < SCHEMA_VERSION:
-            migrate_schema(self._conn, self.path)
-            self.meta = check_schema(self._conn, self.path)
-            self.schema_version = schema_version(self.meta)
+        if migrate and not self._current:
+            if not schema_current(self._conn, self.schema_version):
+                migrate_schema(self._conn, self.path)
+                self.meta = check_schema(self._conn, self.path)
+                self.schema_version = schema_version(self.meta)
+            self._current = True
 
     def bind(self, params: dict[str, Any], planner: str,
              defaults: dict[str, Any] | None = None) -> None:
@@ -451,8 +467,7 @@ class GraspDatabase:
         import json
 
         old = {**(defaults or {}), **json.loads(stored)}
-        diff = {k: (old.get(k), params.get(k)) for k in sorted(set(old) | set(params))}
-        diff = {k: v for k, v in diff.items() if v[0] != v[1]}
+        diff = _differences(old, params)
         if diff:
             shown = ", ".join(f"{k}: stored {a!r}, asked {b!r}" for k, (a, b) in diff.items())
             raise DatabaseFileError(

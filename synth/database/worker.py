@@ -50,12 +50,12 @@ DEFAULT_PLANNER = "synth.plan:plan_mesh_file"
 _GRASP_COLUMNS = (
     "rank", "d_star", "closure", "conditioning", "epsilon", "n_contacts", "points", "normals",
     "features", "regions", "n_fingers", "tip_centers", "tip_radius", "approach", "body_length",
-    "body_radius", "tolerance", "contact_regions",
+    "body_radius", "tolerance", "contact_regions", "sim",
 )  # fmt: skip
 #: Columns of ``gripper_grasps`` rows, for documents of format ``synth.gripper_grasps``.
 GRIPPER_GRASP_COLUMNS = (
     "rank", "gripper", "pose", "tcp", "width", "points", "normals", "squeeze_per_weight",
-    "least_squeeze", "margin", "mu_min", "epsilon", "d_star",
+    "least_squeeze", "margin", "mu_min", "epsilon", "d_star", "sim",
 )  # fmt: skip
 #: Document formats a planner may return, and the table their grasps go to.
 _FORMATS = {"synth.grasps": "grasps", "synth.gripper_grasps": "gripper_grasps"}
@@ -264,6 +264,7 @@ def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
         float(fingers["body_radius"]),
         None if g.get("tolerance") is None else float(g["tolerance"]),
         None if g.get("contact_regions") is None else canonical_json(g["contact_regions"]),
+        _sim_text(g),
     )
 
 
@@ -278,8 +279,18 @@ def _pack_gripper_grasp(rank: int, g: dict[str, Any], gripper: str) -> tuple[Any
         float(g["width"]), pack_array([c["point"] for c in g["contacts"]], (2, 3)),
         pack_array([c["normal"] for c in g["contacts"]], (2, 3)),
         float(m["squeeze_per_weight"]), opt(m["least_squeeze"]), opt(m["margin"]),
-        opt(m["mu_min"]), float(m["epsilon"]), float(m["d_star"]),
+        opt(m["mu_min"]), float(m["epsilon"]), float(m["d_star"]), _sim_text(g),
     )  # fmt: skip
+
+
+def _sim_text(g: dict[str, Any]) -> str | None:
+    """The ``sim`` column of a grasp: canonical JSON of its simulation label, or None."""
+    sim = g.get("sim")
+    if sim is None:
+        return None
+    if not isinstance(sim, dict):
+        raise ValueError(f"'sim' is a {type(sim).__name__}, not an object")
+    return canonical_json(_json_ready(sim))
 
 
 def _failure(
@@ -351,6 +362,28 @@ def mesh_report(mesh: Any) -> str | None:
     return canonical_json(_json_ready(report))
 
 
+def _simulated(path: str, doc: Any, settings: dict[str, Any], params: dict[str, Any]
+               ) -> tuple[Any, str | None]:
+    """The planner's document with every grasp simulated (:func:`synth.sim.simulate_plan`),
+    or the document as it is and why the simulation failed. A document with nothing to
+    simulate (not a plan, no grasp, cut by the time cap) is returned as it is, to be recorded
+    for what it is."""
+    timing = doc.get("timing") if isinstance(doc, dict) else None
+    if not isinstance(doc, dict) or doc.get("format") not in _FORMATS or not doc.get("grasps") \
+            or (isinstance(timing, dict) and timing.get("stopped_by_time")):
+        return doc, None
+    try:
+        from synth.sim import SimSettings, require_sim, simulate_plan
+
+        require_sim()
+        return simulate_plan(doc, path, SimSettings(**settings),
+                             load={"units": params.get("units")}), None
+    except SynthError as e:
+        return doc, f"simulation failed: {e}"
+    except Exception as e:  # noqa: BLE001 - a simulation bug must not stop a long run
+        return doc, f"simulation raised {type(e).__name__}: {e}"
+
+
 def run_one(
     path: str, params: dict[str, Any], planner: str, timeout: float | None = None
 ) -> PlanOutcome:
@@ -361,14 +394,17 @@ def run_one(
     path : str
         Mesh file.
     params : dict
-        Planner parameters.
+        Planner parameters, and ``sim``: None, or the :class:`synth.sim.SimSettings` fields
+        with which every grasp found is simulated (``synth db build --sim``; the planner
+        never sees this key). A simulation that fails records the mesh as failed with
+        ``error_kind`` ``"sim"``.
     planner : str
         ``"module:function"`` (resolved by the parent).
     timeout : float, optional
-        Seconds of planning (the planner's module is imported before the clock starts) before
-        the task is stopped and recorded as failed with ``error_kind`` ``"timeout"``, whatever
-        the planner was doing then. Enforced with SIGALRM when the task runs in a process's
-        main thread (the local engine); not enforced in Dask worker threads.
+        Seconds of planning and simulation (the planner's module is imported before the clock
+        starts) before the task is stopped and recorded as failed with ``error_kind``
+        ``"timeout"``, whatever it was doing then. Enforced with SIGALRM when the task runs in
+        a process's main thread (the local engine); not enforced in Dask worker threads.
 
     Returns
     -------
@@ -378,10 +414,14 @@ def run_one(
     start = time.perf_counter()
     limit = _TimeLimit(timeout)
     doc: Any = None
+    sim_error: str | None = None
+    given = {k: v for k, v in params.items() if k != "sim"}
     try:
         plan = load_planner(resolve_planner(planner))
         with limit:
-            doc = plan(path, dict(params))
+            doc = plan(path, given)
+            if params.get("sim") is not None:
+                doc, sim_error = _simulated(path, doc, params["sim"], given)
     except _Timeout:
         pass
     except Exception as e:  # noqa: BLE001 - a planner bug must not stop a long run
@@ -418,6 +458,8 @@ def run_one(
         )
     except (KeyError, TypeError, ValueError) as e:
         return _failure(path, "invalid_result", f"planner returned an invalid document: {e}", start)
+    if sim_error is not None:
+        return _failure(path, "sim", sim_error, start, report)
     if timing.get("stopped_by_time"):
         return _failure(
             path, "time_cap",

@@ -21,7 +21,8 @@ FRAME = ("gripper base frame to object frame: origin at the hand's base, approac
 MEASURE_UNITS: dict[str, str] = {
     "margin": "1 (rated grip force / least squeeze)", "least_squeeze": "N",
     "squeeze_per_weight": "1 (squeeze / weight)", "mu_min": "1", "epsilon": "1",
-    "d_star": "1", "width": "m"}
+    "d_star": "1", "width": "m",
+    "simulated": "1 (1: the label is MuJoCo's, 0: synth's analytic verdict)"}
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,9 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool
         ax.set_zlabel("z")
         ax.tick_params(labelsize=6)
     name = Path(plan.mesh.get("path") or "part").name
-    fig.suptitle(f"synth: {name}   run {plan.run_id}", fontsize=11)
+    surface = plan.params.get("surface")
+    fig.suptitle(f"synth: {name}   run {plan.run_id}"
+                 + (f"   normals: {surface}" if surface else ""), fontsize=11)
     fig.tight_layout()
     out = Path(path)
     from synth import __version__

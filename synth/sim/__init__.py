@@ -5,7 +5,8 @@ convex pieces (:mod:`~synth.sim.pieces`, CoACD for the non-convex ones); each gr
 MuJoCo scene (:mod:`~synth.sim.scene`) of the part and force-limited point fingers with the
 grasp's contact model (:mod:`~synth.sim.contact`) and a hand (:mod:`~synth.sim.settings`);
 the protocol (:mod:`~synth.sim.protocol`) squeezes, adds gravity, pushes and shakes; the label
-(:mod:`~synth.sim.label`) says whether it held, how much, and how it moved. Needs the
+(:mod:`~synth.sim.label`) says whether it held, how much, and how it moved;
+:mod:`~synth.sim.plans` does all that to a plan's document. Needs the
 optional extra ``synth[sim]`` (mujoco, coacd).
 """
 
@@ -23,6 +24,7 @@ _WHERE = {
     "read_grasp_file": "document",
     "Escape": "label", "SimLabel": "label", "label_run": "label", "predicted_escape": "label",
     "ConvexPieces": "pieces", "cache_dir": "pieces", "convex_pieces": "pieces",
+    "PLAN_FORMATS": "plans", "simulate_plan": "plans",
     "DIRECTIONS": "protocol", "SimRun": "protocol", "run_protocol": "protocol",
     "Scene": "scene", "build_scene": "scene",
     "SimSettings": "settings",

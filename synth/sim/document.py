@@ -198,6 +198,12 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
         raise InputError(f"{name}: expected a synth.grasps JSON object, got "
                          f"{type(doc).__name__}")
     fmt = _get(doc, "format", "", name)
+    if fmt == "synth.gripper_grasps":
+        raise InputError(f"{name}: a gripper grasp file; synth sim reads point-finger grasp "
+                         "files (synth.grasps): simulate gripper grasps as they are planned, "
+                         "with synth plan --gripper NAME --sim or synth db build --gripper NAME "
+                         "--sim (the file does not record the part's mesh, centre of mass and "
+                         "volume)")
     if fmt != FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {FORMAT!r}, got {shown(fmt)} "
                          "(write grasp files with 'synth plan --out')")

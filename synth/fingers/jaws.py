@@ -267,7 +267,9 @@ def close_jaws(
     minus_rect = (-py - pw / 2, -py + pw / 2, -ph / 2, ph / 2)  # the half-turn of the +x pad
     tri = Vp[F]
     centre = tri.mean(axis=1)
-    radius = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1) * (1 + 1e-9) + 1e-300
+    # bounding radii, widened by far more than the rounding of the coordinates in the test
+    span = float(np.abs(Vp).max(initial=0.0)) + float(np.abs(poses[:, :3, 3]).max(initial=0.0))
+    radius = np.linalg.norm(tri - centre[:, None], axis=2).max(axis=1) * (1 + 1e-9) + 1e-9 * span
     y_lim = reach + radius
     z_lim = (pz + float(gripper.finger_z[:, 1].min()) - ph / 2 - radius,
              pz + float(gripper.finger_z[:, 1].max()) + ph / 2 + radius)

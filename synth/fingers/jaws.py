@@ -280,9 +280,12 @@ def close_jaws(
         R, t = poses[idx, :3, :3], poses[idx, :3, 3]
         # the (pose, triangle) pairs whose bounding sphere meets a pad's slab (|y| <= reach,
         # z within the pads' travel): the only triangles a pad can touch
-        yz = (centre[None] - t[:, None]) @ R[:, :, 1:]  # (n, f, 2)
-        kb0, kf0 = np.nonzero((np.abs(yz[..., 0]) <= y_lim) & (yz[..., 1] >= z_lim[0]) & (
-            yz[..., 1] <= z_lim[1]))
+        Ryz = R[:, :, 1:]
+        yz = (centre @ Ryz.transpose(1, 0, 2).reshape(3, 2 * n)).reshape(-1, n, 2) - np.einsum(
+            "ni,nij->nj", t, Ryz)  # (f, n, 2), one matrix product for the chunk
+        near = (np.abs(yz[..., 0]) <= y_lim[:, None]) & (yz[..., 1] >= z_lim[0][:, None]) & (
+            yz[..., 1] <= z_lim[1][:, None])
+        kb0, kf0 = np.nonzero(near.T)
         Rk = R[kb0]
         Tp = _rotate(tri[kf0] - t[kb0][:, None], Rk[:, None])  # (K, 3, 3)
         FNp = _rotate(FN[kf0], Rk)

@@ -93,6 +93,14 @@ def test_the_command_ranks_a_graspgen_file_and_reports_a_malformed_pose(tmp_path
     good = _from_above([0.0, 0.0, 0.0])
     bad = good.copy()
     bad[:3, :3] *= 2.0
+    in_mm = good.copy()
+    in_mm[:3, 3] *= 1000.0
+    np.savez(tmp_path / "p.npz", poses=[in_mm], widths=[45.0], units="mm")  # to a part in m
+    assert main(["rank", str(mesh), str(tmp_path / "p.npz"), "--gripper", "franka", "--units",
+                 "m", "--json", "--quiet"]) == 0
+    row = json.loads(capsys.readouterr().out)["candidates"][0]
+    assert row["status"] == "ranked" and row["given_width"] == pytest.approx(0.045)
+    assert row["width"] == 2 * float(np.float32(0.02))  # the binary STL's float32 faces
     doc = {"object": {"file": "box.stl", "scale": 0.001},  # the mesh in mm, read as metres
            "grasps": {"transforms": [good.tolist(), bad.tolist()],
                       "object_in_gripper": [True, True]}}

@@ -115,7 +115,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     shown_n = 20 if args.top is None else args.top
     ranking = rank_gripper_poses(part, where.poses, where.metres_per_unit, params,
                                  dict(poses.errors), poses.names, poses.labels,
-                                 None if shown_n == 0 else shown_n)
+                                 None if shown_n == 0 else shown_n, where.widths)
     rows = list(ranking.rows)
     p = params
     doc = {"format": "synth.ranked_gripper", "version": 1,

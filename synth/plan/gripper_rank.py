@@ -67,6 +67,9 @@ class RankedPose:
         The first candidate that is the same jaw grasp (equal, or its half-turn).
     label : float or None
         The file's own label or confidence for this pose.
+    given_width : float or None
+        The width the file gives for this pose (part units), beside the grasp's own ``width``
+        where the jaws closed.
     """
 
     index: int
@@ -76,12 +79,13 @@ class RankedPose:
     grasp: GripperGrasp | None = field(default=None, repr=False)
     same_as: int | None = None
     label: float | None = None
+    given_width: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (a ranked grasp's fields as in ``synth plan --gripper``)."""
         out: dict[str, Any] = {"index": self.index, "name": self.name, "status": self.status,
                                "reason": self.reason, "same_as": self.same_as,
-                               "label": self.label}
+                               "label": self.label, "given_width": self.given_width}
         if self.grasp is not None:
             out.update(self.grasp.to_json())
         return out
@@ -125,7 +129,8 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
                        params: GripperParams, malformed: dict[int, str] | None = None,
                        names: tuple[str, ...] | None = None,
                        labels: NDArray[np.float64] | None = None,
-                       epsilon_top: int | None = None) -> PoseRanking:
+                       epsilon_top: int | None = None,
+                       widths: NDArray[np.float64] | None = None) -> PoseRanking:
     """Close, check and score gripper poses on a part (see the module).
 
     Parameters
@@ -147,6 +152,9 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
         Compute epsilon (a convex hull per grasp, about 10 ms) for the best this many ranked
         grasps only, as the planner does for the grasps it returns; None: for all. Ranking
         by ``mu_min`` or ``epsilon`` computes it for all.
+    widths : (n,) float, optional
+        The file's grasp widths in part units, carried to the rows (the jaws always close
+        from the gripper's full opening).
 
     Returns
     -------
@@ -182,6 +190,9 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
     position = {int(clear[k]): r for r, k in enumerate(order)}
     rows: list[RankedPose] = []
     ranked: list[tuple[int, RankedPose]] = []
+    def given(i: int) -> float | None:
+        return None if widths is None else float(widths[i])
+
     for k, i in enumerate(good.tolist()):
         u = int(inverse[k])
         lab = None if labels is None else float(labels[i])
@@ -189,18 +200,18 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
         if jaws.status[u] != LANDED:
             status = "misses the part" if jaws.status[u] == MISSES else "no contact"
             rows.append(RankedPose(i, names[i], status, JAW_STATUS[int(jaws.status[u])],
-                                   None, same, lab))
+                                   None, same, lab, given(i)))
         elif hit[u] != CLEAR:
             rows.append(RankedPose(i, names[i], "collision", GRIPPER_STATUS[int(hit[u])], None,
-                                   same, lab))
+                                   same, lab, given(i)))
         else:
             g = grasp_of[u]
             ranked.append((position[u], RankedPose(i, names[i], "ranked", None,
                                                    _turn_back(g) if turned[k] else g, same,
-                                                   lab)))
+                                                   lab, given(i))))
     for i, why in bad.items():
         rows.append(RankedPose(i, names[i], "malformed", why, None, None,
-                               None if labels is None else float(labels[i])))
+                               None if labels is None else float(labels[i]), given(i)))
     ranked.sort(key=lambda r: (r[0], r[1].index))
     out = tuple([r for _, r in ranked] + sorted(rows, key=lambda r: r.index))
     counts = {s: sum(r.status == s for r in out) for s in POSE_STATUSES}

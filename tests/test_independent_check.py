@@ -44,7 +44,7 @@ def test_the_check_fails_grasps_that_hold_only_with_smooth_normals() -> None:
 
     path = Path(__file__).resolve().parent.parent / "meshes" / "corpus" / \
         "coacd_robosuite_bottle.obj"
-    plan = plan_part(load_part(path, units="m"), PlanParams(evals=3000, top=3,
+    plan = plan_part(load_part(path, units="m"), PlanParams(evals=3000, top=1,
                                                            surface="smooth"))
     doc = plan.to_json()
     pieces = Pieces(path)

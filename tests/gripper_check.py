@@ -1,10 +1,12 @@
 """An independent check of gripper grasps, sharing no code with synth.
 
 From a grasp file's JSON, the part's mesh file and the gripper's description file only, with
-numpy and trimesh (to read files): the pose is a rigid transform; both contacts lie on the
-part's surface (exact point-triangle distance) and outside it just beyond (winding number),
-and on their pads; the line between them lies inside both friction cones; the posed gripper's
-shapes, the fingers opened by ``clear`` on each side, do not intersect the part (an exact
+numpy, scipy's NNLS and trimesh (to read files): the pose is a rigid transform; both contacts
+lie on the part's surface (exact point-triangle distance) and outside it just beyond (winding
+number), and on their pads; each normal is its pad's or, for a contact on the pad's rim, the
+inward normal of a triangle through the point or, where the rim crosses an edge of the part,
+a normal perpendicular to the rim between those of the triangles through the point; the line
+between them lies inside both friction cones; the posed gripper's shapes, the fingers opened by ``clear`` on each side, do not intersect the part (an exact
 triangle-triangle separating-axis test, so crossing edges count, not only vertices) and no
 shape lies inside it.
 """
@@ -16,6 +18,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import scipy.optimize
 import trimesh
 
 
@@ -167,7 +170,24 @@ def check_grasp(grasp: dict, mesh_path: Path, description: Path, scale: float, m
                 abs(g[2] - pc[1]) > ps[1] / 2 + tol:
             errors.append(f"contact {i} is not on its pad")
         if not np.allclose(n, -sgn * R[:, 0], atol=1e-9):
-            errors.append(f"contact {i}'s normal is not its pad's")
+            # else the pad's rim: the point on the rectangle's border and the normal a
+            # triangle's inward one (the rim on a face), or, where the rim crosses an edge of
+            # the part, perpendicular to the rim and between the inward normals of the
+            # triangles through the point (non-negative weights, by NNLS)
+            on_y = abs(abs(y - pc[0]) - ps[0] / 2) <= tol
+            on_z = abs(abs(g[2] - pc[1]) - ps[1] / 2) <= tol
+            tri = V[F][point_triangle_distance(p, V[F]) <= tol]
+            inward = -np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+            # (to 1e-6: a file of float32 coordinates, or its stored facet normals, give a
+            # facet's normal to a few 1e-8)
+            face = np.any(np.all(np.abs(inward - n) <= 1e-6, axis=1))
+            rim_dir = R[:, 2] if on_y else R[:, 1]
+            edge = len(inward) > 1 and on_y != on_z and abs(n @ rim_dir) <= 1e-6 and \
+                scipy.optimize.nnls(inward.T, n)[1] <= 1e-6
+            if not ((on_y or on_z) and (face or edge)):
+                errors.append(f"contact {i}'s normal is neither its pad's nor, on its rim, "
+                              "a face's or an edge's")
     line = (pts[1] - pts[0]) / np.linalg.norm(pts[1] - pts[0])
     half = math.atan(mu)
     for i, n, s in ((0, nrm[0], 1.0), (1, nrm[1], -1.0)):

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import trimesh
 
 from synth.fingers.gripper import load_gripper
 from synth.fingers.jaws import LANDED, TOO_WIDE, close_jaws
-from tests.gripper_check import point_triangle_distance
+from tests.gripper_check import check_grasp, point_triangle_distance
 
 FRANKA = load_gripper("franka")  # metres
 TCP = FRANKA.tcp
@@ -21,9 +23,18 @@ def _pose(centre, shift=(0.0, 0.0, 0.0)):
     return T
 
 
-def _close(mesh, poses):
+def _close(mesh, poses, tol=1e-9):
     return close_jaws(np.asarray(mesh.vertices), np.asarray(mesh.faces),
-                      np.asarray(mesh.face_normals), np.asarray(poses), FRANKA, 1e-9)
+                      np.asarray(mesh.face_normals), np.asarray(poses), FRANKA, tol)
+
+
+def _tilted_box(degrees):
+    """A 40 x 60 x 60 mm box whose +x face is turned by ``degrees`` about z: the plane
+    ``x + tan(a) y = 0.02``, outward normal ``(cos a, sin a, 0)``; the -x face at x = -0.02."""
+    k = np.tan(np.radians(degrees))
+    V = [[-0.02, y, z] for y in (-0.03, 0.03) for z in (-0.03, 0.03)]
+    V += [[0.02 - k * y, y, z] for y in (-0.03, 0.03) for z in (-0.03, 0.03)]
+    return trimesh.convex.convex_hull(np.array(V))
 
 
 def test_a_box_pinched_lands_on_its_faces():
@@ -93,3 +104,81 @@ def test_a_ridge_across_the_pad_is_a_contact():
     assert res.status.tolist() == [LANDED]
     assert res.width[0] == pytest.approx(2 * half, rel=1e-12)
     assert np.allclose(res.points[0, :, :2], [[half, 0.0], [-half, 0.0]], atol=1e-12)
+
+
+def test_a_pad_rim_on_a_face_tilted_10_degrees_is_a_contact_with_the_faces_normal():
+    # the +x face falls away along +y, so inside the +x pad (y in +-8.5 mm) it reaches
+    # furthest along x on the pad's rim side y = -8.5 mm, all along it: the contact is the
+    # middle of that side, x = 0.02 + 0.0085 tan(10 deg), with the face's inward normal
+    a = np.radians(10.0)
+    res = _close(_tilted_box(10.0), [_pose([0, 0, 0])])
+    assert res.status.tolist() == [LANDED]
+    pad_z = FRANKA.pad_center[1] - TCP[2]
+    x_rim = 0.02 + 0.0085 * np.tan(a)
+    assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
+    assert np.allclose(res.points[0, 0], [x_rim, -0.0085, pad_z], atol=1e-12)
+    assert np.allclose(res.normals[0, 0], [-np.cos(a), -np.sin(a), 0.0], atol=1e-12)
+    assert res.patch[0, 0] == pytest.approx(0.0175, rel=1e-9)  # the rim side's length
+    # the -x pad lies flat on its face: the pad's normal at the pad's centre
+    assert np.allclose(res.points[0, 1], [-0.02, 0.0, pad_z], atol=1e-12)
+    assert np.allclose(res.normals[0, 1], [1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_a_face_tilted_under_one_degree_is_flush_a_patch_with_the_pads_normal():
+    # 0.5 degrees: across the pad's 17 mm the face drops 0.148 mm, within the touch tolerance
+    # of 0.2 mm, so the whole pad touches: a patch centred on the pad, the pad's normal
+    res = _close(_tilted_box(0.5), [_pose([0, 0, 0])], tol=2e-4)
+    assert res.status.tolist() == [LANDED]
+    pad_z = FRANKA.pad_center[1] - TCP[2]
+    x_rim = 0.02 + 0.0085 * np.tan(np.radians(0.5))
+    assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
+    # in the pad's plane (the touch's extreme), within the tolerance of the face
+    assert np.allclose(res.points[0, 0], [x_rim, 0.0, pad_z], atol=1e-12)
+    assert np.allclose(res.normals[0], [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
+    assert res.patch[0, 0] == pytest.approx(np.hypot(0.017, 0.0175), rel=1e-9)
+
+
+def _roof(t, k):
+    """A box 40 mm deep whose +x side is a roof ``x = 0.02 - t y - k |z - z_r|`` with its
+    ridge at the pad's height ``z_r``; the -x face at x = -0.02."""
+    zr = FRANKA.pad_center[1] - TCP[2]
+    V = [[-0.02, y, z] for y in (-0.03, 0.03) for z in (-0.03, 0.03)]
+    V += [[0.02 - t * y - k * abs(z - zr), y, z] for y in (-0.03, 0.03) for z in (-0.03, zr, 0.03)]
+    return trimesh.convex.convex_hull(np.array(V))
+
+
+def test_a_pad_rim_across_a_ridge_is_a_contact_normal_to_rim_and_ridge():
+    # along the +x pad's rim side y = -8.5 mm the roof peaks on its ridge, z = z_r: the
+    # contact; its faces' normals (1, t, +-k) combine, with nothing along the rim (z), into
+    # (1, t, 0): perpendicular to the rim and to the ridge (-t, 1, 0), between the faces'
+    t, k = np.tan(np.radians(10.0)), 0.5
+    res = _close(_roof(t, k), [_pose([0, 0, 0])])
+    assert res.status.tolist() == [LANDED]
+    zr = FRANKA.pad_center[1] - TCP[2]
+    x_rim = 0.02 + 0.0085 * t
+    assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
+    assert np.allclose(res.points[0, 0], [x_rim, -0.0085, zr], atol=1e-12)
+    assert np.allclose(res.normals[0, 0], -np.array([1.0, t, 0.0]) / np.hypot(1.0, t),
+                       atol=1e-12)
+
+
+def test_rim_contacts_pass_the_independent_check_and_a_wrong_normal_fails_it(tmp_path):
+    # the check (tests/gripper_check.py) reads the mesh file and the gripper's description
+    t, k = np.tan(np.radians(10.0)), 0.5
+    path = tmp_path / "roof.stl"
+    _roof(t, k).export(path)
+    tilted = tmp_path / "tilted.stl"
+    _tilted_box(10.0).export(tilted)
+    desc = Path(__file__).parents[1] / "synth" / "fingers" / "grippers" / "franka.json"
+    for mesh in (path, tilted):
+        part = trimesh.load(mesh)
+        res = _close(part, [_pose([0, 0, 0])])
+        g = {"pose": res.poses[0].tolist(), "width": float(res.width[0]),
+             "contacts": [{"point": p.tolist(), "normal": n.tolist()}
+                          for p, n in zip(res.points[0], res.normals[0])]}
+        assert check_grasp(g, mesh, desc, 1.0, 0.5, 1e-4) == []
+        bad = [dict(c) for c in g["contacts"]]
+        n = np.array(bad[0]["normal"]) + [0.0, 0.0, 0.1]  # off the plane normal to the rim
+        bad[0]["normal"] = (n / np.linalg.norm(n)).tolist()
+        assert any("neither its pad's" in e for e in check_grasp(dict(g, contacts=bad), mesh,
+                                                                 desc, 1.0, 0.5, 1e-4))

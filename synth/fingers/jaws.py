@@ -20,12 +20,17 @@ distance between the two extremes. A pad lying flat on a face touches a patch (e
 within ``touch_tol`` of the extreme): the contact is the centre of the patch's bounding box
 when that lies on the touched surface, else (a patch of several pieces, such as two ridges)
 the touching point nearest to it; its normal is the pad's. At a part's edge or vertex pressed
-into the pad the normal is the pad's too. A pad whose touch lies only on the rim of its
-rectangle against a face that is not parallel to it (the pad's own edge digging into a slope)
-makes no trustworthy contact: such poses are reported as ``EDGE_TOUCH`` and dropped. A pad
-pressed on an edge or ridge of the part that crosses its rectangle (a tessellated cylinder's
-edge, a mug's rim) touches a segment whose middle lies inside the rectangle and on the part:
-that is a contact, although its candidate points lie on the rim. A
+into the pad the normal is the pad's too. A pad pressed on an edge or ridge of the part that
+crosses its rectangle (a tessellated cylinder's edge, a mug's rim) touches a segment whose
+middle lies inside the rectangle and on the part: that is a contact, although its candidate
+points lie on the rim. A pad whose touch lies only on the rim of its rectangle (the pad's own
+edge on a slope, as when the pads rest tilted on a curved part) makes a contact with the
+part's normal there: on a face (the triangles under the contact within 1 degree of one
+plane), the face's; where a rim side crosses an edge of the part (two planes), the normal
+perpendicular to both the rim and the edge, which lies between the two faces' normals when
+the part peaks along the rim on that edge. A rim touching at a pad's corner on an edge, or on
+a vertex of the part, has no single normal: such poses are reported as ``EDGE_TOUCH`` and
+dropped. A
 Robotiq pad rises as the jaws close (``finger_z``): its rectangle is placed at the rise of the
 width found, and the search is repeated until the width no longer changes (three rounds at
 most). Poses are processed in chunks, every pose of a chunk at once in numpy.
@@ -47,7 +52,8 @@ LANDED, MISSES, TOO_WIDE, EDGE_TOUCH = 0, 1, 2, 3
 #: Words for :attr:`JawContacts.status`.
 JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                               TOO_WIDE: "wider than the opening",
-                              EDGE_TOUCH: "a pad's rim digs into a slope"}
+                              EDGE_TOUCH: "a pad's rim or corner meets an edge or vertex "
+                                          "of the part at no single normal"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
 #: Poses per chunk times faces: a chunk's face centres in its poses' frames take about 16
@@ -123,15 +129,18 @@ def _hi(a: NDArray[np.float64]) -> NDArray[np.float64]:
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
               n: int, rect: tuple[float, float, float, float], sign: float, tol: float,
               half: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                         NDArray[np.bool_], NDArray[np.float64]]:
+                         NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64],
+                         NDArray[np.float64]]:
     """For ``n`` poses at once: the largest ``sign * x`` of the mesh inside a pad's prism.
 
     ``Tg`` (K, 3, 3) are triangles in their pose's gripper frame, ``kb`` (K,) their pose,
     ``FNg`` (K, 3) their outward normals there; ``half`` is half the open width (points with
     ``sign * x`` above it are behind the open pad). Returns per pose the extreme ``x`` between
     the open pads (NaN where the pad misses), the touched patch's centre ``(y, z)`` (n, 2) and
-    diagonal (n,), whether the touch is trustworthy (n,), and the extreme over the whole prism
-    (n,), behind the open pad included.
+    diagonal (n,), whether the touch is a contact with the pad's normal (n,) (a patch or an
+    interior touch), whether it is instead the pad's rim on a face (n,), that face's outward
+    normal (n, 3) (NaN where there is none), and the extreme over the whole prism (n,), behind
+    the open pad included.
     """
     y0, y1, z0, z1 = rect
     A = Tg
@@ -219,7 +228,54 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
         _, pick = np.unique(kb[first], return_index=True)
         sel = first[pick]
         centre[kb[sel]] = P[sel, d2[sel].argmin(axis=1), 1:]
-    return x, centre, np.where(hit, diag, 0.0), good & hit, np.where(
+    # a pad touching with its rim only (every touching point within ``tol`` of the rectangle's
+    # border, so the contact point chosen above lies on the rim): the triangles under the
+    # contact, at the extreme, give its normal when they lie within 1 degree of one plane
+    # facing the pad (the rim on a face); else the rim meets an edge of the part
+    rim = hit & ~good
+    face_n = np.full((n, 3), np.nan)
+    rows = np.flatnonzero(rim[kb] & ok)
+    c = centre[kb[rows]]
+    q0, f1, f2, d = p0[rows], e1[rows], e2[rows], det[rows]
+    dy, dz = c[:, 0] - q0[:, 0], c[:, 1] - q0[:, 1]
+    u = (dy * f2[:, 1] - dz * f2[:, 0]) / d
+    v = (f1[:, 0] * dz - f1[:, 1] * dy) / d
+    T = Tg[rows, :, 0]
+    xc = T[:, 0] + u * (T[:, 1] - T[:, 0]) + v * (T[:, 2] - T[:, 0])
+    under = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
+        np.abs(sign * xc - top[kb[rows]]) <= tol)  # at the extreme, not behind it
+    rows = rows[under]
+    _, pick = np.unique(kb[rows], return_index=True)
+    face_n[kb[rows[pick]]] = FNg[rows[pick]]
+    dot1 = np.einsum("ij,ij->i", FNg[rows], face_n[kb[rows]])
+    agree = np.full(n, np.inf)
+    np.minimum.at(agree, kb[rows], dot1)
+    flat = agree >= _PARALLEL_COS
+    # the rim across an edge of the part (the triangles under the contact in two planes):
+    # the contact normal is perpendicular to the rim and to the edge, the combination
+    # a n1 + b n2 of the planes' normals with no component along the rim; it lies between
+    # them (a, b >= 0) when the part's extreme along the rim is on that edge
+    other = rows[dot1 <= agree[kb[rows]]]
+    _, pick = np.unique(kb[other], return_index=True)
+    n2 = np.full((n, 3), np.nan)
+    n2[kb[other[pick]]] = FNg[other[pick]]
+    dot2 = np.einsum("ij,ij->i", FNg[rows], n2[kb[rows]])
+    two = np.full(n, np.inf)
+    np.minimum.at(two, kb[rows], np.maximum(dot1, dot2))
+    side_y = (np.abs(centre[:, 0] - y0) <= tol) | (np.abs(centre[:, 0] - y1) <= tol)
+    side_z = (np.abs(centre[:, 1] - z0) <= tol) | (np.abs(centre[:, 1] - z1) <= tol)
+    r = np.zeros((n, 3))
+    r[:, 2] = side_y  # a rim side at fixed y runs along z, and one at fixed z along y
+    r[:, 1] = side_z
+    a, b = np.einsum("ij,ij->i", n2, r), -np.einsum("ij,ij->i", face_n, r)
+    m = (a[:, None] * face_n + b[:, None] * n2) * np.sign(a + b)[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m /= np.linalg.norm(m, axis=1, keepdims=True)
+    edge = ~flat & (two >= _PARALLEL_COS) & (side_y ^ side_z) & (a * b >= 0) & (
+        np.abs(a) + np.abs(b) > 0)
+    face_n = np.where(edge[:, None], m, face_n)
+    rim &= (flat | edge) & (sign * face_n[:, 0] > 0)  # False where face_n is NaN
+    return x, centre, np.where(hit, diag, 0.0), good & hit, rim, face_n, np.where(
         np.isfinite(top_all), sign * top_all, np.nan)
 
 
@@ -312,12 +368,12 @@ def close_jaws(
                 Tg = Tp[sel] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
                                         axis=1)[:, None, :]  # pad centre at z = 0
                 found.append(_extremes(Tg, FNp[sel], kb, n, rect, sign, touch_tol, half))
-            (xp, cp, dp, gp, xp_all), (xm, cm, dm, gm, xm_all) = found
+            (xp, cp, dp, gp, rp, np_, xp_all), (xm, cm, dm, gm, rm, nm, xm_all) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms
             inside = (xp - xm <= 0) & (xp_all - xm_all > 0)
             xp, xm = np.where(inside, xp_all, xp), np.where(inside, xm_all, xm)
-            gp, gm = gp & ~inside, gm & ~inside
+            gp, gm, rp, rm = gp & ~inside, gm & ~inside, rp & ~inside, rm & ~inside
             new_w = xp - xm
             done = ~np.isfinite(new_w) | (np.abs(new_w - w) <= touch_tol)
             w = np.where(np.isfinite(new_w), new_w, w)
@@ -325,7 +381,7 @@ def close_jaws(
                 break
         hit = np.isfinite(xp) & np.isfinite(xm) & (xp - xm > 0)
         wide = hit & (w > gripper.max_opening)
-        edge = hit & ~wide & ~(gp & gm)
+        edge = hit & ~wide & ~((gp | rp) & (gm | rm))
         ok = hit & ~wide & ~edge
         width[idx[hit]] = w[hit]
         status[idx[wide]] = TOO_WIDE
@@ -337,6 +393,10 @@ def close_jaws(
         cg = np.stack([np.column_stack([xp, cp[:, 0], cp[:, 1] + zc]),
                        np.column_stack([xm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
         points[idx[ok]] = (np.einsum("bij,bkj->bki", R, cg) + t[:, None])[ok]
-        normals[idx[ok]] = np.stack([-R[:, :, 0], R[:, :, 0]], axis=1)[ok]
+        # the pad's closing direction, or on a rim contact the face's inward normal
+        face = -np.einsum("bij,bkj->bki", R, np.stack([np_, nm], axis=1))
+        pad = np.stack([-R[:, :, 0], R[:, :, 0]], axis=1)
+        on_rim = np.stack([rp & ~gp, rm & ~gm], axis=1)
+        normals[idx[ok]] = np.where(on_rim[..., None], face, pad)[ok]
         patch[idx[ok]] = np.column_stack([dp, dm])[ok]
     return JawContacts(out_pose, width, points, normals, patch, status)

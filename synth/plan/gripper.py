@@ -546,13 +546,16 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
 
 def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperParams,
                   gamma: float, mass: float | None, closure: list[str] | None = None,
-                  epsilon: NDArray[np.bool_] | None = None) -> list[GripperGrasp]:
+                  epsilon: NDArray[np.bool_] | None = None, compiled: bool | None = False
+                  ) -> list[GripperGrasp]:
     """The result objects of scored grasps, with mu_min and epsilon computed for them.
 
     ``closure`` names each grasp's closure class (default: every one frictional form
     closure, as the planner keeps only those); ``epsilon`` says which grasps get their
-    epsilon computed (default all; the others get NaN)."""
-    mm = mu_min_batch(best.points, best.normals, gamma, params.edges, compiled=False).mu_min
+    epsilon computed (default all; the others get NaN); ``compiled`` is mu_min's simplex
+    route (default numpy, the planner's, whose output must not depend on numba; None lets
+    :func:`synth.scores.simplex.compiled_for` choose, as ``synth rank`` does)."""
+    mm = mu_min_batch(best.points, best.normals, gamma, params.edges, compiled=compiled).mu_min
     out = []
     for j, pose in enumerate(best.poses):
         least = None if mass is None else float(best.spw[j]) * mass * GRAVITY

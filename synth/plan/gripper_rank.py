@@ -12,11 +12,14 @@ For every pose (already in the part's frame and unit, :mod:`synth.formats`):
 3. **collisions** (:class:`synth.fingers.gripper_collide.GripperChecker`): approach and closed
    fingers against every body of the part and the table;
 4. **scores**: closure, the least squeeze against gravity (the fine bound), mu_min and epsilon,
-   as the planner scores the grasps it returns (:func:`synth.plan.gripper.grasp_results`).
+   as the planner scores the grasps it returns (:func:`synth.plan.gripper.grasp_results`),
+   through numba's simplex kernel when it is installed and the batch repays loading it
+   (:func:`synth.scores.simplex.compiled_for`; the same optima as numpy's to about 1e-12).
 
 Each candidate gets one status: ``ranked`` (scored; closure or not), ``collision``,
 ``no contact`` (the part lies between the jaws but they make no trustworthy two-pad contact:
-wider than the opening, or a pad's rim digging into a slope), ``misses the part`` (a pad's
+wider than the opening, or a pad's rim or corner meeting an edge or vertex of the part at no
+single normal), ``misses the part`` (a pad's
 prism meets no part of the mesh) or ``malformed``. The ranked ones are ordered as the planner
 orders its grasps (``rank_by``), grasps without closure last.
 """
@@ -227,21 +230,22 @@ def _score(part: Any, jaws: Any, gripper: Gripper, params: GripperParams, gamma:
     if not len(P):
         return [], np.zeros(0, np.int64)
     fc = frictional_form_closure_batch(P, N, params.mu, center=part.center_mass,
-                                       edges=params.edges, compiled=False, torsion=gamma)
+                                       edges=params.edges, compiled=None, torsion=gamma)
     spw = np.full(len(P), np.inf)
     sampled = np.full(len(P), np.inf)
     worst = np.full((len(P), 3), np.nan)
     closing = np.flatnonzero(fc.closure)
     if len(closing):
         hold = gravity_hold_batch(P[closing], N[closing], params.mu, gamma, part.center_mass,
-                                  part.length, params.gravity, params.edges, compiled=False)
+                                  part.length, params.gravity, params.edges, compiled=None)
         spw[closing] = hold.squeeze_per_weight
         sampled[closing] = hold.sampled
         worst[closing] = hold.worst_direction
     scored = Scored(jaws.poses, jaws.width, P, N, jaws.patch, fc.d_star, spw, sampled, worst)
     closure = ["frictional form" if c else "none" for c in fc.closure]
     if epsilon_top is None:
-        grasps = grasp_results(scored, part, gripper, params, gamma, mass, closure)
+        grasps = grasp_results(scored, part, gripper, params, gamma, mass, closure,
+                               compiled=None)
         order = rank_order(params.rank_by, spw, fc.d_star,
                            np.array([g.mu_min for g in grasps]),
                            np.array([g.epsilon for g in grasps]))
@@ -249,4 +253,5 @@ def _score(part: Any, jaws: Any, gripper: Gripper, params: GripperParams, gamma:
     order = rank_order(params.rank_by, spw, fc.d_star, spw, spw)  # margin or d_star
     head = np.zeros(len(P), bool)
     head[order[:epsilon_top]] = True
-    return grasp_results(scored, part, gripper, params, gamma, mass, closure, head), order
+    return grasp_results(scored, part, gripper, params, gamma, mass, closure, head,
+                         compiled=None), order

@@ -42,7 +42,7 @@ from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
 from synth.scores.cones import cone_name, cone_wrenches_batch, generators_per_contact
-from synth.scores.simplex import UNVERIFIED, solve_batch
+from synth.scores.simplex import UNVERIFIED, compiled_for, solve_batch
 
 __all__ = ["GRAVITY", "GravityHold", "gravity_hold_batch", "least_squeeze_batch",
            "ICOSPHERE_LEVEL"]
@@ -176,6 +176,8 @@ def least_squeeze_batch(
     basis0 = np.concatenate([np.arange(kM + 1 + k, ncol), np.arange(kM + 1, kM + 1 + k)])
     pairs = np.stack(np.meshgrid(np.arange(B), np.arange(D), indexing="ij"), -1).reshape(-1, 2)
     s = np.zeros(len(pairs))
+    if compiled is None:  # the route for the whole batch, not for each chunk of it
+        compiled = compiled_for(len(pairs))
     b = np.zeros((min(len(pairs), _CHUNK), 6 + k))
     b[:, 6:] = 1.0
     for lo in range(0, len(pairs), _CHUNK):

@@ -89,14 +89,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         description="Snap each candidate's points to the mesh surface, resolve their normals "
         "with the part model (given normals are ignored), check the fingers with FCL, score "
         "by d* and print the candidates ranked. CANDIDATES is JSON (a list of {points[, name]}"
-        " or an object with a 'candidates' or 'grasps' list) or NPZ.",
+        " or an object with a 'candidates' or 'grasps' list) or NPZ; with --gripper, gripper "
+        "poses: ACRONYM .h5, GraspGen .json, isaac_grasp .yaml, an NPZ or JSON of (n, 4, 4) "
+        "poses, or a synth gripper grasp file.",
         epilog="exit status: 0 ranked; 1 the --out file could not be written; 2 bad input: "
         "a malformed candidate (reported on its own line, the others still ranked), or no "
         "candidate could be used (the line gives the first one's reason; nothing is "
         "written); 3 internal error (a bug in synth).",
     )
     p.add_argument("mesh", help="mesh file")
-    p.add_argument("candidates", help="candidate file (.json or .npz)")
+    p.add_argument("candidates", help="candidate file (.json or .npz; with --gripper also "
+                   ".h5 or .yaml)")
     p.add_argument("--mu", type=float, default=0.0,
                    help=f"friction coefficient, in [0, {MAX_MU:g}] (default 0; 0.5 with --gripper)")
     p.add_argument("--edges", type=int, default=8, metavar="N",

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from scipy.optimize import linprog
 
 from synth import InputError
@@ -184,6 +185,30 @@ def test_gravity_squeeze_of_a_box_pinched_at_its_centre_of_mass():
     assert h.squeeze_per_weight[0] <= h.sampled[0] / 0.982  # the icosphere's plane distances
     one = gravity_hold_batch(P[None], N[None], mu, gamma, [0, 0, 0], 2.0, gravity=[0, 0, -2])
     assert one.squeeze_per_weight[0] == pytest.approx(1.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("level", [1, 2])
+def test_gravity_skips_only_directions_that_cannot_be_the_worst(level):
+    # gravity_hold_batch evaluates the icosahedron, then only the finer directions whose
+    # bound from sublinearity could reach the worst value or the bound: the result must be
+    # exactly that of evaluating every direction (pinches of every quality, some never held)
+    rng = np.random.default_rng(7)
+    P = rng.normal(size=(120, 2, 3)) * 0.02
+    P[:, 1] = -P[:, 0] + rng.normal(size=(120, 3)) * 0.003
+    N = P[:, ::-1] - P + rng.normal(size=(120, 2, 3)) * 0.01
+    N /= np.linalg.norm(N, axis=2, keepdims=True)
+    ico = trimesh.creation.icosphere(subdivisions=level)
+    V = ico.vertices / np.linalg.norm(ico.vertices, axis=1, keepdims=True)
+    T = V[ico.faces]
+    h = np.abs(np.einsum("ij,ij->i", np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), T[:, 0]))
+    h /= np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    f = least_squeeze_batch(P, N, 0.5, 0.005, [0, 0, 0], 0.05, V, compiled=False)
+    hold = gravity_hold_batch(P, N, 0.5, 0.005, [0, 0, 0], 0.05, compiled=False, level=level)
+    assert 0 < np.isinf(f).any(axis=1).sum() < len(P)
+    assert np.array_equal(hold.sampled, f.max(axis=1))
+    assert np.array_equal(hold.worst_direction, V[f.argmax(axis=1)])
+    assert np.allclose(hold.squeeze_per_weight, (f[:, ico.faces].max(axis=2) / h).max(axis=1),
+                       rtol=1e-12, atol=0)
 
 
 def test_gravity_off_the_centre_of_mass_needs_torsion():

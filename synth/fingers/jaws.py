@@ -344,7 +344,6 @@ def close_jaws(
         kb0, kf0 = np.nonzero(near.T)
         Rk = R[kb0]
         Tp = _rotate(tri[kf0] - t[kb0][:, None], Rk[:, None])  # (K, 3, 3)
-        FNp = _rotate(FN[kf0], Rk)
         ty, tz, tx = Tp[..., 1], Tp[..., 2], Tp[..., 0]
         ylo, yhi, zlo, zhi = _lo(ty), _hi(ty), _lo(tz), _hi(tz)
         xlo, xhi = _lo(tx), _hi(tx)
@@ -367,7 +366,8 @@ def close_jaws(
                 kb = kb0[sel]
                 Tg = Tp[sel] - np.stack([np.zeros(len(kb)), np.zeros(len(kb)), zc[kb]],
                                         axis=1)[:, None, :]  # pad centre at z = 0
-                found.append(_extremes(Tg, FNp[sel], kb, n, rect, sign, touch_tol, half))
+                found.append(_extremes(Tg, _rotate(FN[kf0[sel]], Rk[sel]), kb, n, rect, sign,
+                                       touch_tol, half))
             (xp, cp, dp, gp, rp, np_, xp_all), (xm, cm, dm, gm, rm, nm, xm_all) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms

@@ -271,3 +271,37 @@ def test_synth_score_with_torsion_closes_pinches(tmp_path, capsys):
     assert [c["closure"] for c in doc["candidates"]] == ["frictional form", "force"]
     assert main(["score", str(f), "--mu", "0.5", "--json"]) == 2  # 2 point contacts: refused
     assert main(["score", str(f), "--torsion", "-1"]) == 2
+
+
+@pytest.mark.parametrize("P, N, centre, length", [
+    # two planner grasps (robosuite can, metaworld mug) where qhull's unmerged facets come
+    # out flipped: the epsilon must be the merged hull's all the same
+    ([[0.02458992733609662, -0.003325942971415377, 0.0002691341805332662],
+      [-0.024558221390358438, 0.0031445294902277265, 0.0002691341805332662]],
+     [[-0.9914448428824383, 0.13052633267589062, 0.0],
+      [0.9914448428824383, -0.13052633267589062, 0.0]],
+     [7.379741687417057e-05, -0.00026904592917602105, 0.0010625026839853188],
+     0.10677078100606367),
+    ([[0.002632633192591576, -0.02672965065446421, 0.00040755284626302346],
+      [-0.0026326203529903297, 0.02672965437974797, 0.00040755284626302346]],
+     [[-0.09801673544629212, 0.9951847665496351, 0.0],
+      [0.09801673544629212, -0.9951847665496351, 0.0]],
+     [-8.450796633435371e-10, -2.3259902912754467e-09, -0.004916917902070026],
+     0.1006833640868532),
+])
+def test_epsilon_is_the_least_distance_to_the_merged_hulls_facets(P, N, centre, length):
+    from scipy.spatial import ConvexHull
+
+    from synth.scores.cones import cone_wrenches_batch
+
+    P, N = np.array(P), np.array(N)
+    G = cone_wrenches_batch(P[None], N[None], 0.5, np.array(centre), 8, 0.005)[0]
+    G = G / np.linalg.norm(G[:3], axis=0)
+    G[3:] /= length
+    hull = ConvexHull(G.T)  # qhull's default merging
+    eq = hull.equations
+    assert (G.T @ eq[:, :-1].T + eq[:, -1]).max() <= 1e-12  # every facet supports the points
+    e = epsilon_quality(P, N, centre, length, mu=0.5, edges=8, torsion=0.005)
+    assert e == pytest.approx(float((-eq[:, -1]).min()), rel=1e-12)
+    unmerged = ConvexHull(G.T, qhull_options="Q0").equations
+    assert (G.T @ unmerged[:, :-1].T + unmerged[:, -1]).max() > 1e-3  # the trap is real

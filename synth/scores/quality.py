@@ -11,7 +11,8 @@ conditioning
 epsilon
     Ferrari and Canny's (1992) largest-ball measure: the distance from the origin to the
     boundary of the convex hull of the unit contact wrenches (with friction: the unit-force
-    wrenches of the cone edges); 0 when the origin is not strictly inside. Computed with qhull.
+    wrenches of the cone edges); 0 when the origin is not strictly inside. Computed with qhull
+    (facets unmerged, checked, and merged where the check fails).
 """
 
 from __future__ import annotations
@@ -182,9 +183,30 @@ def epsilon_quality(
         G[3:] /= float(length)
     else:
         G = scaled_wrenches(P, N, center, length)
-    try:
-        hull = ConvexHull(G.T)
-    except (QhullError, ValueError):
+    equations = _hull_equations(G.T)
+    if equations is None:
         return 0.0
-    dist = -hull.equations[:, -1]
-    return float(max(0.0, dist.min()))
+    return float(max(0.0, (-equations[:, -1]).min()))
+
+
+def _hull_equations(W: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """Facet planes ``(n, d)`` (unit outward ``n``, ``n . x + d <= 0`` inside) of the convex
+    hull of the rows of ``W`` (m, 6); None where qhull finds no full-dimensional hull.
+
+    qhull is run first without merging facets (option ``Q0``: about 3x faster in 6-D than
+    its default merging). Unmerged facets can come out flipped where points are nearly
+    coplanar; every point is then checked to lie inside every facet (to 1e-9 of the points'
+    size), and where one does not, the hull is computed again with qhull's default merging.
+    Facets that all support the points give the same least distance as the merged hull."""
+    try:
+        hull = ConvexHull(W, qhull_options="Q0")
+        eq = hull.equations
+        scale = float(np.abs(W).max())
+        if (W @ eq[:, :-1].T + eq[:, -1]).max() <= 1e-9 * scale:
+            return eq
+    except (QhullError, ValueError):
+        pass
+    try:
+        return ConvexHull(W).equations
+    except (QhullError, ValueError):
+        return None

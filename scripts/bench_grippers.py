@@ -1,13 +1,15 @@
 """Benchmark of gripper grasps (printed, not asserted): synth's planner beside a plain
 antipodal sampler, Franka Hand, on every corpus part with a known unit.
 
-Per part: distinct collision-free grasps found by ``plan_gripper`` asked for the top 100, its
-planning time, distinct grasps per second, and the best (least) squeeze per weight; then a
-plain antipodal sampler (Dex-Net's method: a random surface point, a ray along the inward
-normal, the friction-cone test, one random approach angle about the pair) given the same
-time, closing the same jaws and checked by the same collision checker and scored by the same
-gravity measure. Run it on one core: ``taskset -c 0 python scripts/bench_grippers.py``.
-A part "fits" when either finds a grasp. Margins assume a 0.5 kg part (70 N rated force).
+Per part: distinct collision-free grasps found by ``plan_gripper`` asked for the top 100 (in
+frictional form closure, as the planner returns them), its planning time, distinct grasps per
+second, and the best (least) squeeze per weight; then a plain antipodal sampler (Dex-Net's
+method: a random surface point, a ray along the inward normal, the friction-cone test, one
+random approach angle about the pair) given the same time, closing the same jaws, checked by
+the same collision checker, counted only in frictional form closure as the planner's are, and
+scored by the same gravity measure. Run it on one core:
+``taskset -c 0 python scripts/bench_grippers.py``. A part "fits" when either finds a grasp.
+Margins assume a 0.5 kg part (70 N rated force).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from synth.fingers.jaws import LANDED, close_jaws
 from synth.part import load_part
 from synth.plan.gripper import (DISTINCT_RTOL, PREGRASP_M, TORSION_M, GripperParams,
                                 _distinct, _poses, _sample_pairs, plan_gripper)
+from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import GRAVITY, gravity_hold_batch
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,7 +38,8 @@ MASS = 0.5
 
 
 def baseline(part, seconds: float, seed: int) -> tuple[int, float]:
-    """Distinct collision-free grasps and the best squeeze per weight of the plain sampler."""
+    """Distinct collision-free closure grasps and the best squeeze per weight of the plain
+    sampler."""
     scale = float(trimesh.units.unit_conversion("meters", part.units))
     g = load_gripper("franka").scaled(scale)
     checker = GripperChecker(part, g, PREGRASP_M * scale, max(1e-3 * part.length,
@@ -59,6 +63,13 @@ def baseline(part, seconds: float, seed: int) -> tuple[int, float]:
     if not found_p:
         return 0, float("nan")
     P, N = np.array(found_p), np.array(found_n)
+    # as the planner counts: grasps in frictional form closure (two pads that cannot squeeze,
+    # their line outside a friction cone, hold nothing), pairwise distinct
+    fc = frictional_form_closure_batch(P, N, 0.5, center=part.center_mass, compiled=False,
+                                       torsion=TORSION_M * scale)
+    P, N = P[fc.closure], N[fc.closure]
+    if not len(P):
+        return 0, float("nan")
     keep = _distinct(P, np.arange(len(P)), DISTINCT_RTOL * part.length, len(P))
     hold = gravity_hold_batch(P[keep], N[keep], 0.5, TORSION_M * scale, part.center_mass,
                               part.length, compiled=False)

@@ -32,6 +32,7 @@ Usage:
     python scripts/bench_sim.py --part 2/2 --dump b.json
     python scripts/bench_sim.py --merge a.json b.json
     python scripts/bench_sim.py --smooth-only [--part 1/2 --dump c.json]  # the last part only
+    python scripts/bench_sim.py --hands-only [--part 1/2 --dump d.json]  # all but the last
 
 Convex decompositions are cached (see ``synth.sim.cache_dir``); the first run decomposes
 every non-convex body with CoACD, which takes minutes.
@@ -194,6 +195,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="print the summary of the measurements in these --dump files")
     ap.add_argument("--smooth-only", action="store_true",
                     help="only the grasps planned with --surface smooth (not the hands)")
+    ap.add_argument("--hands-only", action="store_true",
+                    help="only the hands (not the grasps planned with --surface smooth)")
     ap.add_argument("--evals", type=int, default=PlanParams().evals)
     ap.add_argument("--top", type=int, default=10)
     args = ap.parse_args(argv)
@@ -227,7 +230,8 @@ def main(argv: list[str] | None = None) -> int:
         part = load_part(path, units=c.get("units"))
         if not args.smooth_only:
             _hands(part, path, c["file"], args, rng, acc)
-        acc["smooth"].extend(_smooth(part, path, c["file"], args))
+        if not args.hands_only:
+            acc["smooth"].extend(_smooth(part, path, c["file"], args))
         if args.dump:  # after every part, so that a run cut short still counts
             Path(args.dump).write_text(json.dumps({**acc,
                                                    "total_s": time.perf_counter() - t_all}))

@@ -160,3 +160,29 @@ def test_gripper_build_stores_what_plan_gripper_sim_gives(tmp_path, capsys):
     with GraspDatabase(out) as db:
         got = [_untimed(g.sim) for g in db.gripper_grasps("cube")]
     assert len(got) == 2 and got == want
+
+
+def test_dask_workers_simulate_as_one_process_does(meshes, tmp_path, monkeypatch):
+    # the labels come from the worker that planned the mesh: on a Dask cluster of two
+    # worker processes they must be those of a build in this process, mesh by mesh
+    distributed = pytest.importorskip("distributed")
+    from tests.db_support import planner_env
+
+    trimesh.creation.box(extents=[1.0, 2.0, 3.0]).export(meshes / "long.stl")
+    for key, value in planner_env().items():
+        monkeypatch.setenv(key, value)  # the worker processes import the test planner
+    one = tmp_path / "one.sqlite"
+    assert _build(meshes, one, *SIM) == 0
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                  dashboard_address=None) as cluster:
+        out = tmp_path / "dask.sqlite"
+        assert main(["db", "build", str(meshes), "--out", str(out), "--planner", SIM_PLANNER,
+                     "--evals", "300", "--top", "2", "--seed", "3", "--quiet", "--engine",
+                     "dask", "--scheduler", cluster.scheduler_address, *SIM]) == 0
+    labels = {}
+    for path in (one, out):
+        with GraspDatabase(path) as db:
+            assert db.params["sim"] == SimSettings(grip=50.0, shake=0.5, seed=3).to_dict()
+            labels[path] = {m: [_untimed(g.sim) for g in db.grasps(m)] for m in ("box", "long")}
+    assert labels[out] == labels[one]
+    assert all(s is not None and "held" in s for grasps in labels[one].values() for s in grasps)

@@ -3,7 +3,8 @@
 A parallel-jaw grasp is scored as two soft contacts, one per pad at the centre of its patch
 (:mod:`synth.scores.cones`: MuJoCo's condim-4 cone with the plan's ``mu`` and torsion). The
 simulation puts exactly that model to the test: each pad becomes a force-limited fingertip
-(:mod:`synth.sim.scene`) pressing at its contact along the pad's normal, with ``condim`` 4,
+(:mod:`synth.sim.scene`) pressing at its contact along the contact's normal (the pad's, or
+the part's where the pad touches with its rim), with ``condim`` 4,
 the plan's ``mu`` and its torsion scaled with the part (the simulation scales the part to
 ``size``). So the simulation checks the scores, not the gripper's geometry: its palm and
 fingers are not in the scene (the planner checked them against the part with FCL).
@@ -49,7 +50,7 @@ def jaw_grasp_file(doc: dict[str, Any], part: Any, mesh_path: str | Path) -> Gra
     Returns
     -------
     GraspFile
-        One fingertip per pad, touching its contact from outside along the pad's normal.
+        One fingertip per pad, touching its contact from outside along the contact's normal.
     """
     r = TIP_RTOL * float(part.length)
     grasps = []

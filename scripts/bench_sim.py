@@ -193,10 +193,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="also write the measurements to this file, for --merge")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
                     help="print the summary of the measurements in these --dump files")
-    ap.add_argument("--smooth-only", action="store_true",
-                    help="only the grasps planned with --surface smooth (not the hands)")
-    ap.add_argument("--hands-only", action="store_true",
-                    help="only the hands (not the grasps planned with --surface smooth)")
+    only = ap.add_mutually_exclusive_group()
+    only.add_argument("--smooth-only", action="store_true",
+                      help="only the grasps planned with --surface smooth (not the hands)")
+    only.add_argument("--hands-only", action="store_true",
+                      help="only the hands (not the grasps planned with --surface smooth)")
     ap.add_argument("--evals", type=int, default=PlanParams().evals)
     ap.add_argument("--top", type=int, default=10)
     args = ap.parse_args(argv)

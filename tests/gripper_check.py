@@ -178,12 +178,14 @@ def check_grasp(grasp: dict, mesh_path: Path, description: Path, scale: float, m
             on_z = abs(abs(g[2] - pc[1]) - ps[1] / 2) <= tol
             tri = V[F][point_triangle_distance(p, V[F]) <= tol]
             inward = -np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-            inward /= np.linalg.norm(inward, axis=1, keepdims=True)
+            length = np.linalg.norm(inward, axis=1)
+            inward = inward[length > 0] / length[length > 0, None]  # zero-area ones have none
             # (to 1e-6: a file of float32 coordinates, or its stored facet normals, give a
             # facet's normal to a few 1e-8)
             face = np.any(np.all(np.abs(inward - n) <= 1e-6, axis=1))
             rim_dir = R[:, 2] if on_y else R[:, 1]
             edge = len(inward) > 1 and on_y != on_z and abs(n @ rim_dir) <= 1e-6 and \
+                abs(np.linalg.norm(n) - 1.0) <= 1e-6 and \
                 scipy.optimize.nnls(inward.T, n)[1] <= 1e-6
             if not ((on_y or on_z) and (face or edge)):
                 errors.append(f"contact {i}'s normal is neither its pad's nor, on its rim, "

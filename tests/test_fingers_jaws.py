@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from synth.fingers.gripper import load_gripper
-from synth.fingers.jaws import LANDED, TOO_WIDE, close_jaws
+from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, close_jaws
 from tests.gripper_check import check_grasp, point_triangle_distance
 
 FRANKA = load_gripper("franka")  # metres
@@ -182,3 +182,54 @@ def test_rim_contacts_pass_the_independent_check_and_a_wrong_normal_fails_it(tmp
         bad[0]["normal"] = (n / np.linalg.norm(n)).tolist()
         assert any("neither its pad's" in e for e in check_grasp(dict(g, contacts=bad), mesh,
                                                                  desc, 1.0, 0.5, 1e-4))
+
+
+def test_a_pad_rim_buried_in_a_slope_or_touching_twice_is_no_contact():
+    # 70 degrees: inside the +x pad the face runs from x = 0.02 + 0.0085 tan(70) = 0.043,
+    # behind the open pad (half the opening, 0.04), down to -0.003 on the other rim side,
+    # the only part of it between the open pads: the pad is buried in the slope there
+    res = _close(_tilted_box(70.0), [_pose([0, 0, 0])])
+    assert res.status.tolist() == [EDGE_TOUCH]
+    # a groove along z under the +x pad, x = 0.02 + 0.2 |y|: both rim sides touch the part
+    # at once, at x = 0.0217, and there is no one contact with one normal
+    y = np.array([-0.03, 0.0, 0.03])
+    outline = np.column_stack([np.r_[-0.02, 0.02 + 0.2 * np.abs(y), -0.02],
+                               np.r_[-0.03, y, 0.03]])
+    n = len(outline)
+    V = np.vstack([np.column_stack([outline, np.full(n, z)]) for z in (-0.03, 0.03)])
+    F = [[0, i + 1, i] for i in range(1, n - 1)] + [[n, n + i, n + i + 1] for i in range(1, n - 1)]
+    F += [f for i in range(n) for f in ([i, (i + 1) % n, n + (i + 1) % n],
+                                         [i, n + (i + 1) % n, n + i])]
+    groove = trimesh.Trimesh(V, F)
+    groove.fix_normals()
+    assert groove.is_watertight and groove.volume > 0
+    res = _close(groove, [_pose([0, 0, 0])], tol=1e-5)
+    assert res.status.tolist() == [EDGE_TOUCH]
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 30.0)])
+def test_landing_does_not_depend_on_the_parts_size_or_place(scale, offset):
+    # a tessellated cylinder under 800 random poses near it: scaled (the gripper and the
+    # touch tolerance with it) or moved far from the origin, every pose lands the same way
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(5)
+    R = Rotation.random(800, random_state=rng).as_matrix()
+    c = rng.normal(size=(800, 3)) * 0.012
+    base = trimesh.creation.cylinder(0.025, 0.08, sections=24)
+    out = []
+    for s, o in ((1.0, 0.0), (scale, offset)):
+        m = base.copy()
+        m.apply_scale(s)
+        m.apply_translation([o, -o, o])
+        T = np.tile(np.eye(4), (800, 1, 1))
+        T[:, :3, :3] = R
+        T[:, :3, 3] = c * s + [o, -o, o] - R @ (TCP * s)
+        out.append(close_jaws(m.vertices, m.faces, m.face_normals, T, FRANKA.scaled(s),
+                              1e-4 * s))
+    a, b = out
+    assert np.array_equal(a.status, b.status)
+    assert np.isin([LANDED, EDGE_TOUCH], a.status).all()  # both outcomes occur
+    ok = a.status == LANDED
+    assert np.allclose(a.normals[ok], b.normals[ok], atol=1e-6)
+    assert np.allclose(a.width[ok] * scale, b.width[ok], rtol=1e-6)

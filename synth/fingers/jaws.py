@@ -28,9 +28,11 @@ edge on a slope, as when the pads rest tilted on a curved part) makes a contact 
 part's normal there: on a face (the triangles under the contact within 1 degree of one
 plane), the face's; where a rim side crosses an edge of the part (two planes), the normal
 perpendicular to both the rim and the edge, which lies between the two faces' normals when
-the part peaks along the rim on that edge. A rim touching at a pad's corner on an edge, or on
-a vertex of the part, has no single normal: such poses are reported as ``EDGE_TOUCH`` and
-dropped. A
+the part peaks along the rim on that edge. The touch must be one piece, and the part must fall
+away from the rim into the rectangle (else it rises behind the open pad: the pad is buried in
+a slope). A pad touching with its rim in two places (across a groove), buried in a slope, or
+at a pad's corner on an edge or on a vertex of the part (no single normal) makes no contact:
+such poses are reported as ``EDGE_TOUCH`` and dropped. A
 Robotiq pad rises as the jaws close (``finger_z``): its rectangle is placed at the rise of the
 width found, and the search is repeated until the width no longer changes (three rounds at
 most). Poses are processed in chunks, every pose of a chunk at once in numpy.
@@ -52,8 +54,9 @@ LANDED, MISSES, TOO_WIDE, EDGE_TOUCH = 0, 1, 2, 3
 #: Words for :attr:`JawContacts.status`.
 JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                               TOO_WIDE: "wider than the opening",
-                              EDGE_TOUCH: "a pad's rim or corner meets an edge or vertex "
-                                          "of the part at no single normal"}
+                              EDGE_TOUCH: "a pad touches with its rim where it cannot "
+                                          "rest (in two places, buried in a slope, or "
+                                          "on an edge or vertex at no single normal)"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
 #: Poses per chunk times faces: a chunk's face centres in its poses' frames take about 16
@@ -172,8 +175,9 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     # the extreme between the open pads; where nothing lies there, the extreme beyond them
     # (the part is wider than the opening, or the open pad is inside it)
     sx = np.where(valid, sign * P[..., 0], -np.inf)
+    peak = sx.max(axis=1)  # each triangle's extreme inside the prism, behind the open pad too
     top_all = np.full(n, -np.inf)
-    np.maximum.at(top_all, kb, sx.max(axis=1))
+    np.maximum.at(top_all, kb, peak)
     valid &= sign * P[..., 0] <= half + eps
     sx = np.where(valid, sx, -np.inf)
     top = np.full(n, -np.inf)
@@ -273,8 +277,15 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
         m /= np.linalg.norm(m, axis=1, keepdims=True)
     edge = ~flat & (two >= _PARALLEL_COS) & (side_y ^ side_z) & (a * b >= 0) & (
         np.abs(a) + np.abs(b) > 0)
+    # no triangle under the contact rises behind the open pad inside the rectangle: else the
+    # rim is only the highest point left between the open pads of a slope the pad is buried
+    # in, not one it rests on
+    buried = np.zeros(n, bool)
+    np.logical_or.at(buried, kb[rows], peak[rows] > top[kb[rows]] + tol)
     face_n = np.where(edge[:, None], m, face_n)
-    rim &= (flat | edge) & (sign * face_n[:, 0] > 0)  # False where face_n is NaN
+    # one touching piece only (its middle lies on the part): a pad touching in two places,
+    # such as across a groove, has no single contact
+    rim &= centred & (flat | edge) & ~buried & (sign * face_n[:, 0] > 0)  # False where NaN
     return x, centre, np.where(hit, diag, 0.0), good & hit, rim, face_n, np.where(
         np.isfinite(top_all), sign * top_all, np.nan)
 

@@ -18,8 +18,8 @@ For every pose (already in the part's frame and unit, :mod:`synth.formats`):
 
 Each candidate gets one status: ``ranked`` (scored; closure or not), ``collision``,
 ``no contact`` (the part lies between the jaws but they make no trustworthy two-pad contact:
-wider than the opening, or a pad's rim or corner meeting an edge or vertex of the part at no
-single normal), ``misses the part`` (a pad's
+wider than the opening, or a pad touching with its rim where it cannot rest: in two places,
+buried in a slope, or on an edge or vertex at no single normal), ``misses the part`` (a pad's
 prism meets no part of the mesh) or ``malformed``. The ranked ones are ordered as the planner
 orders its grasps (``rank_by``), grasps without closure last.
 """

@@ -57,6 +57,10 @@ GRAVITY: float = 9.80665
 ICOSPHERE_LEVEL: int = 2
 #: Largest number of LPs per solver call (keeps the LP matrices in cache).
 _CHUNK = 2048
+#: A direction is skipped only when its bound stays below the worst value (and the bound)
+#: found so far by this relative margin, above the LPs' accuracy (optimality to 1e-7, HiGHS's
+#: default tolerances), so that LP noise cannot decide what is skipped.
+_SKIP_MARGIN = 1e-6
 
 
 @dataclass(frozen=True)
@@ -340,8 +344,7 @@ def _pruned(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike,
     ``v_a v_b``, so by sublinearity ``f(v) <= (f(v_a) + f(v_b)) / |v_a + v_b|`` (with the ends'
     own bounds where they were skipped), and it is evaluated only where that bound reaches
     the worst value evaluated so far or, divided by the vertex's least plane distance, the
-    largest bound (within
-    a relative 1e-9, the LPs' accuracy)."""
+    largest bound (within the relative ``_SKIP_MARGIN``)."""
     V = _icosphere(level)[0]
     levels = _levels(level)
     n0 = levels[0][0] if levels else len(V)
@@ -360,7 +363,8 @@ def _pruned(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike,
         top = (f / least).max(axis=1, keepdims=True)
         with np.errstate(invalid="ignore"):
             u = (ub[:, a] + ub[:, b]) * inv
-            skip = (u * (1.0 + 1e-9) < worst) & (u / least[lo:hi] * (1.0 + 1e-9) < top)
+            skip = (u * (1.0 + _SKIP_MARGIN) < worst) & (
+                u / least[lo:hi] * (1.0 + _SKIP_MARGIN) < top)
         ub[:, lo:hi] = u
         pb, pd = np.nonzero(~skip)
         if len(pb):

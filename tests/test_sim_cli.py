@@ -5,13 +5,18 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+from pathlib import Path
 
 import pytest
+import trimesh
 
 pytest.importorskip("mujoco")
 
 from synth.cli import main  # noqa: E402
+from synth.sim import SimSettings  # noqa: E402
 from tests.sim_support import CUBE6, write_cube, write_grasps  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(autouse=True)
@@ -82,12 +87,36 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     assert main(["sim", str(bad), "--mesh", str(mesh), "--no-files", "--shake", "0"]) == 0
 
 
-def test_a_gripper_grasp_file_is_one_line_saying_what_is_supported(tmp_path, capsys):
+def test_a_gripper_grasp_file_is_simulated_as_its_plan_would_be(tmp_path, capsys):
+    from synth.part import load_part
+    from synth.plan.gripper import GripperParams, plan_gripper
+    from synth.sim.jaws import simulate_jaw_document
+
+    mesh = ROOT / "meshes" / "cube.stl"
+    part = load_part(mesh, units="cm")
+    doc = plan_gripper(part, GripperParams(top=2, samples=60)).to_json()
     path = tmp_path / "jaws.json"
-    path.write_text(json.dumps({"format": "synth.gripper_grasps", "version": 1, "grasps": []}))
-    assert main(["sim", str(path)]) == 2
-    line = _one_line(capsys.readouterr().err)
-    assert "a gripper grasp file" in line and "synth plan --gripper NAME --sim" in line
+    path.write_text(json.dumps(doc))
+    assert main(["sim", str(path), "--shake", "0"]) == 2  # the file does not name its mesh
+    assert "--mesh" in _one_line(capsys.readouterr().err)
+    assert main(["sim", str(path), "--mesh", str(mesh), "--shake", "0", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "grasps held" in text and text.splitlines()[1].split()[0] == "1"
+    got = [g["sim"] for g in json.loads(path.read_text())["grasps"]]
+    want = [g["sim"] for g in simulate_jaw_document(doc, part, mesh, SimSettings(shake=0.0))[
+        "grasps"]]
+    untimed = [[{k: v for k, v in s.items() if k != "seconds"} for s in x] for x in (got, want)]
+    assert untimed[0] == untimed[1]
+    # another mesh, or a broken field, is one line naming it
+    other = tmp_path / "big.stl"
+    trimesh.creation.box(extents=[2.0, 2.0, 2.0]).export(other)
+    assert main(["sim", str(path), "--mesh", str(other), "--no-files"]) == 2
+    assert "not the mesh these grasps were planned on" in _one_line(capsys.readouterr().err)
+    doc["grasps"][1]["contacts"] = doc["grasps"][1]["contacts"][:1]
+    path.write_text(json.dumps(doc))
+    assert main(["sim", str(path), "--mesh", str(mesh), "--no-files"]) == 2
+    assert "field grasps[1].contacts: expected two contacts" in _one_line(
+        capsys.readouterr().err)
 
 
 def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):

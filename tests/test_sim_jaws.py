@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("mujoco")
@@ -38,3 +39,15 @@ def test_least_squeeze_predicts_the_gravity_stage(name, units):
                                                                     shake=0.0))
         assert weak["grasps"][0]["sim"]["failed_at"] == "gravity"
         assert strong["grasps"][0]["sim"]["failed_at"] != "gravity"
+
+
+def test_a_soft_pinch_has_no_predicted_escape_and_a_point_pinch_turns_about_its_line():
+    # two opposed contacts on x: point contacts leave the turn about x free, soft ones
+    # (torsion) resist it, so the simulation has no escape to compare the motion with
+    from synth.sim.label import predicted_escape
+
+    P = np.array([[0.5, 0.0, 0.0], [-0.5, 0.0, 0.0]])
+    N = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    esc = predicted_escape(P, N, 0.5, np.zeros(3), 1.0)
+    assert np.allclose(np.abs(esc.twist), [0, 0, 0, 1, 0, 0], atol=1e-6)
+    assert predicted_escape(P, N, 0.5, np.zeros(3), 1.0, torsion=0.05) is None

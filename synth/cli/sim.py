@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 from synth.cli.checks import integer, output_path, real
 
@@ -70,17 +71,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         description="Simulate every grasp of a grasp file (written by 'synth plan --out') "
         "in MuJoCo with force-limited point fingers: squeeze, gravity, pushes along and "
         "torques about +-x, +-y, +-z of the part until it moves, and a shake. Each grasp "
-        "gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, coacd).",
+        "gets a 'sim' label in the JSON. A gripper grasp file ('synth plan --gripper') is "
+        "simulated as the scorer scored it, one soft fingertip pressing at each pad's "
+        "contact; name its mesh with --mesh. Needs pip install 'synth[sim]' (mujoco, coacd).",
         epilog="Exit status: 0 every grasp simulated (held or not; a simulation that "
         "diverged is labelled so); 1 the file could not be written; 2 bad input (the line "
         "says what is wrong, also when mujoco is not installed); 3 internal error (a bug in "
         "synth). Non-convex bodies are decomposed with CoACD, cached in $SYNTH_CACHE_DIR "
         "(default ~/.cache/synth).",
     )
-    p.add_argument("grasps", metavar="GRASPS.json", help="grasp file written by synth plan")
+    p.add_argument("grasps", metavar="GRASPS.json",
+                   help="grasp file written by synth plan (point fingers or --gripper)")
     p.add_argument("--mesh", default=None, metavar="MESH",
                    help="the mesh file, when it is no longer where the grasp file's mesh.path "
-                   "says (it must have the same content)")
+                   "says (it must have the same content); required for a gripper grasp file")
     p.add_argument("--mu", type=float, default=None, metavar="MU",
                    help=f"simulate with this friction coefficient, in [0, {MAX_MU:g}] "
                    "(default: the grasps' own, params.mu)")
@@ -105,9 +109,11 @@ def format_sim_table(doc: dict) -> str:
     for i, g in enumerate(doc["grasps"], 1):
         s = g["sim"]
         failed = s["failed_at"] or "-"
-        lines.append(f"{i:>3}  {g.get('d_star', math.nan):>8.5f}  "
-                     f"{g.get('conditioning', math.nan):>7.4f}  "
-                     f"{'yes' if s['held'] else 'no':<4}  {failed:<9}  "
+        m = g.get("measures", g)  # a gripper grasp keeps its measures apart
+        cond = m.get("conditioning")
+        lines.append(f"{i:>3}  {m.get('d_star', math.nan):>8.5f}  "
+                     + (f"{'-':>7}  " if cond is None else f"{cond:>7.4f}  ")
+                     + f"{'yes' if s['held'] else 'no':<4}  {failed:<9}  "
                      f"{s['force_min']:>6.3f}  {s['torque_min']:>6.3f}  "
                      + (f"{s['motion_at']}: {s['motion_words']}" if s["motion_words"] else "-")
                      + ("" if s["escape_cos"] is None else
@@ -133,21 +139,26 @@ def summary(doc: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``synth sim``."""
     from synth.cli.progress import LineProgress
-    from synth.files import write_atomic
     from synth.limits import MAX_MU, MAX_SEED
     from synth.sim import (
         ContactModel,
+        check_document,
+        check_jaw_document,
         labelled_document,
-        read_grasp_file,
+        read_json,
         require_sim,
         simulate_file,
     )
+    from synth.sim.document import JAW_FORMAT
 
     real("--mu", args.mu, 0, MAX_MU)
     integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
     settings = settings_from_args(args, seed=args.seed)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
-    file = read_grasp_file(args.grasps)  # a bad file is said first, installed or not
+    doc = read_json(args.grasps)  # a bad file is said first, installed or not
+    if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
+        return _run_jaws(args, check_jaw_document(doc, str(args.grasps)), settings, out)
+    file = check_document(doc, str(args.grasps))
     require_sim()
     if args.mesh is not None:
         from dataclasses import replace
@@ -160,7 +171,45 @@ def run(args: argparse.Namespace) -> int:
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
-    doc = labelled_document(file, report)
+    _write(args, labelled_document(file, report), out)
+    return 0
+
+
+def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | None) -> int:
+    """``synth sim`` of a gripper grasp file: two soft fingertips per grasp, as
+    :func:`synth.sim.simulate_jaw_document` builds them, on the mesh given by ``--mesh``."""
+    from synth.cli.progress import LineProgress
+    from synth.errors import InputError
+    from synth.part import load_part
+    from synth.sim import require_sim, simulate_jaw_document
+
+    if args.mesh is None:
+        raise InputError(f"{args.grasps}: a gripper grasp file does not record its mesh's path: "
+                         "name the mesh it was planned on with --mesh")
+    require_sim()
+    part = load_part(args.mesh, units=doc["mesh"]["units"])
+    planned = float(doc["mesh"]["length"])
+    if abs(part.length - planned) > 1e-6 * planned:
+        raise InputError(f"{args.mesh}: not the mesh these grasps were planned on (its size "
+                         f"is {part.length:.9g} {doc['mesh']['units']}, the file's mesh.length "
+                         f"is {planned:.9g})")
+    if args.mu is not None:
+        doc = dict(doc, model=dict(doc["model"], mu=args.mu))
+    bar = LineProgress(enabled=not (args.quiet or args.json))
+    try:
+        labelled = simulate_jaw_document(
+            doc, part, args.mesh, settings,
+            progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
+    finally:
+        bar.close()
+    _write(args, labelled, out)
+    return 0
+
+
+def _write(args: argparse.Namespace, doc: dict, out: Path | None) -> None:
+    """Write the labelled document to ``out`` and print the table (or the JSON)."""
+    from synth.files import write_atomic
+
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:
         write_atomic(out, text)
@@ -171,4 +220,3 @@ def run(args: argparse.Namespace) -> int:
         print(summary(doc))
         if out is not None and not args.quiet:
             print(f"wrote {out}")
-    return 0

@@ -21,7 +21,8 @@ from typing import Any
 _WHERE = {
     "ContactModel": "contact",
     "GraspFile": "document", "SimGrasp": "document", "check_document": "document",
-    "read_grasp_file": "document",
+    "check_jaw_document": "document", "read_grasp_file": "document", "read_json": "document",
+    "simulate_jaw_document": "jaws",
     "Escape": "label", "SimLabel": "label", "label_run": "label", "predicted_escape": "label",
     "ConvexPieces": "pieces", "cache_dir": "pieces", "convex_pieces": "pieces",
     "PLAN_FORMATS": "plans", "simulate_plan": "plans",

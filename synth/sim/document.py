@@ -21,7 +21,8 @@ from numpy.typing import NDArray
 
 from synth.errors import InputError, shown
 
-__all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "check_document"]
+__all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "read_json", "check_document",
+           "check_jaw_document", "JAW_FORMAT"]
 
 #: The format and version the simulation reads (see the README's "Output file format").
 FORMAT, VERSION = "synth.grasps", 1
@@ -199,11 +200,8 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
                          f"{type(doc).__name__}")
     fmt = _get(doc, "format", "", name)
     if fmt == "synth.gripper_grasps":
-        raise InputError(f"{name}: a gripper grasp file; synth sim reads point-finger grasp "
-                         "files (synth.grasps): simulate gripper grasps as they are planned, "
-                         "with synth plan --gripper NAME --sim or synth db build --gripper NAME "
-                         "--sim (the file does not record the part's mesh, centre of mass and "
-                         "volume)")
+        raise InputError(f"{name}: a gripper grasp file: simulate it with synth sim "
+                         "GRASPS.json --mesh PART (check_jaw_document reads it)")
     if fmt != FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {FORMAT!r}, got {shown(fmt)} "
                          "(write grasp files with 'synth plan --out')")
@@ -231,6 +229,60 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
                      tuple(_grasp(g, i, name) for i, g in enumerate(grasps)), doc)
 
 
+JAW_FORMAT = "synth.gripper_grasps"
+
+
+def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
+    """Check that a gripper grasp document (``synth.gripper_grasps``, version 1) has what
+    the simulation reads: ``mesh.units`` and ``mesh.length``, ``model.mu`` and
+    ``model.torsion``, and per grasp two contacts (``point``, unit ``normal``) and
+    ``measures.d_star``.
+
+    Returns
+    -------
+    dict
+        ``doc`` itself.
+
+    Raises
+    ------
+    InputError
+        A field is missing or of the wrong type, shape or range; the message names it.
+    """
+    fmt = _get(doc, "format", "", name)
+    if fmt != JAW_FORMAT:
+        raise InputError(f"{_where(name, 'format')}: expected {JAW_FORMAT!r}, got {shown(fmt)}")
+    version = _get(doc, "version", "", name)
+    if version != 1:
+        raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
+                         "from another version of synth)")
+    mesh = _get(doc, "mesh", "", name)
+    units = _get(mesh, "units", "mesh", name)
+    if not isinstance(units, str) or not units:
+        raise InputError(f"{_where(name, 'mesh.units')}: expected a unit name, got "
+                         f"{shown(units)}")
+    _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)
+    model = _get(doc, "model", "", name)
+    _number(_get(model, "mu", "model", name), "model.mu", name, 0.0)
+    _number(_get(model, "torsion", "model", name), "model.torsion", name, 0.0)
+    grasps = _get(doc, "grasps", "", name)
+    if not isinstance(grasps, list) or not grasps:
+        raise InputError(f"{_where(name, 'grasps')}: expected a list of at least one grasp, "
+                         f"got {shown(grasps)}")
+    for i, g in enumerate(grasps):
+        where = f"grasps[{i}]"
+        contacts = _get(g, "contacts", where, name)
+        if not isinstance(contacts, list) or len(contacts) != 2:
+            raise InputError(f"{_where(name, f'{where}.contacts')}: expected two contacts, got "
+                             f"{shown(contacts)}")
+        for j, c in enumerate(contacts):
+            cw = f"{where}.contacts[{j}]"
+            _array([_get(c, "point", cw, name)], f"{cw}.point", name, 1)
+            _array([_get(c, "normal", cw, name)], f"{cw}.normal", name, 1, unit=True)
+        _number(_get(_get(g, "measures", where, name), "d_star", f"{where}.measures", name),
+                f"{where}.measures.d_star", name)
+    return doc
+
+
 def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
     """Read and check a grasp file (see :func:`check_document`).
 
@@ -238,6 +290,17 @@ def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
     ------
     InputError
         The file is missing, not JSON, or a field is bad.
+    """
+    return check_document(read_json(path), str(path))
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """The JSON document of a file.
+
+    Raises
+    ------
+    InputError
+        The file is missing, cannot be read, or is not JSON (the message names it).
     """
     name = str(path)
     try:
@@ -247,7 +310,6 @@ def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
     except (OSError, UnicodeDecodeError) as e:
         raise InputError(f"{name}: cannot be read ({getattr(e, 'strerror', None) or e})") from e
     try:
-        doc = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as e:
         raise InputError(f"{name}: not JSON ({e.msg} at line {e.lineno})") from None
-    return check_document(doc, name)

@@ -42,7 +42,8 @@ class Escape:
 
 
 def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], mu: float,
-                     center: NDArray[np.float64], length: float) -> Escape | None:
+                     center: NDArray[np.float64], length: float,
+                     torsion: float = 0.0) -> Escape | None:
     """synth's escape twist of a grasp (:mod:`synth.scores.escape`), or None for closure.
 
     Parameters
@@ -56,6 +57,9 @@ def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], 
         Centre of mass: the twist's reference point.
     length : float
         The part's size, to weigh rotations.
+    torsion : float
+        Torsional coefficient of soft contacts, a length in the points' unit (0: point
+        contacts); soft contacts take the frictional test with it.
     """
     from synth.scores import form_closure, frictional_form_closure, wrench_matrix
 
@@ -63,7 +67,7 @@ def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], 
         W = wrench_matrix(points, normals, center)
         esc = form_closure(W).escape
     else:
-        r = frictional_form_closure(points, normals, mu, center=center)
+        r = frictional_form_closure(points, normals, mu, center=center, torsion=torsion)
         W = None
         esc = r.escape
     if esc is None:

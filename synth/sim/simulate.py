@@ -146,7 +146,7 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
                             volume=file.volume, settings=st, contact=model,
                             mesh_name=str(file.mesh_path))
         escape = predicted_escape(g.points, g.normals, model.mu, file.center_mass,
-                                  file.length)
+                                  file.length, model.torsion * file.length / st.size)
         labels.append(label_run(run_protocol(scene), scene, escape))
         if progress is not None:
             progress(i + 1, len(file.grasps))

@@ -124,3 +124,20 @@ def test_the_command_ranks_a_graspgen_file_and_reports_a_malformed_pose(tmp_path
     assert [c["status"] for c in res["candidates"]] == ["ranked", "malformed"]
     assert res["candidates"][0]["label"] == 1.0 and res["poses"]["format"] == "graspgen"
     assert "ranked" in out.splitlines()[1]
+
+
+def test_a_pad_resting_on_its_rim_says_so_in_the_json():
+    # a box whose +x face is turned 10 degrees about z: the +x pad rests on its rim with the
+    # face's normal, the -x pad flat on its face
+    a = np.radians(10.0)
+    V = [[-0.02, y, z] for y in (-0.03, 0.03) for z in (-0.03, 0.03)]
+    V += [[0.02 - np.tan(a) * y, y, z] for y in (-0.03, 0.03) for z in (-0.03, 0.03)]
+    part = load_part(trimesh.convex.convex_hull(np.array(V)), units="m")
+    T = np.eye(4)
+    T[:3, 3] = -TCP
+    row = _rank(part, [T]).rows[0]
+    assert row.status == "ranked"
+    contacts = row.grasp.to_json()["contacts"]
+    assert [c["touch"] for c in contacts] == ["rim", "pad"]
+    assert np.allclose(contacts[0]["normal"], [-np.cos(a), -np.sin(a), 0.0], atol=1e-9)
+    assert np.allclose(contacts[1]["normal"], [1.0, 0.0, 0.0], atol=1e-12)

@@ -170,14 +170,24 @@ class GripperGrasp:
     least_squeeze: float | None
     margin: float | None
 
+    @property
+    def touch(self) -> tuple[str, str]:
+        """How each pad touches: ``"pad"`` (its face on the part: the normal is the pad's
+        closing direction) or ``"rim"`` (only its rim on a slope: the normal is the part's)."""
+        x = self.pose[:3, 0]
+        return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
+                     for n, sign in zip(self.normals, (1.0, -1.0)))
+
     def to_json(self) -> dict[str, Any]:
         """The grasp as a JSON object."""
         def num(x: float | None) -> float | None:
             return None if x is None or not math.isfinite(x) else float(x)
 
         return {"pose": self.pose.tolist(), "tcp": self.tcp.tolist(), "width": self.width,
-                "contacts": [{"point": p.tolist(), "normal": n.tolist(), "patch": float(s)}
-                             for p, n, s in zip(self.points, self.normals, self.patch)],
+                "contacts": [{"point": p.tolist(), "normal": n.tolist(), "patch": float(s),
+                              "touch": t}
+                             for p, n, s, t in zip(self.points, self.normals, self.patch,
+                                                   self.touch)],
                 "measures": {"margin": num(self.margin), "least_squeeze": num(self.least_squeeze),
                              "squeeze_per_weight": num(self.squeeze_per_weight),
                              "squeeze_per_weight_sampled": num(self.squeeze_sampled),

@@ -107,11 +107,21 @@ def test_a_gripper_grasp_file_is_simulated_as_its_plan_would_be(tmp_path, capsys
         "grasps"]]
     untimed = [[{k: v for k, v in s.items() if k != "seconds"} for s in x] for x in (got, want)]
     assert untimed[0] == untimed[1]
-    # another mesh, or a broken field, is one line naming it
+    # --mu simulates with another coefficient; the plan's own stays in the file
+    assert main(["sim", str(path), "--mesh", str(mesh), "--shake", "0", "--quiet",
+                 "--mu", "0.3"]) == 0
+    capsys.readouterr()
+    again = json.loads(path.read_text())
+    assert again["model"]["mu"] == doc["model"]["mu"] and again["sim"]["contact"]["mu"] == 0.3
+    # another mesh (larger, or the same moved), or a broken field, is one line naming it
     other = tmp_path / "big.stl"
     trimesh.creation.box(extents=[2.0, 2.0, 2.0]).export(other)
-    assert main(["sim", str(path), "--mesh", str(other), "--no-files"]) == 2
-    assert "not the mesh these grasps were planned on" in _one_line(capsys.readouterr().err)
+    moved = tmp_path / "moved.stl"
+    trimesh.load(mesh).apply_translation([5.0, 0.0, 0.0]).export(moved)
+    for wrong in (other, moved):
+        assert main(["sim", str(path), "--mesh", str(wrong), "--no-files"]) == 2
+        assert "not the mesh these grasps were planned on" in _one_line(
+            capsys.readouterr().err)
     doc["grasps"][1]["contacts"] = doc["grasps"][1]["contacts"][:1]
     path.write_text(json.dumps(doc))
     assert main(["sim", str(path), "--mesh", str(mesh), "--no-files"]) == 2
@@ -127,3 +137,15 @@ def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):
     doc = json.loads(out.read_text())
     assert all("sim" in g for g in doc["grasps"]) and doc["sim"]["held"] >= 1
     assert "grasps held" in capsys.readouterr().out
+
+
+def test_fields_the_simulation_does_not_read_are_left_alone(tmp_path, capsys):
+    # a point-finger grasp may carry other fields (here a stray 'measures'); the table reads
+    # the checked d_star and conditioning, and the field is written back untouched
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
+    doc = json.loads(path.read_text())
+    doc["grasps"][0]["measures"] = "x"
+    path.write_text(json.dumps(doc))
+    assert main(["sim", str(path), "--shake", "0", "--quiet"]) == 0
+    assert "grasps held" in capsys.readouterr().out
+    assert json.loads(path.read_text())["grasps"][0]["measures"] == "x"

@@ -146,6 +146,8 @@ def run_gripper(args: argparse.Namespace) -> int:
     report_part(part, args.quiet or args.json)
     plan = plan_gripper(part, params)
     doc = plan.to_json()
+    # how the mesh was loaded, so that synth sim --mesh can load the same part
+    doc["mesh"].update(body=args.body, sharp_angle=args.sharp_angle)
     if settings is not None and plan.grasps:
         from synth.sim import simulate_plan
 

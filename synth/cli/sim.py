@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -106,13 +105,18 @@ def format_sim_table(doc: dict) -> str:
     """Table of a labelled document's grasps: measures beside the simulation's labels."""
     lines = [f"{'#':>3}  {'d*':>8}  {'cond':>7}  {'held':<4}  {'failed at':<9}  "
              f"{'force':>6}  {'torque':>6}  motion"]
+    jaws = doc.get("format") == "synth.gripper_grasps"  # its measures are kept apart
+
+    def num(value: Any, spec: str, width: int) -> str:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        return format(value, spec) if ok else f"{'-':>{width}}"
+
     for i, g in enumerate(doc["grasps"], 1):
         s = g["sim"]
         failed = s["failed_at"] or "-"
-        m = g.get("measures", g)  # a gripper grasp keeps its measures apart
-        cond = m.get("conditioning")
-        lines.append(f"{i:>3}  {m.get('d_star', math.nan):>8.5f}  "
-                     + (f"{'-':>7}  " if cond is None else f"{cond:>7.4f}  ")
+        m = g["measures"] if jaws else g
+        lines.append(f"{i:>3}  {num(m.get('d_star'), '>8.5f', 8)}  "
+                     f"{num(m.get('conditioning'), '>7.4f', 7)}  "
                      + f"{'yes' if s['held'] else 'no':<4}  {failed:<9}  "
                      f"{s['force_min']:>6.3f}  {s['torque_min']:>6.3f}  "
                      + (f"{s['motion_at']}: {s['motion_words']}" if s["motion_words"] else "-")
@@ -178,27 +182,46 @@ def run(args: argparse.Namespace) -> int:
 def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | None) -> int:
     """``synth sim`` of a gripper grasp file: two soft fingertips per grasp, as
     :func:`synth.sim.simulate_jaw_document` builds them, on the mesh given by ``--mesh``."""
+    import numpy as np
+
     from synth.cli.progress import LineProgress
     from synth.errors import InputError
     from synth.part import load_part
+    from synth.part.resolve import closest_points
+    from synth.plan import load_options
     from synth.sim import require_sim, simulate_jaw_document
 
     if args.mesh is None:
         raise InputError(f"{args.grasps}: a gripper grasp file does not record its mesh's path: "
                          "name the mesh it was planned on with --mesh")
+    if args.mu is not None and args.mu <= 0:
+        raise InputError(f"--mu: a gripper's soft contacts need friction: expected mu > 0, got "
+                         f"{args.mu:g}")
     require_sim()
-    part = load_part(args.mesh, units=doc["mesh"]["units"])
-    planned = float(doc["mesh"]["length"])
+    mesh = doc["mesh"]
+    part = load_part(args.mesh, **load_options({"units": mesh["units"],
+                                                "body": mesh.get("body", "largest"),
+                                                "sharp_angle": mesh.get("sharp_angle", 30.0)}))
+    planned = float(mesh["length"])
     if abs(part.length - planned) > 1e-6 * planned:
         raise InputError(f"{args.mesh}: not the mesh these grasps were planned on (its size "
-                         f"is {part.length:.9g} {doc['mesh']['units']}, the file's mesh.length "
+                         f"is {part.length:.9g} {mesh['units']}, the file's mesh.length "
                          f"is {planned:.9g})")
-    if args.mu is not None:
-        doc = dict(doc, model=dict(doc["model"], mu=args.mu))
+    P = np.array([c["point"] for g in doc["grasps"] for c in g["contacts"]], float)
+    lo, hi = part.mesh.bounds
+    with np.errstate(over="ignore"):
+        off = np.linalg.norm(np.maximum(0.0, np.maximum(lo - P, P - hi)), axis=1)  # to the box
+    near = off <= part.surface_tolerance
+    off[near] = closest_points(part, P[near])[2]
+    worst = int(np.argmax(off))
+    if off[worst] > part.surface_tolerance:
+        how = f"{off[worst]:.3g} {mesh['units']}" if np.isfinite(off[worst]) else "far"
+        raise InputError(f"{args.mesh}: not the mesh these grasps were planned on (contact "
+                         f"{worst % 2} of grasp {worst // 2 + 1} lies {how} off its surface)")
     bar = LineProgress(enabled=not (args.quiet or args.json))
     try:
         labelled = simulate_jaw_document(
-            doc, part, args.mesh, settings,
+            doc, part, args.mesh, settings, mu=args.mu,
             progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()

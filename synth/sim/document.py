@@ -109,7 +109,11 @@ def _get(obj: Any, key: str, where: str, name: str) -> Any:
 def _number(value: Any, key: str, name: str, lo: float = -math.inf,
             lo_open: bool = False) -> float:
     ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not ok or not math.isfinite(value) or value < lo or (lo_open and value == lo):
+    try:
+        ok = ok and math.isfinite(value)
+    except OverflowError:  # an integer too large for a float
+        ok = False
+    if not ok or value < lo or (lo_open and value == lo):
         bound = "" if lo == -math.inf else f" {'>' if lo_open else '>='} {lo:g}"
         raise InputError(f"{_where(name, key)}: expected a finite number{bound}, got "
                          f"{shown(value)}")
@@ -121,7 +125,7 @@ def _array(value: Any, key: str, name: str, rows: int | None = None,
     want = f"({rows if rows is not None else 'n'}, 3) numbers"
     try:
         a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InputError(f"{_where(name, key)}: expected {want}, got {shown(value)}") from None
     if a.ndim != 2 or a.shape[1] != 3 or len(a) == 0 or (rows is not None and len(a) != rows):
         raise InputError(f"{_where(name, key)}: expected {want}, got shape {a.shape}")
@@ -234,7 +238,8 @@ JAW_FORMAT = "synth.gripper_grasps"
 
 def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
     """Check that a gripper grasp document (``synth.gripper_grasps``, version 1) has what
-    the simulation reads: ``mesh.units`` and ``mesh.length``, ``model.mu`` and
+    the simulation reads: ``mesh.units`` and ``mesh.length`` (and ``mesh.body`` and
+    ``mesh.sharp_angle`` where written), ``model.mu`` (> 0: soft contacts need friction) and
     ``model.torsion``, and per grasp two contacts (``point``, unit ``normal``) and
     ``measures.d_star``.
 
@@ -252,18 +257,40 @@ def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
     if fmt != JAW_FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {JAW_FORMAT!r}, got {shown(fmt)}")
     version = _get(doc, "version", "", name)
-    if version != 1:
+    if isinstance(version, bool) or version != 1:
         raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
                          "from another version of synth)")
     mesh = _get(doc, "mesh", "", name)
     units = _get(mesh, "units", "mesh", name)
-    if not isinstance(units, str) or not units:
-        raise InputError(f"{_where(name, 'mesh.units')}: expected a unit name, got "
+    import trimesh
+
+    from synth.part.load import UNIT_ALIASES
+
+    try:
+        trimesh.units.to_inch(UNIT_ALIASES.get(str(units).strip().lower(), str(units)))
+        known = isinstance(units, str)
+    except Exception:  # noqa: BLE001 - trimesh raises several kinds
+        known = False
+    if not known:
+        raise InputError(f"{_where(name, 'mesh.units')}: expected a length unit, got "
                          f"{shown(units)}")
-    _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)
+    length = _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)
+    body = mesh.get("body", "largest")
+    if isinstance(body, bool) or not isinstance(body, (str, int)):
+        raise InputError(f"{_where(name, 'mesh.body')}: expected 'largest', 'all' or a body "
+                         f"index, got {shown(body)}")
+    _number(mesh.get("sharp_angle", 30.0), "mesh.sharp_angle", name, 0.0)
     model = _get(doc, "model", "", name)
-    _number(_get(model, "mu", "model", name), "model.mu", name, 0.0)
-    _number(_get(model, "torsion", "model", name), "model.torsion", name, 0.0)
+    from synth.limits import MAX_MU
+
+    mu = _number(_get(model, "mu", "model", name), "model.mu", name, 0.0, True)
+    if mu > MAX_MU:
+        raise InputError(f"{_where(name, 'model.mu')}: expected at most {MAX_MU:g}, got "
+                         f"{shown(mu)}")
+    torsion = _number(_get(model, "torsion", "model", name), "model.torsion", name, 0.0)
+    if torsion > length:
+        raise InputError(f"{_where(name, 'model.torsion')}: expected at most the part's size "
+                         f"(mesh.length {length:g}), got {shown(torsion)}")
     grasps = _get(doc, "grasps", "", name)
     if not isinstance(grasps, list) or not grasps:
         raise InputError(f"{_where(name, 'grasps')}: expected a list of at least one grasp, "

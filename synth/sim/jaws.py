@@ -65,7 +65,8 @@ def jaw_grasp_file(doc: dict[str, Any], part: Any, mesh_path: str | Path) -> Gra
 
 
 def simulate_jaw_document(doc: dict[str, Any], part: Any, mesh_path: str | Path,
-                          settings: SimSettings | None = None, **kwargs: Any) -> dict[str, Any]:
+                          settings: SimSettings | None = None, mu: float | None = None,
+                          **kwargs: Any) -> dict[str, Any]:
     """Simulate every grasp of a gripper plan's document; the document with ``sim`` labels.
 
     Parameters
@@ -75,6 +76,9 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, mesh_path: str | Path,
     part : Part
     mesh_path : str or Path
     settings : SimSettings, optional
+    mu : float, optional
+        Simulate with this friction coefficient instead of the plan's ``model.mu`` (the
+        document keeps its own; the label's ``contact`` says what was simulated).
     **kwargs
         Passed to :func:`synth.sim.simulate_file` (``cache``, ``progress``).
 
@@ -86,5 +90,6 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, mesh_path: str | Path,
     st = settings or SimSettings()
     file = jaw_grasp_file(doc, part, mesh_path)
     torsion = float(doc["model"]["torsion"]) * st.size / float(part.length)
-    report = simulate_file(file, st, contact=ContactModel(file.mu, torsion), **kwargs)
+    report = simulate_file(file, st, contact=ContactModel(file.mu if mu is None else mu,
+                                                          torsion), **kwargs)
     return labelled_document(file, report)

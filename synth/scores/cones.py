@@ -35,6 +35,7 @@ from synth.errors import InputError
 
 __all__ = [
     "SOFT_LATITUDES",
+    "check_contacts_batch",
     "cone_directions",
     "cone_name",
     "cone_wrenches_batch",
@@ -107,6 +108,33 @@ def cone_directions(edges: int, soft: bool) -> NDArray[np.float64]:
     if soft:
         rings.append(np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]))
     return np.concatenate(rings, axis=0)
+
+
+def check_contacts_batch(points: ArrayLike, normals: ArrayLike
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The contacts of B grasps of k contacts each as float arrays, checked.
+
+    Parameters
+    ----------
+    points, normals : (B, k, 3) float
+
+    Returns
+    -------
+    points, normals : (B, k, 3) float
+
+    Raises
+    ------
+    InputError
+        The shapes differ or are not (B, k, 3), or a value is not finite.
+    """
+    P = np.asarray(points, dtype=np.float64)
+    N = np.asarray(normals, dtype=np.float64)
+    if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
+        raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
+                         f"and {N.shape}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
+        raise InputError("points and normals must be finite")
+    return P, N
 
 
 def cone_wrenches_batch(

@@ -24,7 +24,8 @@ from numpy.typing import ArrayLike
 
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
-from synth.scores.cones import cone_wrenches_batch, generators_per_contact
+from synth.scores.cones import (check_contacts_batch, cone_wrenches_batch,
+                                generators_per_contact)
 from synth.scores.friction_lp import solve_frictional_lp
 from synth.scores.gram import rank_of_balanced
 from synth.scores.simplex import UNBOUNDED, UNVERIFIED, compiled_for, solve_batch
@@ -75,13 +76,7 @@ def frictional_form_closure_batch(
         ``closure`` is frictional form closure.
     """
     t0 = time.perf_counter()
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
-    if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
-        raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
-                         f"and {N.shape}")
-    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
-        raise InputError("points and normals must be finite")
+    P, N = check_contacts_batch(points, normals)
     B, k, _ = P.shape
     mu_a = np.asarray(mu, dtype=np.float64)
     gam = np.asarray(torsion, dtype=np.float64)

@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
-from synth.scores.cones import cone_name, cone_wrenches_batch
+from synth.scores.cones import check_contacts_batch, cone_name, cone_wrenches_batch
 from synth.scores.simplex import UNVERIFIED, compiled_for, solve_batch
 
 __all__ = ["GRAVITY", "GravityHold", "gravity_hold_batch", "least_squeeze_batch",
@@ -106,18 +106,6 @@ def _icosphere(level: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDAr
     return V, F, h
 
 
-def _check(points: ArrayLike, normals: ArrayLike) -> tuple[NDArray[np.float64],
-                                                           NDArray[np.float64]]:
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
-    if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
-        raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
-                         f"and {N.shape}")
-    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(N))):
-        raise InputError("points and normals must be finite")
-    return P, N
-
-
 def least_squeeze_batch(
     points: ArrayLike,
     normals: ArrayLike,
@@ -162,7 +150,7 @@ def least_squeeze_batch(
     >>> least_squeeze_batch(P, N, 0.5, 0.01, [0, 0, 0], 1.0, [[0, 0, -1.0]]).round(6).tolist()
     [[1.0]]
     """
-    P, N = _check(points, normals)
+    P, N = check_contacts_batch(points, normals)
     B = len(P)
     Dn = _directions(directions)
     pairs = np.stack(np.meshgrid(np.arange(B), np.arange(len(Dn)), indexing="ij"),
@@ -280,7 +268,7 @@ def gravity_hold_batch(
     >>> round(float(h.squeeze_per_weight[0]), 6)  # 1 / (2 mu)
     1.0
     """
-    P, N = _check(points, normals)
+    P, N = check_contacts_batch(points, normals)
     gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (P.shape[1],))
     name = cone_name(edges, bool(np.any(gam > 0)))
     if gravity is not None:

@@ -23,9 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from synth.errors import InputError
 from synth.limits import MAX_MU
-from synth.scores.cones import cone_name
+from synth.scores.cones import check_contacts_batch, cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 
 __all__ = ["MU_MIN_TOL", "MuMin", "mu_min", "mu_min_batch"]
@@ -86,11 +85,7 @@ def mu_min_batch(
     >>> round(float(mu_min_batch(P, N, torsion=0.05).mu_min[0]), 5)  # tan = 0.2 / 2
     0.1
     """
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
-    if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
-        raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
-                         f"and {N.shape}")
+    P, N = check_contacts_batch(points, normals)
     B, k, _ = P.shape
     gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (k,))
     soft = bool(np.any(gam > 0))

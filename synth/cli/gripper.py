@@ -11,10 +11,27 @@ from typing import Any
 from synth.cli.checks import integer, output_path, real
 from synth.errors import OptionError
 
-__all__ = ["add_gripper_options", "refuse_gripper_options", "gripper_params", "run_gripper",
+__all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options", "gripper_params", "run_gripper",
            "format_gripper_table"]
 
 _ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
+
+
+def add_hold_options(g: argparse._ArgumentGroup) -> None:
+    """How the pads hold the part: ``--torsion``, ``--mass``, ``--density``, ``--gravity``
+    (``synth plan --gripper`` and ``synth rank --gripper``; checked by
+    :func:`gripper_params`)."""
+    g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
+                   help="torsional friction of the pads, a length in the mesh's units "
+                   "(default 5 mm, MuJoCo's default torsional coefficient)")
+    g.add_argument("--mass", type=float, default=None, metavar="KG",
+                   help="the part's mass in kg: the grasps then say the least squeeze in "
+                   "newtons and the margin to the gripper's rated force")
+    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
+                   help="or its density, times the closed bodies' volume")
+    g.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                   help="hold against gravity in this direction of the part's frame only "
+                   "(default: in every orientation)")
 
 
 def add_gripper_options(p: argparse.ArgumentParser) -> None:
@@ -28,17 +45,7 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
                    help=f"plan grasps of a parallel-jaw gripper: {', '.join(BUILTIN_GRIPPERS)} "
                    "or a JSON description (see synth/fingers/grippers/README.md); needs the "
                    "part's unit (--units)")
-    g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
-                   help="torsional friction of the pads, a length in the mesh's units "
-                   "(default 5 mm, MuJoCo's default torsional coefficient)")
-    g.add_argument("--mass", type=float, default=None, metavar="KG",
-                   help="the part's mass in kg: the grasps then say the least squeeze in "
-                   "newtons and the margin to the gripper's rated force")
-    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
-                   help="or its density, times the closed bodies' volume")
-    g.add_argument("--gravity", default=None, metavar="X,Y,Z",
-                   help="hold against gravity in this direction of the part's frame only "
-                   "(default: in every orientation)")
+    add_hold_options(g)
     g.add_argument("--samples", type=int, default=None, metavar="N",
                    help=f"surface points drawn, each an antipodal pair tried at {APPROACHES} "
                    f"approach angles (default {d.samples})")

@@ -17,22 +17,14 @@ _ONLY_GRIPPER = ("gripper", "mass", "density", "gravity", "torsion", "table")
 
 def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:
     """The gripper options of ``synth rank``."""
+    from synth.cli.gripper import add_hold_options
     from synth.fingers.gripper import BUILTIN_GRIPPERS
 
     g = p.add_argument_group("gripper (CANDIDATES are gripper poses)")
     g.add_argument("--gripper", default=None, metavar="NAME|FILE",
                    help=f"rank gripper poses of a parallel-jaw gripper: "
                    f"{', '.join(BUILTIN_GRIPPERS)} or a JSON description")
-    g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
-                   help="torsional friction of the pads, a length in the mesh's units "
-                   "(default 5 mm)")
-    g.add_argument("--mass", type=float, default=None, metavar="KG",
-                   help="the part's mass in kg (for the least squeeze in newtons and the margin)")
-    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
-                   help="or its density, times the closed bodies' volume")
-    g.add_argument("--gravity", default=None, metavar="X,Y,Z",
-                   help="hold against gravity in this direction only (default: every "
-                   "orientation)")
+    add_hold_options(g)
     g.add_argument("--table", type=float, default=None, metavar="Z",
                    help="a support plane z = Z in the part's frame that the hand may not cross")
 

@@ -286,18 +286,13 @@ def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
 
 def _check_load_options(params: dict[str, Any]) -> None:
     """The mesh options of a parameter set, as :func:`synth.load_part` will check them."""
-    from synth.part.load import UNIT_ALIASES
+    from synth.part.load import length_unit
 
     units, body, angle = params["units"], params["body"], params["sharp_angle"]
-    if units is not None:
-        try:
-            import trimesh
-
-            trimesh.units.to_inch(UNIT_ALIASES.get(str(units).strip().lower(), str(units)))
-        except Exception as e:  # noqa: BLE001 - trimesh raises several kinds
-            raise InputError(f"planner parameter 'units': unknown length unit {units!r}; use "
-                             "mm, cm, dm, m, um, in, ft or a trimesh unit name such as "
-                             "'millimeters'") from e
+    if units is not None and length_unit(str(units)) is None:
+        raise InputError(f"planner parameter 'units': unknown length unit {units!r}; use "
+                         "mm, cm, dm, m, um, in, ft or a trimesh unit name such as "
+                         "'millimeters'")
     if isinstance(body, bool) or not isinstance(body, (int, str)):
         raise InputError(f"planner parameter 'body' must be 'largest', 'all', an index or a "
                          f"body name, got {body!r}")

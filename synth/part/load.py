@@ -37,7 +37,7 @@ from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
 from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_edges, orient, weld
 
-__all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "load_part"]
+__all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "length_unit", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
 SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
@@ -299,6 +299,17 @@ def _choose(groups: list[list[int]], bodies: list[tuple[str, trimesh.Trimesh, bo
     return groups[k], dropped, None
 
 
+def length_unit(unit: object) -> str | None:
+    """The unit name trimesh reads for ``unit`` (an alias such as ``mm`` resolved, see
+    ``UNIT_ALIASES``), or None when it is not a length unit trimesh knows."""
+    name = UNIT_ALIASES.get(str(unit).strip().lower(), unit)
+    try:
+        trimesh.units.to_inch(name)
+    except Exception:  # noqa: BLE001 - trimesh raises several kinds
+        return None
+    return name  # type: ignore[return-value]
+
+
 def _valid_unit(unit: object) -> str | None:
     if not isinstance(unit, str):
         return None
@@ -362,12 +373,11 @@ def load_part(
         raise MeshError(f"source: expected a path or trimesh.Trimesh, got {type(source).__name__}")
     unit = units if units is not None else _valid_unit(declared)
     if unit is not None:
-        unit = UNIT_ALIASES.get(str(unit).strip().lower(), unit)
-        try:
-            trimesh.units.to_inch(unit)
-        except Exception as e:
+        known = length_unit(unit)
+        if known is None:
             raise MeshError(f"{name}: unknown length unit {unit!r}; use mm, cm, dm, m, um, in, "
-                            "ft or a trimesh unit name such as 'millimeters'") from e
+                            "ft or a trimesh unit name such as 'millimeters'")
+        unit = known
     else:
         warnings.append("length unit unknown: the file does not say it; give it with --units "
                         "(Python: units=), e.g. mm, cm, m or in")

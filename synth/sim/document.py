@@ -262,16 +262,9 @@ def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
                          "from another version of synth)")
     mesh = _get(doc, "mesh", "", name)
     units = _get(mesh, "units", "mesh", name)
-    import trimesh
+    from synth.part.load import length_unit
 
-    from synth.part.load import UNIT_ALIASES
-
-    try:
-        trimesh.units.to_inch(UNIT_ALIASES.get(str(units).strip().lower(), str(units)))
-        known = isinstance(units, str)
-    except Exception:  # noqa: BLE001 - trimesh raises several kinds
-        known = False
-    if not known:
+    if not isinstance(units, str) or length_unit(units) is None:
         raise InputError(f"{_where(name, 'mesh.units')}: expected a length unit, got "
                          f"{shown(units)}")
     length = _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)

@@ -43,7 +43,7 @@ def _outputs_are_not_parts(folder, run_id, capsys):
     from tests.db_support import PLANNER
 
     shutil.copy(MESHES / "bracket.stl", folder / "bracket.stl")
-    report = build_database([folder], folder / "g.sqlite", {"evals": 100}, workers=0,
+    report = build_database([folder], folder / "g.sqlite", {"evals": 1000}, workers=0,
                             planner=PLANNER, quiet=True)
     assert (report.found, report.done) == (1, 1)
     assert [Path(p).name for p in report.scenes] == ["bracket.grasps.glb"]

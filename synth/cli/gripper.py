@@ -138,7 +138,7 @@ def run_gripper(args: argparse.Namespace) -> int:
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
 
-        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        settings = settings_from_args(args)
         require_sim()
     from synth.fingers.gripper import load_gripper
 
@@ -156,9 +156,9 @@ def run_gripper(args: argparse.Namespace) -> int:
     # how the mesh was loaded, so that synth sim --mesh can load the same part
     doc["mesh"].update(body=args.body, sharp_angle=args.sharp_angle)
     if settings is not None and plan.grasps:
-        from synth.sim import simulate_plan
+        from synth.cli.plan import simulate_planned
 
-        doc = simulate_plan(doc, args.mesh, settings, part=part)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 from pathlib import Path
 
 from synth.cli.checks import output_path
@@ -81,7 +82,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "notes (dropped objects are still said), no list of files written")
     from synth.cli.sim import add_sim_options
 
-    add_sim_options(p, prefix="sim-")
+    add_sim_options(p, switch=True)
     p.set_defaults(run=run)
 
 
@@ -112,15 +113,19 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
     return out, png, glb
 
 
-def _simulate(doc: dict, mesh: str, settings, quiet: bool) -> dict:  # type: ignore[no-untyped-def]
-    """The plan's document with every grasp simulated (``--sim``)."""
+def simulate_planned(doc: dict, mesh: str, part: Any, settings: Any, quiet: bool) -> dict:
+    """The plan's document with every grasp simulated (``--sim``) on the part just planned.
+    A simulation synth cannot run never discards the plan: its grasps get error labels
+    (:func:`synth.sim.unsimulated`) and the files are written."""
     from synth.cli.progress import LineProgress
-    from synth.sim import simulate_plan
+    from synth.sim import simulate_plan, unsimulated
 
     bar = LineProgress(enabled=not quiet)
     try:
-        return simulate_plan(doc, mesh, settings,
+        return simulate_plan(doc, mesh, settings, part=part,
                              progress=lambda i, n: bar(i / n, f"simulating grasp {i} of {n}"))
+    except Exception as e:  # noqa: BLE001 - synth's own failure: the plan is kept
+        return unsimulated(doc, f"simulation raised {type(e).__name__}: {e}", settings)
     finally:
         bar.close()
 
@@ -150,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
 
-        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        settings = settings_from_args(args)
         require_sim()
     given = planning_params(args)
     params = PlanParams(**{k: v for k, v in given.items() if k not in LOAD_KEYS})
@@ -164,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
         bar.close()
     doc = plan.to_json()
     if settings is not None and plan.grasps:
-        doc = _simulate(doc, args.mesh, settings, args.quiet or args.json)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none

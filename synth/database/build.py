@@ -244,18 +244,7 @@ def _check_sim(sim: Any) -> dict[str, Any] | None:
         return None
     from synth.sim.settings import SimSettings
 
-    if not isinstance(sim, dict):
-        raise InputError(f"planner parameter 'sim' must be null or an object of simulation "
-                         f"settings, got {sim!r}")
-    fields = set(SimSettings().to_dict())
-    unknown = sorted(set(sim) - fields)
-    if unknown:
-        raise InputError(f"planner parameter 'sim': unknown setting {unknown[0]!r}; valid: "
-                         f"{sorted(fields)}")
-    try:
-        return SimSettings(**sim).to_dict()
-    except InputError as e:
-        raise InputError(f"planner parameter 'sim': {e}") from None
+    return SimSettings.from_dict(sim, "planner parameter 'sim'").to_dict()
 
 
 def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:

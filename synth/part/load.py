@@ -402,4 +402,5 @@ def load_part(
     mesh.units = unit
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,
                 warnings=warnings, source=path, sha256=digest, body_names=names,
-                dropped=dropped, precision=precision, face_source=np.concatenate(sources))
+                dropped=dropped, precision=precision, face_source=np.concatenate(sources),
+                body=body)

@@ -62,6 +62,13 @@ class Part:
     dropped : tuple of str
         Bodies of the file that are not part of this part (a file holding several objects
         far apart), one line each.
+    sharp_angle : float
+        Dihedral angle (radians) above which an edge is sharp.
+    body : int or str
+        Which object of the file the loader kept (``load_part``'s ``body``).
+    load_options : dict
+        How to load the same part again: :func:`synth.load_part` keywords (``units``,
+        ``body``, ``sharp_angle`` in radians).
 
     Parameters
     ----------
@@ -96,6 +103,7 @@ class Part:
         dropped: tuple[str, ...] | list[str] = (),
         precision: float | None = None,
         face_source: np.ndarray | None = None,
+        body: int | str = "largest",
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
@@ -104,6 +112,8 @@ class Part:
             raise InputError(f"sharp_angle: expected radians in (0, pi), got {sharp_angle}")
         self.mesh = mesh
         self.units = units
+        self.sharp_angle = sharp_angle
+        self.body = body
         self.repairs = tuple(repairs)
         self.warnings = tuple(warnings)
         self.dropped = tuple(dropped)
@@ -172,6 +182,11 @@ class Part:
             f"<Part{src}: {len(self.mesh.faces)} faces, {len(self.regions)} regions, "
             f"length {self.length:.4g} {self.units or '(unit unknown)'}>"
         )
+
+    @property
+    def load_options(self) -> dict[str, Any]:
+        """:func:`synth.load_part` keywords that load this part again from its file."""
+        return {"units": self.units, "body": self.body, "sharp_angle": self.sharp_angle}
 
     # tolerances -----------------------------------------------------------------------
     @property

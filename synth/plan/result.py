@@ -34,6 +34,7 @@ drawn from the same plan carry it too, so the files of one run can be matched.
 from __future__ import annotations
 
 import json
+import math
 import struct
 import time
 import uuid
@@ -64,7 +65,9 @@ def new_run_id() -> str:
 def describe_part(part: Any) -> dict[str, Any]:
     """The ``mesh`` object of a grasp file: where the part came from and what was done to it.
 
-    Keys: ``path``, ``sha256``, ``units``, ``length`` (bounding-box diagonal), ``precision``
+    Keys: ``path``, ``sha256``, ``units``, ``load`` (how to load the same part again:
+    ``units``, ``body`` and ``sharp_angle`` in degrees, as :func:`synth.plan.load_options`
+    reads them), ``length`` (bounding-box diagonal), ``precision``
     (rounding error of the coordinates), ``center_mass``, ``volume``, ``bodies`` (one
     summary per body: name, faces, closed, convex, volume, area, exposed_area), ``repairs``,
     ``warnings`` and ``dropped`` (bodies of the file left out, one line each).
@@ -73,6 +76,8 @@ def describe_part(part: Any) -> dict[str, Any]:
         "path": part.source,
         "sha256": part.sha256,
         "units": part.units,
+        "load": {"units": part.units, "body": part.body,
+                 "sharp_angle": math.degrees(part.sharp_angle)},
         "length": float(part.length),
         "precision": float(part.precision),
         "center_mass": np.asarray(part.center_mass, float).tolist(),

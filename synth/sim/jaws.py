@@ -131,6 +131,8 @@ def build_jaw_scene(pieces: ConvexPieces, part: Any, pose: NDArray[np.float64], 
                       **common)
     eq = spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1="slide0", name2="slide1")
     eq.data[:5] = [0.0, 1.0, 0.0, 0.0, 0.0]
+    eq.solref = [2.0 * settings.dt, 1.0]  # as stiff as the contacts (MuJoCo's default 0.02 s
+    # lets fingers of 20 g drift apart by centimetres under the part's weight)
     tendon = spec.add_tendon(name="jaws")
     tendon.wrap_joint("slide0", 1.0)
     tendon.wrap_joint("slide1", 1.0)

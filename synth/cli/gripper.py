@@ -14,7 +14,7 @@ from synth.errors import OptionError
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options", "gripper_params", "run_gripper",
            "format_gripper_table"]
 
-_ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
+_ONLY_GRIPPER = ("gravity", "torsion", "samples")
 
 
 def add_hold_options(g: argparse._ArgumentGroup) -> None:
@@ -49,6 +49,16 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--samples", type=int, default=None, metavar="N",
                    help=f"surface points drawn, each an antipodal pair tried at {APPROACHES} "
                    f"approach angles (default {d.samples})")
+
+
+def refuse_point_options(args: argparse.Namespace) -> None:
+    """Point-finger options are refused with ``--gripper`` (a gripper presses with its rated
+    force and is held to its own measures)."""
+    for option, value in (("--grip", getattr(args, "grip", None)),
+                          ("--max-squeeze", getattr(args, "max_squeeze", None))):
+        if value is not None:
+            raise OptionError(f"{option} applies to point fingers: a gripper presses with its "
+                              "rated force (its description's grip_force)")
 
 
 def refuse_gripper_options(args: argparse.Namespace) -> None:
@@ -142,6 +152,7 @@ def run_gripper(args: argparse.Namespace) -> int:
         require_sim()
     from synth.fingers.gripper import load_gripper
 
+    refuse_point_options(args)
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read
     paths = None
     if not args.no_files:

@@ -77,7 +77,7 @@ def describe_part(part: Any) -> dict[str, Any]:
         "sha256": part.sha256,
         "units": part.units,
         "load": {"units": part.units, "body": part.body,
-                 "sharp_angle": math.degrees(part.sharp_angle)},
+                 "sharp_angle": float(f"{math.degrees(part.sharp_angle):.12g}")},
         "length": float(part.length),
         "precision": float(part.precision),
         "center_mass": np.asarray(part.center_mass, float).tolist(),
@@ -87,6 +87,11 @@ def describe_part(part: Any) -> dict[str, Any]:
         "warnings": list(part.warnings),
         "dropped": list(part.dropped),
     }
+
+
+def _finite(x: float) -> float | None:
+    """A number for JSON: None for NaN or infinity."""
+    return float(x) if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -121,6 +126,17 @@ class PlannedGrasp:
         The smooth reading of the normals (interpolated on tessellated curved patches).
     d_star_mesh, d_star_smooth : float
         d* with ``normals`` and with ``smooth_normals``.
+    squeeze_per_weight : float
+        Least force each finger must be able to press with, over the part's weight, to hold
+        it in every orientation (:mod:`synth.scores.hold`; the larger over the surface
+        model's readings).
+    hold_model : str
+        The hand it is exact for: ``"stiff"`` (equal-stiffness fingers from a balanced
+        squeeze) or ``"any"`` (each finger free to press with any force).
+    least_squeeze : float or None
+        ``squeeze_per_weight`` times the part's weight, N (None without a mass).
+    margin : float or None
+        The grip over the least squeeze (None without a grip and a mass).
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -136,6 +152,10 @@ class PlannedGrasp:
     smooth_normals: NDArray[np.float64] | None = field(default=None, repr=False)
     d_star_mesh: float = float("nan")
     d_star_smooth: float = float("nan")
+    squeeze_per_weight: float = float("nan")
+    hold_model: str = ""
+    least_squeeze: float | None = None
+    margin: float | None = None
 
     @property
     def tolerance(self) -> float:
@@ -160,6 +180,10 @@ class PlannedGrasp:
             "closure": self.closure,
             "conditioning": float(self.conditioning),
             "epsilon": float(self.epsilon),
+            "squeeze_per_weight": _finite(self.squeeze_per_weight),
+            "hold_model": self.hold_model or None,
+            "least_squeeze": self.least_squeeze,
+            "margin": self.margin,
             "tolerance": None if r is None else float(r.tolerance),
             "tolerance_ratio": None if r is None else float(r.tolerance / tip),
             "contact_regions": None if r is None else r.to_dict(),

@@ -128,29 +128,51 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
     if B == 0 or k < 7:
         return FingerHold(spw, pre, A, "stiff")
     W = scaled_wrenches(P, N, np.asarray(center_mass, float), float(length))  # (B, 6, k)
-    U, s, Vt = np.linalg.svd(W)
-    full = s[:, -1] > _RANK_RTOL * s[:, 0]
-    # W^+ = V S^-1 U^T; the first three columns answer a force through the centre of mass
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pinv = np.einsum("bji,bj,bkj->bik", Vt[:, :6], 1.0 / s, U)  # (B, k, 6)
-    A[full] = pinv[full, :, :3]
-    r = np.linalg.norm(A, axis=2)
-    Z = np.swapaxes(Vt[:, 6:], 1, 2)  # (B, k, k - 6) null-space basis
-    if k == 7:
-        c = Z[:, :, 0] * np.where(Z[:, :, 0].sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
-        ok = full & (c.min(axis=1) > 0)
+    rest = np.arange(B)
+    if k == 7:  # certified full rank: W^+ = W^T G^-1 and the null vector from G = W W^T
+        from synth.scores.gram import gram_inverse_factor, null_vector_m1
+
+        X, cert = gram_inverse_factor(W)
+        rows = np.flatnonzero(cert)
+        if len(rows):
+            Wc, Xc = W[rows], X[rows]
+            Ginv3 = np.einsum("bji,bjk->bik", Xc, Xc[:, :, :3])  # (G^-1)[:, :3]
+            A[rows] = np.einsum("bji,bjk->bik", Wc, Ginv3)
+            _closed_form(A[rows], null_vector_m1(Wc, Xc), rows, pre, spw)
+        rest = np.flatnonzero(~cert)
+    if len(rest):
+        U, s, Vt = np.linalg.svd(W[rest])
+        full = s[:, -1] > _RANK_RTOL * s[:, 0]
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.max(r / c, axis=1)
-        pre[ok] = t[ok, None] * c[ok]
-        spw[ok] = np.max(pre[ok] + r[ok], axis=1)
-    else:
-        for b in np.flatnonzero(full):
-            got = _stiff_lp(Z[b], r[b])
-            if got is not None:
-                pre[b] = got
-                spw[b] = float(np.max(got + r[b]))
+            pinv = np.einsum("bji,bj,bkj->bik", Vt[:, :6], 1.0 / s, U)  # (b, k, 6)
+        A[rest[full]] = pinv[full, :, :3]
+        Z = np.swapaxes(Vt[:, 6:], 1, 2)  # (b, k, k - 6) null-space basis
+        if k == 7:
+            _closed_form(A[rest[full]], Z[full, :, 0], rest[full], pre, spw)
+        else:
+            r = np.linalg.norm(A, axis=2)
+            for j in np.flatnonzero(full):
+                b = rest[j]
+                got = _stiff_lp(Z[j], r[b])
+                if got is not None:
+                    pre[b] = got
+                    spw[b] = float(np.max(got + r[b]))
     A[~np.isfinite(spw)] = 0.0
     return FingerHold(spw, pre, A, "stiff")
+
+
+def _closed_form(A: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[np.int64],
+                 pre: NDArray[np.float64], spw: NDArray[np.float64]) -> None:
+    """The seven-contact answer (module notes) for the grasps ``rows``, whose responses are
+    ``A`` (b, 7, 3) and null vectors ``c`` (b, 7), written into ``pre`` and ``spw``."""
+    r = np.linalg.norm(A, axis=2)
+    c = c * np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
+    ok = c.min(axis=1) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.max(r / c, axis=1)
+    p = t[:, None] * c
+    pre[rows[ok]] = p[ok]
+    spw[rows[ok]] = np.max(p[ok] + r[ok], axis=1)
 
 
 def _stiff_lp(Z: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64] | None:

@@ -3,13 +3,14 @@
 0. **Start**: no finger or pad may touch the part before it closes (each starts clear, see
    :mod:`synth.sim.scene` and :mod:`synth.sim.jaws`); one that does is reported as
    ``failed_at = "start"``, never simulated (its first contact would throw the part).
-1. **Close** (no gravity): the servos' targets move from where the fingers start to the
-   planned contact over ``CLOSE_S`` and hold ``SETTLE_S``.
+1. **Close** (no gravity, the part held in place): the servos' targets move smoothly from
+   where the fingers start to the planned contact over ``CLOSE_S`` and hold ``SETTLE_S``.
 2. **Squeeze**: the targets move on to the squeeze over ``SQUEEZE_S`` and hold ``HOLD_S``. The
    balanced hand then corrects each target by the difference between the force it wants and
    the force its finger presses with (``CORRECTIONS`` times, ``SETTLE_S`` each): the contacts'
-   own softness sits in series with the servo, and the squeeze must be the grasp's own. The
-   state reached is the *held pose*.
+   own softness sits in series with the servo, and the squeeze must be the grasp's own. Then
+   the part is let go and rests ``HOLD_S`` in the fingers alone: a squeeze that does not
+   balance pushes it out here. The state reached is the *held pose*.
 3. **Gravity**: from the held pose, the part's weight along +x, -x, +y, -y, +z, -z of the hand,
    one at a time, each turned on over ``RAMP_S`` and held ``GRAVITY_S`` (the field's protocols:
    GraspDataGen tugs with 1 g for 0.5 s, DexGraspBench pulls six directions with 1 g).
@@ -131,6 +132,7 @@ class _Runner:
         self.steps = 0
         self.sig = mujoco.mjtState.mjSTATE_INTEGRATION
         self.hand_geoms = np.flatnonzero(np.asarray(self.m.geom_contype) == HAND_BITS)
+        self.hold = self.mj.mj_name2id(self.m, self.mj.mjtObj.mjOBJ_EQUALITY, "hold")
 
     # -- state -------------------------------------------------------------------------
     def pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -217,14 +219,20 @@ class _Runner:
     def gravity(self, g: NDArray[np.float64]) -> None:
         self.m.opt.gravity[:] = g
 
+    def let_go(self) -> None:
+        """Release the weld that held the part while the hand closed."""
+        self.d.eq_active[self.hold] = 0
+
     def forces(self) -> NDArray[np.float64]:
         """Each actuator's force magnitude, N."""
         return np.abs(np.asarray(self.d.actuator_force, float)).copy()
 
 
 def _ramp(r: _Runner, a: NDArray[np.float64], b: NDArray[np.float64]):
+    """Move the controls from ``a`` to ``b`` smoothly (zero speed at both ends)."""
     def each(frac: float) -> None:
-        r.d.ctrl[:] = a + min(1.0, frac) * (b - a)
+        f = min(1.0, frac)
+        r.d.ctrl[:] = a + f * f * (3.0 - 2.0 * f) * (b - a)
     return each
 
 
@@ -315,6 +323,9 @@ def _grip(r: _Runner) -> tuple[str | None, str | None, NDArray[np.float64] | Non
             mo = r.run(SETTLE_S, lambda f: None, start)
             if mo is not None:
                 break
+    if mo is None:
+        r.let_go()
+        mo = r.run(HOLD_S, lambda f: None, start)
     return (None, None, None) if mo is None else ("squeeze", None, mo)
 
 

@@ -9,7 +9,9 @@ along -z of the file.
 * The part is one body with a free joint, its frame at the centre of mass, its mass and
   inertia those of the part's closed bodies at the settings' density (given explicitly:
   MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece
-  (:mod:`synth.sim.decompose`).
+  (:mod:`synth.sim.decompose`). A weld (the equality ``hold``) keeps it in place while the
+  hand closes and squeezes, as a part rests where it is while fingers close on it; the
+  protocol then lets go, and the part is held by the fingers alone.
 * Each finger is a sphere of the planned tip radius on a slide joint along its approach,
   starting ``START_GAP`` tip radii back from its planned place along the approach (clear of
   the part: the planner checked the finger's body there), driven by a position servo of gain
@@ -160,7 +162,8 @@ def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64
              volume: float, scale: float, rotation: NDArray[np.float64] | None = None,
              position: NDArray[np.float64] | None = None, density: float,
              common: dict[str, Any]) -> Any:
-    """Add the part as a free body whose frame is its centre of mass.
+    """Add the part as a free body whose frame is its centre of mass, welded to the world by
+    the equality ``"hold"`` until the protocol lets go of it.
 
     Parameters
     ----------
@@ -202,6 +205,10 @@ def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64
     body = spec.worldbody.add_body(name="part", pos=list(np.zeros(3) if position is None
                                                          else np.asarray(position, float)))
     body.add_freejoint()
+    # held in place while the hand closes and squeezes; the protocol lets go of it after
+    hold = spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, name1="part", name2="world",
+                             objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold")
+    hold.solref = common["solref"]
     body.explicitinertial = True
     body.mass = mass
     body.ipos = [0.0, 0.0, 0.0]

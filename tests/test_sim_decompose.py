@@ -67,3 +67,22 @@ def test_a_part_of_flat_pieces_only_is_synth_s_failure_not_the_input_s(tmp_path,
     monkeypatch.setattr(dec, "_decompose", lambda *a: ([np.eye(3)], False))
     with pytest.raises(SimulationError, match="no piece of the part has a volume"):
         convex_pieces(load_part(BRACKET, units="dm"), cache=None)
+
+
+def test_a_body_united_from_convex_pieces_is_simulated_as_those_pieces(tmp_path):
+    # two overlapping boxes stored as two objects of a collision mesh: the loader unites them
+    # into one (non-convex) body; its pieces for MuJoCo are the two boxes, not CoACD's
+    a = trimesh.creation.box((1.0, 1.0, 1.0))
+    b = trimesh.creation.box((2.0, 0.5, 0.5))
+    b.apply_translation([0.8, 0.0, 0.0])
+    scene = trimesh.Scene()
+    scene.add_geometry(a, "a")
+    scene.add_geometry(b, "b")
+    path = tmp_path / "two.obj"
+    scene.export(path)
+    part = load_part(path)
+    assert len(part.bodies) == 1 and not part.bodies[0].convex
+    p = convex_pieces(part, cache=None)
+    assert p.decomposed == 0 and len(p.pieces) == 2 and p.error == 0
+    got = sorted(float(np.ptp(v[:, 0])) for v in p.pieces)
+    assert got == pytest.approx([1.0, 2.0])

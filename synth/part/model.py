@@ -74,7 +74,12 @@ class Part:
     ----------
     face_source : (f,) int, optional
         For bodies united on loading, which input body each face came from: the seams
-        between them are creases (sharp edges), never smoothed over.
+        between them are creases (sharp edges), never smoothed over. Kept as the attribute
+        of the same name (None when not given).
+    convex_inputs : dict of int to (v, 3) float, optional
+        The input bodies (as numbered in ``face_source``) that were closed and convex, by
+        their vertices: a body united from such pieces is exactly their union. Kept as the
+        attribute of the same name (empty when not given).
     source : str or None
         File the part came from.
     sha256 : str or None
@@ -104,6 +109,7 @@ class Part:
         precision: float | None = None,
         face_source: np.ndarray | None = None,
         body: int | str = "largest",
+        convex_inputs: dict[int, np.ndarray] | None = None,
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
@@ -137,6 +143,10 @@ class Part:
         src = None if face_source is None else np.asarray(face_source, np.int64)
         if src is not None and src.shape != (len(mesh.faces),):
             raise InputError(f"face_source: expected shape ({len(mesh.faces)},), got {src.shape}")
+        if src is not None:
+            src.flags.writeable = False
+        self.face_source = src
+        self.convex_inputs = dict(convex_inputs or {})
         self.features: Features = compute_features(mesh, sharp_angle, src, tol.COPLANAR_ANGLE)
         self._regions: RegionSet = compute_regions(
             mesh, self.features, tol.COPLANAR_ANGLE, tol.PATCH_HALF_ANGLE, self.precision

@@ -5,7 +5,9 @@ not. The pieces come from the :class:`~synth.part.Part` the grasps were planned 
 welded and repaired by the same loader with the same options, never from the raw file (an OBJ
 whose vertices are split along normal or texture seams is a set of open sheets until welded).
 Each body of the part is used as it is when it is closed and convex (the pieces of a V-HACD or
-CoACD collision mesh); any other body is decomposed into convex pieces with CoACD (Wei et al.,
+CoACD collision mesh); a body the loader united from overlapping closed convex bodies of the
+file is exactly their union, and those bodies are its pieces; any other body is decomposed into
+convex pieces with CoACD (Wei et al.,
 SIGGRAPH 2022, the ``coacd`` package). Decompositions are slow (about 1 s for a 44-face L
 bracket, 16 s for a 384-face mug), so they are cached on disk under the hash of the body, the
 CoACD settings and its version: in ``$SYNTH_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/synth``
@@ -18,7 +20,8 @@ decomposition moves contacts and turns their normals (measured on a robot link: 
 default threshold added 8% of the volume and 9 of its 10 best grasps were pushed out by their
 own squeeze; at 0.01, 0.5% and 9 of 10 held). So a body is decomposed at the thresholds
 ``COACD_THRESHOLDS`` in turn until its error is at most ``DECOMPOSITION_RTOL`` (an open body,
-which has no volume to compare, gets the finest). A piece with no volume (fewer than four vertices, or all of
+which has no volume to compare, gets CoACD's default only: decomposing an open body is slow,
+measured up to minutes for a 2,000-face sheet). A piece with no volume (fewer than four vertices, or all of
 them in one plane: a flat piece of an open sheet) cannot be a MuJoCo mesh and is left out and
 counted; a part left with no piece at all raises :class:`~synth.errors.SimulationError`.
 """
@@ -163,15 +166,27 @@ def _excess(mesh: trimesh.Trimesh, pieces: list[NDArray[np.float64]]) -> float:
 def _fine_enough(mesh: trimesh.Trimesh, thresholds: tuple[float, ...], seed: int,
                  cache: Path | None) -> tuple[list[NDArray[np.float64]], bool]:
     """A body's pieces at the first threshold whose error is at most ``DECOMPOSITION_RTOL``
-    (the last for an open body), and whether every decomposition tried was cached."""
+    (the first for an open body, whose error cannot be measured: CoACD makes it closed first,
+    slowly), and whether every decomposition tried was cached."""
     cached_all = True
     closed = bool(mesh.is_watertight and mesh.volume > 0)
-    for i, t in enumerate(thresholds if closed else thresholds[-1:]):
+    for i, t in enumerate(thresholds if closed else thresholds[:1]):
         got, cached = _decompose(mesh, t, seed, cache)
         cached_all &= cached
         if not closed or i == len(thresholds) - 1 or _excess(mesh, got) <= DECOMPOSITION_RTOL:
             return got, cached_all
     raise AssertionError("unreachable")  # the loop returns at its last threshold
+
+
+def _own_pieces(part: Any, body: Any) -> list[NDArray[np.float64]] | None:
+    """The closed convex bodies of the file that a united body is the union of (None when
+    it is not such a union)."""
+    if part.face_source is None or not part.convex_inputs:
+        return None
+    sources = np.unique(part.face_source[body.faces])
+    if len(sources) < 2 or not all(int(k) in part.convex_inputs for k in sources):
+        return None
+    return [part.convex_inputs[int(k)] for k in sources]
 
 
 def _solid(v: NDArray[np.float64]) -> bool:
@@ -254,8 +269,11 @@ def convex_pieces(part: Any, *, seed: int = 0,
         all_cached = True
         flat = 0
         for b, m in zip(part.bodies, meshes, strict=True):
+            own = _own_pieces(part, b)
             if b.convex:
                 got = [np.asarray(m.vertices, float)]
+            elif own is not None:
+                got = own
             else:
                 got, cached = _fine_enough(m, thresholds, seed, folder)
                 all_cached &= cached

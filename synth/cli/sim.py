@@ -52,23 +52,18 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
     g.add_argument("--sim-shake", type=float, default=d.shake, metavar="G",
                    help=f"peak acceleration of the shake along x, y and z, in g, "
                    f"{rng('shake')} (default {d.shake:g}; 0: no shake)")
-    g.add_argument("--sim-seed", type=int, default=d.seed, metavar="SEED",
-                   help="seed of the convex decomposition of non-convex bodies, 0 to "
-                   f"2**63 - 1 (default {d.seed})")
 
 
 def settings_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     """:class:`synth.sim.SimSettings` from the ``--sim-...`` options, each checked against its
     range."""
-    from synth.limits import MAX_SEED
     from synth.sim.settings import RANGES, SimSettings
 
     values = {name: getattr(args, f"sim_{name}") for name in
               ("grip", "stiffness", "size", "density", "shake")}
     for name, value in values.items():
         real(f"--{PREFIX}{name}", value, *RANGES[name], unit=" g" if name == "shake" else "")
-    integer(f"--{PREFIX}seed", args.sim_seed, 0, MAX_SEED, "2**63 - 1")
-    return SimSettings(hand=args.sim_hand, seed=args.sim_seed, **values)
+    return SimSettings(hand=args.sim_hand, **values)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -85,13 +80,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "it, then the part's weight pulls along +-x, +-y, +-z of the hand in turn, then the "
         "hand is shaken. Point fingers press with the grasp's balanced squeeze, each "
         "limited to --sim-grip; a gripper's pads close, coupled, with its rated force. Each "
-        "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, "
-        "coacd).",
+        "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco).",
         epilog="Exit status: 0 every grasp simulated (held or not; one synth could not "
         "simulate is labelled 'error' with the reason); 1 the file could not be written; 2 "
         "bad input (the line says what is wrong, also when mujoco is not installed); 3 "
-        "internal error (a bug in synth). Non-convex bodies are decomposed with CoACD, cached "
-        "in $SYNTH_CACHE_DIR (default ~/.cache/synth).",
+        "internal error (a bug in synth). See docs/simulation.md.",
     )
     p.add_argument("grasps", metavar="GRASPS.json",
                    help="grasp file written by synth plan (point fingers or --gripper)")
@@ -145,12 +138,9 @@ def summary(doc: dict) -> str:
     jaws = doc.get("format") == "synth.gripper_grasps"
     hand = s.get("hand") if jaws else (f"{st['hand']} point fingers, grip {st['grip']:g} N "
                                        f"each, part scaled to {st['size']:g} m")
-    pieces = s.get("pieces")
-    dec = "" if not s.get("decomposed") else (
-        f"; {s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'} decomposed into "
-        f"{pieces} convex pieces with the others"
-        + (f" (volume error {s['decomposition_error']:.1%})"
-           if s.get("decomposition_error") is not None else ""))
+    n_f = s.get("faceted_bodies") or 0
+    dec = "" if not n_f else (f"; {n_f} non-convex bod{'y' if n_f == 1 else 'ies'} collided as "
+                              "its facets near the hand")
     errors = f", {s['errors']} not simulated ({s['error'] or 'see each label'})" \
         if s.get("errors") else ""
     return (f"{s['held']} of {n} grasps held{errors} ({hand}; weight along +-x, +-y, +-z, "

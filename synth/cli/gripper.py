@@ -36,8 +36,8 @@ def add_hold_options(g: argparse._ArgumentGroup) -> None:
 
 def add_gripper_options(p: argparse.ArgumentParser) -> None:
     """Options of the gripper route of ``synth plan``."""
-    from synth.fingers.gripper import BUILTIN_GRIPPERS
-    from synth.plan.gripper import APPROACHES, GripperParams
+    from synth.fingers.builtin import BUILTIN_GRIPPERS
+    from synth.plan.gripper_params import APPROACHES, GripperParams
 
     d = GripperParams()
     g = p.add_argument_group("gripper (parallel-jaw grasps as gripper poses)")
@@ -111,7 +111,7 @@ def gripper_params(args: argparse.Namespace) -> Any:
     """The :class:`synth.plan.gripper.GripperParams` of checked gripper options (``synth
     plan --gripper`` and ``synth db build --gripper``)."""
     from synth.limits import MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP
-    from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams
+    from synth.plan.gripper_params import GRIPPER_RANK_BY, GripperParams
 
     mu = 0.5 if args.mu is None else args.mu
     real("--mu", mu, 0, MAX_MU, open_lo=True)

@@ -60,7 +60,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     from synth.plan.params import PlanParams
 
     from synth.cli.gripper import add_gripper_options
-    from synth.plan.gripper import GRIPPER_RANK_BY
+    from synth.plan.gripper_params import GRIPPER_RANK_BY
 
     add_planning_options(p, time=PlanParams().time, rank_by_extra=GRIPPER_RANK_BY)
     add_gripper_options(p)

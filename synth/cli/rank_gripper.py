@@ -18,7 +18,7 @@ _ONLY_GRIPPER = ("gripper", "gravity", "torsion", "table")
 def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:
     """The gripper options of ``synth rank``."""
     from synth.cli.gripper import add_hold_options
-    from synth.fingers.gripper import BUILTIN_GRIPPERS
+    from synth.fingers.builtin import BUILTIN_GRIPPERS
 
     g = p.add_argument_group("gripper (CANDIDATES are gripper poses)")
     g.add_argument("--gripper", default=None, metavar="NAME|FILE",

@@ -15,10 +15,10 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
-from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
-from synth.errors import shown
 from synth.cli.options import add_planning_options, check_planning_options, planning_params
-from synth.plan.params import RANK_BY, PlanParams
+from synth.errors import shown
+from synth.filetype import MESH_FORMATS
+from synth.plan.params import BUILD_TIME, RANK_BY, PlanParams
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -112,12 +112,12 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     b.add_argument("sources", nargs="+", metavar="MESH_DIR_OR_LIST",
                    help="folders (searched recursively for mesh files: "
-                   f"{', '.join('.' + e for e in MESH_EXTENSIONS)}; symbolic links to files and "
+                   f"{', '.join('.' + e for e in MESH_FORMATS)}; symbolic links to files and "
                    "folders are followed, and a folder met again through a link, as in a link "
                    "cycle, is searched once), mesh files, or text files listing mesh paths")
     b.add_argument("--out", required=True,
                    help="database file (created or resumed; one build at a time writes it)")
-    add_planning_options(b, time=DEFAULT_PARAMS["time"])
+    add_planning_options(b, time=BUILD_TIME)
     b.add_argument("--workers", type=_int_in(*_WORKERS), default=None,
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
@@ -297,6 +297,8 @@ def run_db(args: argparse.Namespace) -> int:
     :func:`synth.cli.main`, which prints them as one ``synth: error: ...`` line and exits 2 for
     bad input, 1 otherwise.
     """
+    from synth.database.build import BuildTerminated
+
     commands = {"build": _build, "info": _info, "top": _top, "export": _export}
     try:
         return commands[args.db_command](args)

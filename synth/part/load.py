@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import MeshError
+from synth.filetype import MESH_FORMATS, require_kind
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
@@ -40,7 +41,7 @@ from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_
 __all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "length_unit", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
-SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
+SUPPORTED_FORMATS: tuple[str, ...] = MESH_FORMATS
 
 #: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
 UNIT_ALIASES: dict[str, str] = {
@@ -60,6 +61,8 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         raise _fail(name, "no such file")
     if not path.is_file():
         raise _fail(name, "not a file")
+    require_kind(path, ("mesh",), "a mesh file (" + ", ".join(SUPPORTED_FORMATS).upper() + ")",
+                 error=MeshError)
     ext = path.suffix.lower().lstrip(".")
     if ext not in SUPPORTED_FORMATS:
         raise _fail(name, f"unsupported format {ext!r}; expected one of {SUPPORTED_FORMATS}")

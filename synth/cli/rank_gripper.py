@@ -76,6 +76,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     from synth.cli.plan import load_part_from_args, report_part
     from synth.cli.options import check_part_options
     from synth.files import write_atomic
+    from synth.filetype import POSES, require
     from synth.fingers.gripper import load_gripper
     from synth.formats import read_gripper_poses
     from synth.plan.gripper_rank import rank_gripper_poses
@@ -92,6 +93,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     args.top = top
     load_gripper(args.gripper)  # a bad description is refused before any file is read
     out = None if args.out is None else output_path("--out", args.out, ".json")
+    require(args.candidates, POSES)  # a mesh, a database: named as such
     poses = read_gripper_poses(args.candidates)
     if len(poses.errors) == len(poses.poses):
         more = f" (and {len(poses.errors) - 1} more malformed)" if len(poses.errors) > 1 else ""

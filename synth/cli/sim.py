@@ -164,11 +164,14 @@ def run(args: argparse.Namespace) -> int:
     from synth.cli.progress import LineProgress
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
-    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document, read_json
+    from synth.filetype import GRASPS, MESH, read_json, require
+    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document
 
     real("--mu", args.mu, 0, MAX_MU)
     settings = settings_from_args(args)
-    doc = read_json(args.grasps, "a grasp file written by synth plan --out")
+    doc = read_json(args.grasps, GRASPS)
+    if args.mesh is not None:
+        require(args.mesh, MESH)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
         return _run_jaws(args, check_jaw_document(doc, str(args.grasps)), settings, out)

@@ -29,7 +29,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import MeshError
-from synth.filetype import MESH_FORMATS, require_kind
+from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
@@ -61,8 +61,7 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         raise _fail(name, "no such file")
     if not path.is_file():
         raise _fail(name, "not a file")
-    require_kind(path, ("mesh",), "a mesh file (" + ", ".join(SUPPORTED_FORMATS).upper() + ")",
-                 error=MeshError)
+    require(path, MESH)  # a grasp file or a database is named as such
     ext = path.suffix.lower().lstrip(".")
     if ext not in SUPPORTED_FORMATS:
         raise _fail(name, f"unsupported format {ext!r}; expected one of {SUPPORTED_FORMATS}")

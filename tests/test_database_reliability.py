@@ -413,9 +413,9 @@ def test_numeric_options_are_checked_up_front(
     huge = "1" * 22
     cases = [
         (["top", str(reference), "box", "-k", huge],
-         "--top/-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "--top", "0"],
-         "--top/-k: expected an integer from 1 to 10,000"),
+         "--top/-k: expected an integer from 0 to 1,000"),
+        (["top", str(reference), "box", "--top", "-1"],
+         "--top/-k: expected an integer from 0 to 1,000"),
         (["top", str(reference), "box", "-k", "two"], "--top/-k: expected an integer"),
         (["build", str(mesh_dir), "--out", str(reference), "--workers", huge], "--workers"),
         (["build", str(mesh_dir), "--out", str(reference), "--seed", "-1"], "--seed"),
@@ -433,10 +433,10 @@ def test_numeric_options_are_checked_up_front(
         assert message in err and f"see 'synth db {argv[0]} --help'" in err
     assert reference.read_bytes() == data
     top_help = " ".join(_cli(["db", "top", "--help"], capsys)[1].split())
-    assert "number of grasps, 1 to 10,000" in top_help
+    assert "print the best N grasps, 1 to 1,000, or 0 for all" in top_help
     build_help = " ".join(_cli(["db", "build", "--help"], capsys)[1].split())
     for text in ("contacts per grasp, one fingertip each: 7 to 64 without friction, 3 to 64 "
-                 "with", "grasps to return, 1 to 1000", "budget of grasp evaluations, 100 to "
+                 "with", "keep the best N grasps, 1 to 1,000", "budget of grasp evaluations, 100 to "
                  "10,000,000", "worker processes, 0 to 1024",
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text

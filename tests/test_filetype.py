@@ -17,9 +17,17 @@ import pytest
 
 from synth.cli import main
 from synth.errors import DatabaseFileError, InputError, MeshError
-from synth.filetype import (CANDIDATES, DATABASE, GRASPS, MESH, MESH_FORMATS, describe,
-                            kind_of, read_json, require)
-
+from synth.filetype import (
+    CANDIDATES,
+    DATABASE,
+    GRASPS,
+    MESH,
+    MESH_FORMATS,
+    describe,
+    kind_of,
+    read_json,
+    require,
+)
 from tests.cli_support import CUBE_FC
 
 MESHES = Path(__file__).resolve().parent.parent / "meshes"

@@ -8,16 +8,26 @@ import math
 import sys
 
 from synth.cli.checks import integer, output_path, real
-from synth.cli.options import (add_finger_options, add_part_options, add_rank_by,
-                               check_finger_options, check_part_options, finger_overrides)
+from synth.cli.options import (add_finger_options, add_friction_options, add_grip,
+                               add_part_options, add_rank_by, add_weight_options,
+                               check_finger_options, check_part_options, check_weight_options,
+                               finger_overrides)
+from synth.cli.vocabulary import (DEFAULT_ROWS, add_json, add_out, add_quiet, add_top,
+                                  check_top, exit_epilog)
 from synth.errors import InputError
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
 
-__all__ = ["add_parser", "run", "DEFAULT_TOP"]
+__all__ = ["add_parser", "run", "counts_line", "STATUS_HELP"]
 
-#: Rows printed when ``--top`` is not given (as ``synth score``).
-DEFAULT_TOP = 20
+#: The statuses of ``synth rank``'s candidates, contact sets and gripper poses alike.
+STATUS_HELP = ("Each candidate gets one status: ok (scored; the fingers or the gripper fit), "
+               "tolerance (ok, but its placement tolerance is below --min-tolerance), "
+               "collision (scored, but the hand hits the part or crosses --table), misses the "
+               "part (a point farther than --max-distance from the surface; a pad meeting no "
+               "part of the mesh), no contact (a point on hidden surface, where no finger can "
+               "touch; jaws without a trustworthy two-pad contact), malformed (not readable "
+               "as a candidate, or too few contacts).")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -31,19 +41,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         " or an object with a 'candidates' or 'grasps' list) or NPZ; with --gripper, gripper "
         "poses: ACRONYM .h5, GraspGen .json, isaac_grasp .yaml, an NPZ or JSON of (n, 4, 4) "
         "poses, or a synth gripper grasp file.",
-        epilog="exit status: 0 ranked; 1 the --out file could not be written; 2 bad input: "
-        "a malformed candidate (reported on its own line, the others still ranked), or no "
-        "candidate could be used (the line gives the first one's reason; nothing is "
-        "written); 3 internal error (a bug in synth).",
+        epilog=exit_epilog("ranked (every candidate read, usable or not)", None,
+                           "a malformed candidate, reported on its own line while the others "
+                           "are still ranked; or no candidate could be used, the line giving "
+                           "the first one's reason, and nothing is written") + ". "
+        + STATUS_HELP,
     )
-    p.add_argument("mesh", help="mesh file")
-    p.add_argument("candidates", help="candidate file (.json or .npz; with --gripper also "
-                   ".h5 or .yaml)")
-    p.add_argument("--mu", type=float, default=0.0,
-                   help=f"friction coefficient, in [0, {MAX_MU:g}] (default 0; 0.5 with --gripper)")
-    p.add_argument("--edges", type=int, default=8, metavar="N",
-                   help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} "
-                   "(default 8)")
+    p.add_argument("mesh", metavar="MESH", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
+    p.add_argument("candidates", metavar="CANDIDATES",
+                   help="candidate file (.json or .npz; with --gripper also .h5 or .yaml)")
+    add_friction_options(p, "0; 0.5 with --gripper")
     p.add_argument("--max-distance", type=float, default=None, metavar="D",
                    help="largest distance from a point to the surface that is snapped, in mesh "
                    f"units, in [0, {MAX_LENGTH:g}] (default: 1%% of the part's bounding-box "
@@ -51,26 +58,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--regions", action="store_true",
                    help="compute each closure candidate's contact regions and placement "
                    "tolerance (as synth plan --regions)")
-    p.add_argument("--grip", type=float, default=None, metavar="N",
-                   help="force limit of each point finger, N: with --mass or --density each "
-                   "candidate reports its margin, the grip over the least squeeze that holds "
-                   "the part")
+    add_grip(p, "candidate")
     from synth.plan.gripper_params import GRIPPER_RANK_BY
 
     add_rank_by(p, "candidates (tolerance computes the regions)", extra=GRIPPER_RANK_BY)
     p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
-                   help="mark collision-free candidates whose placement tolerance is below R "
-                   "(mesh units) as status 'tolerance', ranked after the usable ones "
-                   "(default 0)")
-    p.add_argument("--top", type=int, default=None, metavar="N",
-                   help=f"rows to print, N >= 0 (default {DEFAULT_TOP}; 0 for all; the JSON "
-                   "holds every candidate)")
+                   help="give collision-free candidates whose placement tolerance is below R "
+                   f"(mesh units, in [0, {MAX_LENGTH:g}]) the status 'tolerance', ranked "
+                   "after the usable ones (default 0)")
+    add_top(p, "candidates", DEFAULT_ROWS, listing=True,
+            note="--out and --json hold every one")
     add_part_options(p)
     add_finger_options(p)
-    p.add_argument("--out", default=None, metavar="JSON",
-                   help="write the ranked candidates to this file, ending in .json")
-    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    p.add_argument("--quiet", action="store_true", help="no summary line")
+    add_weight_options(p)
+    o = p.add_argument_group("output")
+    add_out(o, "every candidate, ranked")
+    add_json(o, "every candidate, ranked")
+    add_quiet(o)
     from synth.cli.rank_gripper import add_rank_gripper_options
 
     add_rank_gripper_options(p)
@@ -85,7 +89,8 @@ def _cell(value: float, spec: str, width: int) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``synth rank``: exit status 2 when a candidate was malformed (the others are
     ranked and written) or when none could be used."""
-    from synth.cli.rank_contacts import RankedCandidate, order_rows, rank_candidates
+    from synth.cli.rank_contacts import (SCORED, STATUSES, RankedCandidate, order_rows,
+                                         rank_candidates)
     from synth.fingers import default_fingers
     from synth.grasps import read_candidate_table
     from synth.cli.plan import load_part_from_args, report_part
@@ -103,17 +108,18 @@ def run(args: argparse.Namespace) -> int:
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")
     real("--min-tolerance", args.min_tolerance, 0, MAX_LENGTH, unit=" (mesh units)")
-    integer("--top", args.top, 0)
+    check_top(args.top, listing=True)
     real("--grip", args.grip, 0, MAX_LENGTH, open_lo=True, unit=" N")
     check_part_options(args)
     check_finger_options(args)
+    check_weight_options(args)
     out = None if args.out is None else output_path("--out", args.out, ".json")
     table = read_candidate_table(args.candidates, require_normals=False)
     if not table.groups:  # every candidate malformed: say so before loading the mesh
         more = f" (and {len(table.errors) - 1} more malformed)" if len(table.errors) > 1 else ""
         raise InputError(f"no candidate could be used: {table.errors[0][1]}{more}")
     part = load_part_from_args(args)
-    report_part(part, args.quiet or args.json)
+    report_part(part, args.quiet)
     fingers = default_fingers(part, **finger_overrides(args))
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
     from synth.plan import PlanParams
@@ -125,14 +131,14 @@ def run(args: argparse.Namespace) -> int:
                            regions=args.regions, rank_by=args.rank_by,
                            min_tolerance=args.min_tolerance, edges=args.edges, index=index,
                            surface=args.surface, weight=weight, grip=args.grip)
-    rows = order_rows(rows + [RankedCandidate(table.names[i], "error", message, index=i)
+    rows = order_rows(rows + [RankedCandidate(table.names[i], "malformed", message, index=i)
                               for i, message in table.errors], args.rank_by)
-    unusable = [r for r in rows if r.status == "error"]
+    unusable = [r for r in rows if r.status not in SCORED]
     if len(unusable) == len(rows):
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
         raise InputError(f"{args.candidates}: no candidate could be used: "
                          f"{unusable[0].reason}{more}")
-    doc = {"format": "synth.ranked", "version": 1, "mesh": {"path": part.source,
+    doc = {"format": "synth.ranked", "version": 2, "mesh": {"path": part.source,
            "sha256": part.sha256, "units": part.units, "length": part.length},
            "mu": args.mu, "edges": args.edges, "surface": args.surface,
            "fingers": fingers.to_dict(),
@@ -140,8 +146,7 @@ def run(args: argparse.Namespace) -> int:
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:
         write_atomic(out, text)
-    top = DEFAULT_TOP if args.top is None else args.top
-    shown = rows if top == 0 else rows[:top]
+    shown = rows if args.top == 0 else rows[:args.top]
     if args.json:
         print(text, end="")
     else:
@@ -162,12 +167,16 @@ def run(args: argparse.Namespace) -> int:
                      if margin else "") + (f"{tol:>10}  " if show else "") + status)
     for _, message in table.errors:
         print(f"synth: error: {message}", file=sys.stderr)
+    if out is not None and not args.quiet:
+        print(f"wrote {out}")
     if not args.quiet:
-        n_ok = sum(r.status == "ok" for r in rows)
-        n_low = sum(r.status == "tolerance" for r in rows)
-        low = f" ({n_low} more below --min-tolerance)" if n_low else ""
-        more = (f"; showing the best {len(shown)} (--top 0 for all)"
-                if len(shown) < len(rows) and not args.json else "")
-        print(f"{len(rows)} candidates: {n_ok} collision free{low}, "
-              f"{len(unusable)} unusable{more}", file=sys.stderr)
+        print(counts_line(len(rows), {s: sum(r.status == s for r in rows) for s in STATUSES},
+                          len(shown)), file=sys.stderr)
     return 2 if table.errors else 0
+
+
+def counts_line(n: int, counts: dict[str, int], shown: int) -> str:
+    """The last line of ``synth rank``, contact sets and gripper poses alike: how many
+    candidates got each status, and how many rows the table showed."""
+    more = f"; showing the best {shown} (--top 0 for all)" if shown < n else ""
+    return f"{n} candidates: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + more

@@ -10,20 +10,30 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["RankedCandidate", "rank_candidates", "order_rows"]
+__all__ = ["STATUSES", "SCORED", "RankedCandidate", "rank_candidates", "order_rows"]
+
+#: Every status a contact set can get: the words of ``synth rank --gripper``'s poses
+#: (:data:`synth.plan.gripper_rank.POSE_STATUSES`), and ``tolerance`` (usable, but its placement
+#: tolerance is below ``--min-tolerance``).
+STATUSES: tuple[str, ...] = ("ok", "tolerance", "collision", "misses the part", "no contact",
+                             "malformed")
+#: The statuses of candidates that were scored; they are ranked in this order of groups, the
+#: others follow in file order.
+SCORED: tuple[str, ...] = ("ok", "tolerance", "collision")
 
 
 @dataclass(frozen=True)
 class RankedCandidate:
     """One candidate after snapping, normal resolution, finger checks and scoring.
 
-    A candidate with status ``"error"`` (malformed, off the surface, on hidden surface, too
-    few contacts) was never scored: its ``d_star`` and ``conditioning`` are NaN and its
-    ``closure`` None (null in JSON, ``-`` in the table), never a score of 0.
+    A candidate whose status is not one of :data:`SCORED` (``misses the part``: a point off
+    the surface; ``no contact``: a point on hidden surface; ``malformed``: unreadable, not
+    3-D, too few contacts) was never scored: its ``d_star`` and ``conditioning`` are NaN and
+    its ``closure`` None (null in JSON, ``-`` in the table), never a score of 0.
     """
 
     name: str
-    status: str  # "ok", "tolerance" (below --min-tolerance), "fingers" (collides), "error"
+    status: str  # one of STATUSES
     reason: str | None
     d_star: float = float("nan")
     closure: str | None = None
@@ -114,7 +124,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     for i, c in zip(index if index is not None else range(len(cands)), cands):
         label = f"candidate {i} ({c.name})"
         if c.points.shape[1] != 3:
-            rows.append(RankedCandidate(c.name, "error", f"{label}: points must be 3-D",
+            rows.append(RankedCandidate(c.name, "malformed", f"{label}: points must be 3-D",
                                         index=i))
             continue
         closest, _, dist = closest_points(part, c.points)
@@ -122,7 +132,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         if far.size:
             j = int(far[0])
             rows.append(RankedCandidate(
-                c.name, "error",
+                c.name, "misses the part",
                 f"{label}: point {j} is {dist[j]:.4g} from the surface (more than "
                 f"{max_distance:.4g} allowed)", index=i))
             continue
@@ -135,13 +145,13 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                      "in a crevice of the part narrower than a fingertip's step off the "
                      "surface")
             rows.append(RankedCandidate(
-                c.name, "error", f"{label}: point {int(hidden[0])} lies on a hidden part of the "
+                c.name, "no contact", f"{label}: point {int(hidden[0])} lies on a hidden part of the "
                 f"surface ({where}), where no finger can touch", index=i))
             continue
         P, N, S = con.points, con.normals, con.smooth_normals
         m = c.mu if c.mu is not None else mu
         if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
-            rows.append(RankedCandidate(c.name, "error",
+            rows.append(RankedCandidate(c.name, "malformed",
                                         f"{label}: {len(P)} contacts are too few", index=i))
             continue
         both = surface_scores(P[None], N[None], S[None], surface, center, L, m, edges)
@@ -173,7 +183,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         robust = contact_regions(part, P, N, mu=m, edges=edges, d_star=d, smooth=S,
                                  surface=surface) if holds and (
             regions or rank_by == "tolerance" or min_tolerance > 0) else None
-        status, reason = ("ok", None) if chk.mask[0] else ("fingers", chk.reasons[0])
+        status, reason = ("ok", None) if chk.mask[0] else ("collision", chk.reasons[0])
         if status == "ok" and robust is not None and robust.tolerance < min_tolerance:
             status, reason = "tolerance", (f"placement tolerance {robust.tolerance:.4g} is "
                                            f"below --min-tolerance {min_tolerance:g}")
@@ -190,6 +200,7 @@ def order_rows(rows: list[RankedCandidate], rank_by: str = "d_star") -> list[Ran
     (:func:`synth.plan.ranking.rank_grasps`)."""
     from synth.plan.ranking import rank_grasps
 
-    return [r for status in ("ok", "tolerance", "fingers") for r in
+    return [r for status in SCORED for r in
             rank_grasps([r for r in rows if r.status == status], rank_by)] + sorted(
-        (r for r in rows if r.status == "error"), key=lambda r: -1 if r.index is None else r.index)
+        (r for r in rows if r.status not in SCORED),
+        key=lambda r: -1 if r.index is None else r.index)

@@ -14,14 +14,15 @@ import sys
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
-from synth.errors import InputError, OptionError, shown
+from synth.cli.options import add_friction_options
+from synth.cli.vocabulary import (DEFAULT_ROWS, add_json, add_out, add_quiet, add_top,
+                                  check_top, exit_epilog)
+from synth.errors import InputError
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
 
 __all__ = ["add_parser", "run"]
 
-#: Rows printed (and explained) when ``--top`` is not given.
-DEFAULT_TOP = 20
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -30,21 +31,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "score",
         help="rank candidate contact sets (JSON or NPZ) by Trinkle's d*",
         description="Score candidate contact sets by Trinkle's form-closure measure d* and "
-        "print them ranked. FILE is JSON (a list of {points, normals[, name, mu]}, or an "
+        "print them ranked. CANDIDATES is JSON (a list of {points, normals[, name, mu]}, or an "
         "object with a 'candidates' or 'grasps' list) or NPZ (arrays points, normals of "
         "shape (B, k, 3), optional names (B,) and mu). Normals point into the part.",
-        epilog="A malformed candidate is reported on its own line and the others are still "
-        "scored; the exit status is then 2. When no candidate can be scored, one line says "
-        "why and nothing is written. Ranking: closure grasps first, then by d*.",
+        epilog="Ranking: closure grasps first, then by d*. " + exit_epilog(
+            "every candidate scored", None, "a malformed candidate, reported on its own line "
+            "while the others are still scored; or no candidate could be scored, the line "
+            "saying why, and nothing is written"),
     )
-    p.add_argument("file", help="candidate file (.json or .npz)")
-    p.add_argument(
-        "--mu",
-        type=float,
-        default=0.0,
-        help=f"Coulomb friction coefficient for candidates that do not give one, in [0, "
-        f"{MAX_MU:g}] (default 0: frictionless form closure)",
-    )
+    p.add_argument("file", metavar="CANDIDATES", help="candidate file (.json or .npz)")
+    add_friction_options(p, "0: frictionless form closure", " of the candidates that give "
+                         "none")
     p.add_argument(
         "--torsion", type=float, default=0.0, metavar="GAMMA",
         help=f"torsional friction of soft contacts, a length in the candidates' unit, in [0, "
@@ -52,18 +49,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "moment about its normal, MuJoCo's condim-4 cone (linearised), and two contacts can "
         "close",
     )
-    p.add_argument(
-        "--edges", type=int, default=8,
-        help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} (default 8)",
-    )
-    p.add_argument("--top", type=int, default=None, metavar="N",
-                   help=f"rows to print and explain, N >= 0 (default {DEFAULT_TOP}; 0 for all)")
-    p.add_argument("--out", default=None, metavar="JSON",
-                   help="write every candidate's score as JSON to this file, ending in .json "
-                   "(as plan --out and rank --out); the table is printed too")
-    p.add_argument("--json", nargs="?", const=True, default=False, metavar="",
-                   help="print every candidate's score as JSON instead of the table (as plan "
-                   "--json and rank --json); --out writes it to a file")
+    add_top(p, "candidates", DEFAULT_ROWS, listing=True, note="each failing one is printed "
+            "with the motion it leaves free; --out and --json hold every one")
+    o = p.add_argument_group("output")
+    add_out(o, "every candidate's score")
+    add_json(o, "every candidate's score")
+    add_quiet(o)
     p.set_defaults(run=run)
 
 
@@ -79,13 +70,11 @@ def run(args: argparse.Namespace) -> int:
     from synth.cli.score_table import explain, format_table, score_table
     from synth.grasps import read_candidate_table
 
+    args.mu = 0.0 if args.mu is None else args.mu
     real("--mu", args.mu, 0, MAX_MU)
     real("--torsion", args.torsion, 0, MAX_LENGTH)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
-    integer("--top", args.top, 0)
-    if args.json is not True and args.json is not False:  # the old form, --json PATH
-        raise OptionError(f"--json takes no file name: it prints the JSON, as plan --json and "
-                          f"rank --json do; write it to a file with --out {shown(args.json, 60)}")
+    check_top(args.top, listing=True)
     if args.out is not None:
         output_path("--out", args.out, ".json")
     table = read_candidate_table(args.file)
@@ -94,8 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if not len(order):
         more = f" (and {len(scores.errors) - 1} more malformed)" if len(scores.errors) > 1 else ""
         raise InputError(f"no candidate could be scored: {scores.errors[0][1]}{more}")
-    top = DEFAULT_TOP if args.top is None else args.top
-    rows_shown = order if top == 0 else order[:top]
+    rows_shown = order if args.top == 0 else order[:args.top]
     why = explain(table, scores, rows_shown, args.edges, args.torsion)
     if args.json or args.out is not None:
         rank_of = np.zeros(len(scores.names), np.int64)
@@ -122,10 +110,13 @@ def run(args: argparse.Namespace) -> int:
         print(format_table(scores, rows_shown, why))
     for _, message in scores.errors:
         print(f"synth: error: {message}", file=sys.stderr)
-    n_closure = int((scores.closure[order] != "force").sum())
-    more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
-            if len(rows_shown) < len(order) and not args.json else "")
-    print(f"{len(order)} candidates scored, {n_closure} with closure"
-          f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
-          file=sys.stderr)
+    if args.out is not None and not args.quiet:
+        print(f"wrote {args.out}")
+    if not args.quiet:
+        n_closure = int((scores.closure[order] != "force").sum())
+        more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
+                if len(rows_shown) < len(order) else "")
+        print(f"{len(order)} candidates scored, {n_closure} with closure"
+              f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
+              file=sys.stderr)
     return 2 if scores.errors else 0

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
+from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
 
 __all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args",
            "summary"]
@@ -87,11 +88,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "limited to --sim-grip; a gripper's pads close, coupled, with its rated force. Each "
         "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, "
         "coacd).",
-        epilog="Exit status: 0 every grasp simulated (held or not; one synth could not "
-        "simulate is labelled 'error' with the reason); 1 the file could not be written; 2 "
-        "bad input (the line says what is wrong, also when mujoco is not installed); 3 "
-        "internal error (a bug in synth). Non-convex bodies are decomposed with CoACD, cached "
-        "in $SYNTH_CACHE_DIR (default ~/.cache/synth).",
+        epilog="Non-convex bodies are decomposed with CoACD, cached in $SYNTH_CACHE_DIR "
+        "(default ~/.cache/synth). " + exit_epilog(
+            "every grasp simulated (held or not; one synth could not simulate is labelled "
+            "'error' with the reason)", "the file could not be written",
+            "also when mujoco is not installed"),
     )
     p.add_argument("grasps", metavar="GRASPS.json",
                    help="grasp file written by synth plan (point fingers or --gripper)")
@@ -103,13 +104,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "(default: the grasps' own)")
     add_sim_options(p)
     o = p.add_argument_group("output")
-    o.add_argument("--out", default=None, metavar="JSON",
-                   help="write the labelled grasp file here, ending in .json (default: "
-                   "update GRASPS.json in place)")
-    o.add_argument("--no-files", action="store_true", help="write no file, only print")
-    o.add_argument("--json", action="store_true",
-                   help="print the labelled JSON document, not a table")
-    o.add_argument("--quiet", action="store_true", help="no progress bar, no file list")
+    add_out(o, "the labelled grasp file", "GRASPS.json, updated in place")
+    o.add_argument("--no-files", action="store_true", help="write no files, only print")
+    add_json(o, "the labelled grasp file")
+    add_quiet(o)
     p.set_defaults(run=run)
 
 
@@ -183,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
 
     part = load_planned_part(file)
     contact = None if args.mu is None else ContactModel(args.mu)
-    bar = LineProgress(enabled=not (args.quiet or args.json))
+    bar = LineProgress(enabled=not args.quiet)
     try:
         report = simulate_file(file, settings, contact=contact, part=part,
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
@@ -233,7 +231,7 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
         how = f"{off[worst]:.3g} {mesh['units']}" if np.isfinite(off[worst]) else "far"
         raise InputError(f"{path}: not the mesh these grasps were planned on (contact "
                          f"{worst % 2} of grasp {worst // 2 + 1} lies {how} off its surface)")
-    bar = LineProgress(enabled=not (args.quiet or args.json))
+    bar = LineProgress(enabled=not args.quiet)
     try:
         labelled = simulate_jaw_document(doc, part, settings, mu=args.mu,
                                          progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))

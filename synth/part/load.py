@@ -43,6 +43,9 @@ __all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "length_unit", "l
 #: File extensions accepted by :func:`load_part` (read by trimesh).
 SUPPORTED_FORMATS: tuple[str, ...] = MESH_FORMATS
 
+#: How the warning of a mesh whose length unit is unknown begins (``Part.warnings``).
+UNIT_UNKNOWN = "length unit unknown"
+
 #: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
 UNIT_ALIASES: dict[str, str] = {
     "mm": "millimeters", "cm": "centimeters", "dm": "decimeters", "m": "meters",
@@ -381,7 +384,7 @@ def load_part(
                             "ft or a trimesh unit name such as 'millimeters'")
         unit = known
     else:
-        warnings.append("length unit unknown: the file does not say it; give it with --units "
+        warnings.append(f"{UNIT_UNKNOWN}: the file does not say it; give it with --units "
                         "(Python: units=), e.g. mm, cm, m or in")
     soup = path is not None and Path(path).suffix.lower() == ".stl"
     pieces, precision, length = _pieces(raw, name, repairs, soup)

@@ -29,7 +29,8 @@ from synth.limits import (
     SURFACES,
 )
 
-__all__ = ["PlanParams", "RANK_BY", "MAX_SQUEEZE", "BUILD_TIME", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
+__all__ = ["PlanParams", "RANK_BY", "MAX_SQUEEZE", "BUILD_TIME", "MAX_FINGERS",
+           "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
            "MAX_LENGTH"]
 

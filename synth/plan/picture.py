@@ -88,10 +88,10 @@ class GraspPicture:
 
 
 def unit_symbol(units: str | None) -> str:
-    """The short name of a trimesh length unit (``"decimeters"`` -> ``"dm"``); the mesh's
-    units in words when unknown."""
+    """The short name of a trimesh length unit (``"decimeters"`` -> ``"dm"``); ``"units"``
+    (the mesh file's own numbers) when unknown."""
     if units is None:
-        return "mesh units (unit unknown)"
+        return "units"
     from synth.part.load import UNIT_ALIASES
 
     short = [k for k, v in UNIT_ALIASES.items() if v == units and k.isascii()]
@@ -302,17 +302,18 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     else:  # the part alone, from two opposite corners
         nothing = Hand(np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
                        np.zeros((0, 3)), np.zeros((0, 3)))
-        plans = [(GraspPicture(nothing, _wrap(empty), np.zeros((0, 3))), [25, 0],
+        plans = [(GraspPicture(nothing, empty, np.zeros((0, 3))), [25, 0],
                   np.zeros((0, 26), bool))]
     # every view centred on what it must show, all at one scale: the widest, with a margin
     frames = [[_framing(part, row.frame, VIEW_DIRECTIONS[j]) for j in views]
               for row, views, _ in plans]
-    width = 1.08 * max(w for f in frames for _, w in f)
+    width = 1.15 * max(w for f in frames for _, w in f)
     cols = max(len(v) for _, v, _ in plans)
     size = PIXELS
     W = cols * size + (cols + 1) * _GAP
-    row_h = _ROW_TITLE + _VIEW_TITLE + size + _GAP
-    H = _HEAD + len(plans) * row_h
+    titles = [_wrap(row.title, W // 7) for row, _, _ in plans]  # 9-point characters
+    heights = [_ROW_TITLE + 14 * t.count("\n") + _VIEW_TITLE + size + _GAP for t in titles]
+    H = _HEAD + sum(heights)
     canvas = np.ones((H, W, 3))
     dpi = 110
     fig = plt.figure(figsize=(W / dpi, H / dpi), dpi=dpi)
@@ -321,10 +322,12 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     ax.set_zorder(1)
     texts = []
     for r, (row, views, seen) in enumerate(plans):
-        top = _HEAD + r * row_h
-        texts.append((W / 2, top + _ROW_TITLE / 2, row.title, 9))
+        top = _HEAD + sum(heights[:r])
+        lines = titles[r].count("\n")
+        texts.append((W / 2, top + (_ROW_TITLE + 14 * lines) / 2, titles[r], 9))
         for c, j in enumerate(views):
-            at = np.array([_GAP + c * (size + _GAP), top + _ROW_TITLE + _VIEW_TITLE])
+            at = np.array([_GAP + c * (size + _GAP),
+                           top + _ROW_TITLE + 14 * lines + _VIEW_TITLE])
             view = view_along(VIEW_DIRECTIONS[j], frames[r][c][0], width, size)
             canvas[at[1]:at[1] + size, at[0]:at[0] + size] = _image(view, part, row.hand)
             xy, _ = view.project(row.hand.points)
@@ -338,8 +341,9 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     fig.figimage(canvas, origin="upper", zorder=0)  # pixel for pixel: no resampling
     for x, y, text, font in texts:
         ax.text(x, y, text, ha="center", va="center", fontsize=font)
+    scale = unit if part.units else "the file's units (unknown)"
     ax.text(W / 2, _HEAD / 2, title + "\nsolid: in view; faded, dashed: behind the part; "
-            f"scale bar in {unit}", ha="center", va="center", fontsize=10)
+            f"scale bar in {scale}", ha="center", va="center", fontsize=10)
     ax.set_xlim(0, W)
     ax.set_ylim(H, 0)
     ax.set_axis_off()

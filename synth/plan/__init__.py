@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from synth.lazy import lazy_attributes
 from synth.plan.params import PlanParams
+
+if TYPE_CHECKING:  # what the lazy names are, for type checkers
+    from synth.plan.gripper import plan_gripper_file
+    from synth.plan.render import export_glb, render_png
+    from synth.plan.result import FORMAT, FORMAT_VERSION, Plan, PlannedGrasp
+    from synth.plan.search import Progress, plan_part
 
 # The search and the renderers pull in trimesh, FCL and matplotlib, the results numpy; they
 # are imported on first use (PEP 562), so that reading parameters (the command line's

@@ -127,9 +127,9 @@ def contact_visibility(part: Any, points: NDArray[np.float64], normals: NDArray[
     origins = np.repeat(P, m, axis=0)
     dirs = np.tile(np.asarray(directions, float), (k, 1))
     _, ray, _ = first_hits(part, origins, dirs)
-    free = np.ones(k * m, bool)
-    free[ray] = False
-    free = free.reshape(k, m)
+    hit = np.zeros(k * m, bool)
+    hit[ray] = True
+    free = ~hit.reshape(k, m)
     outward = -np.asarray(normals, float) @ np.asarray(directions, float).T
     return free, free & (outward > _FACING)
 

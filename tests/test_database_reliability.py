@@ -441,7 +441,13 @@ def test_numeric_options_are_checked_up_front(
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k
-        assert len(db.top("box", 10**22)) == db.mesh("box").n_grasps
+        n = db.mesh("box").n_grasps
+        assert len(db.top("box", 10**22)) == n
+    assert n > 1
+    code, out, _ = _cli(["db", "top", str(reference), "box", "--top", "0"], capsys)
+    assert code == 0 and f": {n} grasps" in out.splitlines()[0]  # 0: all, as rank and score
+    code, out, _ = _cli(["db", "top", str(reference), "box", "--top", "1"], capsys)
+    assert code == 0 and ": 1 grasps" in out.splitlines()[0]
 
 
 def test_a_reader_in_the_writers_process_leaves_the_writers_locks(tmp_path: Path) -> None:

@@ -66,9 +66,9 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     assert "--sim-grip" in _one_line(capsys.readouterr().err)
     # a mesh where the grasp file belongs is named as such, before any option is looked at
     assert main(["sim", str(mesh)]) == 2
-    assert "a mesh file (.stl), not a grasp file" in _one_line(capsys.readouterr().err)
+    assert "a mesh file (STL), not a grasp file" in _one_line(capsys.readouterr().err)
     assert main(["sim", str(mesh), "--no-files"]) == 2
-    assert "a mesh file (.stl), not a grasp file" in _one_line(capsys.readouterr().err)
+    assert "a mesh file (STL), not a grasp file" in _one_line(capsys.readouterr().err)
     doc = json.loads(path.read_text())
     doc["grasps"][0]["fingers"]["tip_radius"] = "big"
     bad = tmp_path / "bad.json"

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from synth.cli.checks import integer, output_path, real
+from synth.cli.checks import output_path, real
 from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
 
 __all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args",

@@ -28,8 +28,12 @@ def test_a_convex_body_is_one_exact_piece(tmp_path):
     assert np.allclose(s.inertia, np.eye(3) / 6)  # a unit cube of unit density
 
 
-def test_a_non_convex_body_is_its_facets_near_the_hand():
-    part = load_part(BRACKET, units="dm")
+BREAD = BRACKET.parent / "corpus" / "robosuite_bread.stl"  # coarse: facets 100 degrees apart
+
+
+@pytest.mark.parametrize("mesh, units", [(BRACKET, "dm"), (BREAD, "m")])
+def test_a_non_convex_body_is_its_facets_near_the_hand(mesh, units):
+    part = load_part(mesh, units=units)
     s = part_shape(part)
     assert s.faceted == 1 and len(s.pieces) == 0 and len(s.triangles) == len(part.mesh.faces)
     assert s.slab == pytest.approx(SLAB_RTOL * part.length)

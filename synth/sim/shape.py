@@ -44,6 +44,8 @@ SLAB_RTOL: float = 0.005
 FLAT_RTOL: float = 1e-6
 #: Most facets one convex patch of slabs is grown to.
 _PATCH_FACETS = 64
+#: Least cosine between the normals of two facets of one patch (60 degrees apart at most).
+_PATCH_SPREAD = 0.5
 
 
 @dataclass(frozen=True)
@@ -122,11 +124,13 @@ class PartShape:
 
 def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
                     n: NDArray[np.float64], tol: float) -> list[list[int]]:
-    """Facets grouped into convex patches: each group is connected through shared edges, and
+    """Facets grouped into convex patches: each group is connected through shared edges,
     every corner of the group lies on or behind the plane of every facet of it (``n`` points
-    out of the part), so the hull of the group and its inward offset is bounded on the
-    outside by exactly those facets. Fewer, larger slabs, the same surface. Greedy, grown
-    from each facet in turn over its neighbours, at most ``_PATCH_FACETS`` facets a patch."""
+    out of the part), and the facets' normals are within ``_PATCH_SPREAD`` of each other (so
+    each corner's inward offset along any of them is behind every plane too): the hull of
+    the group and its inward offset is bounded on the outside by exactly those facets. Fewer,
+    larger slabs, the same surface. Greedy, grown from each facet in turn over its
+    neighbours, at most ``_PATCH_FACETS`` facets a patch."""
     t = len(tri)
     edges: dict[tuple[int, int], list[int]] = {}
     for i, (a, b, c) in enumerate(corners.tolist()):
@@ -146,7 +150,7 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
         frontier = list(neighbours[seed])
         while frontier and len(group) < _PATCH_FACETS:
             j = frontier.pop()
-            if owner[j] >= 0:
+            if owner[j] >= 0 or (n[group] @ n[j]).min() < _PATCH_SPREAD:
                 continue
             both = np.concatenate([points, tri[j]])
             planes = group + [j]

@@ -49,6 +49,10 @@ def test_a_non_convex_body_is_its_facets_near_the_hand(mesh, units):
     inner = np.concatenate([v[len(v) // 2:] for v in everything])
     depth = trimesh.proximity.signed_distance(part.mesh, inner)  # positive inside
     assert depth.min() >= -1e-9 * part.length  # inside, or on the surface at a corner
+    # and no slab stands out of the part: the middle of every face of every slab's hull
+    # (what MuJoCo collides) is inside or on the surface
+    mids = np.concatenate([trimesh.convex.convex_hull(v).triangles_center for v in everything])
+    assert trimesh.proximity.signed_distance(part.mesh, mids).min() >= -1e-6 * part.length
     # near a point, only the facets within reach
     c = part.mesh.vertices[0]
     few = s.near(within(c[None], 0.05 * part.length))

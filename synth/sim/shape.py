@@ -126,9 +126,10 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
                     n: NDArray[np.float64], tol: float) -> list[list[int]]:
     """Facets grouped into convex patches: each group is connected through shared edges,
     every corner of the group lies on or behind the plane of every facet of it (``n`` points
-    out of the part), and the facets' normals are within ``_PATCH_SPREAD`` of each other (so
-    each corner's inward offset along any of them is behind every plane too): the hull of
-    the group and its inward offset is bounded on the outside by exactly those facets. Fewer,
+    out of the part), the facets' normals are within ``_PATCH_SPREAD`` of each other (so
+    each corner's inward offset along any of them is behind every plane too), and the facets
+    cover the hull of their corners seen along their mean normal: the hull of the group and
+    its inward offset is bounded on the outside by exactly those facets. Fewer,
     larger slabs, the same surface. Greedy, grown from each facet in turn over its
     neighbours, at most ``_PATCH_FACETS`` facets a patch."""
     t = len(tri)
@@ -157,7 +158,7 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
             # every corner behind every facet's plane: n . (v - p) <= tol
             side = np.einsum("fk,vk->fv", n[planes], both) - np.einsum(
                 "fk,fk->f", n[planes], tri[planes, 0])[:, None]
-            if side.max() > tol:
+            if side.max() > tol or not _covers_hull(tri[planes], n[planes]):
                 continue
             group.append(j)
             points = both
@@ -165,6 +166,27 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
             frontier.extend(neighbours[j])
         groups.append(group)
     return groups
+
+
+def _covers_hull(tri: NDArray[np.float64], n: NDArray[np.float64]) -> bool:
+    """Whether facets (a convex surface patch, normals within 60 degrees) cover the hull of
+    their corners seen along their mean normal: their projected areas add up to the hull's
+    (an L-shaped face, or a patch with a notch, does not: its hull would fill the notch)."""
+    from scipy.spatial import ConvexHull
+
+    m = n.sum(axis=0)
+    m /= np.linalg.norm(m)
+    u = np.cross(m, [1.0, 0.0, 0.0] if abs(m[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(m, u)
+    xy = np.stack([tri @ u, tri @ w], axis=-1)  # (t, 3, 2)
+    a, b = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
+    total = float(np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()) / 2
+    try:
+        hull = float(ConvexHull(xy.reshape(-1, 2)).volume)  # a 2-D hull's volume is its area
+    except Exception:  # noqa: BLE001 - qhull refuses degenerate input: a single sliver
+        return len(tri) == 1
+    return hull <= total * (1.0 + 1e-9)
 
 
 def within(centers: NDArray[np.float64], radius: float):  # type: ignore[no-untyped-def]

@@ -183,27 +183,28 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif rejected:
         message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
                    f"{_dropped(rejected, prm)}")
-    elif score.above_floor and not (archive.fit > 0).any():
-        message = (f"{score.above_floor} closure grasps were found, but none within the "
-                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
-                   f"weight per finger to hold it in every orientation, above --max-squeeze "
-                   f"{prm.floor:g}" + (f"; a budget above --evals {prm.evals} may find one that "
-                                       "holds" if prm.evals < PlanParams().evals else "")
-                   + "; --max-squeeze 0 returns them anyway")
     elif not stopped_by_time and len(archive) and not (
             (archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
             (archive.d > 0).any() or not (archive.fit > _OVERLAP).any()):
         message = _crowded(archive, prm, fingers, L)
+    elif score.above_floor and not (archive.fit > 0).any():
+        escape = _why_none(archive, prm, score)
+        message = (f"{score.above_floor} closure grasps were found, but none within the "
+                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
+                   f"weight per finger to hold it in every orientation, above --max-squeeze "
+                   f"{prm.floor:g}" + (f"; the best candidate is {escape}" if escape else "")
+                   + _revolution_note(prm, escape)
+                   + ((f"; {'if it is not, ' if _revolution_note(prm, escape) else ''}a budget "
+                       f"above --evals {prm.evals} may find one that holds")
+                      if prm.evals < PlanParams().evals else "")
+                   + "; --max-squeeze 0 returns them anyway")
     else:
         escape = _why_none(archive, prm, score)
         kind = "with friction mu = %g" % prm.mu if prm.mu > 0 else "without friction"
         message = f"no {k}-contact closure grasp {kind} was found" + (
             f"; the best candidate is {escape}" if escape else "")
+        message += _revolution_note(prm, escape)
         turn = prm.mu == 0 and escape and "rotate about" in escape
-        if turn:
-            message += (". If the part is a surface of revolution (sphere, cylinder, torus), no "
-                        "number of frictionless contacts stops that turn: try mu > 0 with 3 or "
-                        "4 contacts")
         if prm.evals < PlanParams().evals:
             message += (f"; {'if it is not, ' if turn else ''}a budget above --evals "
                         f"{prm.evals} may find one")
@@ -302,6 +303,14 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
 #: The key of ``_select``'s rejection counts for grasps below ``--min-tolerance``.
 _LOW_TOLERANCE = "placement tolerance below --min-tolerance"
 _ABOVE_FLOOR = "needs more squeeze than --max-squeeze"
+
+
+def _revolution_note(prm: PlanParams, escape: str | None) -> str:
+    """The hint for a frictionless search whose best candidate (nearly) turns freely."""
+    if prm.mu == 0 and escape and "rotate about" in escape:
+        return (". If the part is a surface of revolution (sphere, cylinder, torus), no number "
+                "of frictionless contacts stops that turn: try mu > 0 with 3 or 4 contacts")
+    return ""
 
 
 def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:

@@ -499,6 +499,36 @@ class GripperGraspRecord:
     d_star: float
     sim: dict[str, Any] | None = None
 
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts: 2, one per pad."""
+        return int(self.points.shape[0])
+
+    def __eq__(self, other: object) -> bool:
+        """Field-by-field equality, arrays compared exactly."""
+        if not isinstance(other, GripperGraspRecord):
+            return NotImplemented
+        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
+
+    def to_dict(self) -> dict[str, Any]:
+        """The grasp in the gripper planner's JSON format (a grasp of a
+        ``synth.gripper_grasps`` document: ``pose``, ``tcp``, ``width``, ``contacts`` with
+        ``point``, ``normal`` and ``touch``, ``measures``), plus ``rank``, ``gripper`` and
+        ``sim`` (the label, or None). The contacts' patch sizes and the worst gravity
+        direction are not stored."""
+        from synth.fingers.jaws import pad_touch
+
+        return {
+            "rank": self.rank, "gripper": self.gripper, "pose": self.pose.tolist(),
+            "tcp": self.tcp.tolist(), "width": self.width,
+            "contacts": [{"point": p.tolist(), "normal": n.tolist(), "touch": t} for p, n, t
+                         in zip(self.points, self.normals, pad_touch(self.pose, self.normals))],
+            "measures": {"margin": self.margin, "least_squeeze": self.least_squeeze,
+                         "squeeze_per_weight": self.squeeze_per_weight, "d_star": self.d_star,
+                         "mu_min": self.mu_min, "epsilon": self.epsilon},
+            "sim": self.sim,
+        }  # fmt: skip
+
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> GripperGraspRecord:
         """Build a record from a ``SELECT * FROM gripper_grasps`` row."""

@@ -373,11 +373,12 @@ def _simulated(path: str, doc: Any, settings: dict[str, Any], params: dict[str, 
             or (isinstance(timing, dict) and timing.get("stopped_by_time")):
         return doc, None
     try:
+        from synth.plan import load_options
         from synth.sim import SimSettings, require_sim, simulate_plan
 
         require_sim()
         return simulate_plan(doc, path, SimSettings(**settings),
-                             load={"units": params.get("units")}), None
+                             load=load_options(params)), None
     except SynthError as e:
         return doc, f"simulation failed: {e}"
     except Exception as e:  # noqa: BLE001 - a simulation bug must not stop a long run

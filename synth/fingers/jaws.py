@@ -47,8 +47,8 @@ from numpy.typing import NDArray
 
 from synth.fingers.gripper import Gripper
 
-__all__ = ["JawContacts", "close_jaws", "LANDED", "MISSES", "TOO_WIDE", "EDGE_TOUCH",
-           "JAW_STATUS"]
+__all__ = ["JawContacts", "close_jaws", "pad_touch", "LANDED", "MISSES", "TOO_WIDE",
+           "EDGE_TOUCH", "JAW_STATUS"]
 
 LANDED, MISSES, TOO_WIDE, EDGE_TOUCH = 0, 1, 2, 3
 #: Words for :attr:`JawContacts.status`.
@@ -108,6 +108,28 @@ class JawContacts:
         return JawContacts(*(np.concatenate([getattr(j, f) for j in parts])
                              for f in ("poses", "width", "points", "normals", "patch",
                                        "status")))
+
+
+def pad_touch(pose: NDArray[np.float64], normals: NDArray[np.float64]) -> tuple[str, str]:
+    """How each pad of a jaw grasp touches: ``"pad"`` when the contact's normal is the pad's
+    closing direction (its face on the part, or an edge or vertex of the part pressed into
+    it), ``"rim"`` when only the pad's rim rests on a slope (the part's normal).
+
+    Parameters
+    ----------
+    pose : (4, 4) float
+        The gripper's base frame (closing along its x axis).
+    normals : (2, 3) float
+        The inward normals of the contacts, the +x pad's first.
+
+    Examples
+    --------
+    >>> pad_touch(np.eye(4), np.array([[-1.0, 0, 0], [0.6, 0.8, 0]]))
+    ('pad', 'rim')
+    """
+    x = np.asarray(pose, float)[:3, 0]
+    return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
+                 for n, sign in zip(np.asarray(normals, float), (1.0, -1.0)))
 
 
 def _rotate(D: NDArray[np.float64], R: NDArray[np.float64]) -> NDArray[np.float64]:

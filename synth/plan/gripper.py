@@ -46,8 +46,10 @@ from numpy.typing import NDArray
 from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
-from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws
+from synth.fingers.jaws import (EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws,
+                                 pad_touch)
 from synth.plan.gripper_refine import Scored, refine
+from synth.plan.result import describe_part, new_run_id
 from synth.scores.cones import cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import GRAVITY, gravity_hold_batch
@@ -56,7 +58,7 @@ from synth.scores.quality import epsilon_quality
 
 __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "GripperGrasp",
            "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M",
-           "grasp_results", "rank_order", "part_mass", "unit_scale"]
+           "grasp_results", "loaded_with", "rank_order", "part_mass", "unit_scale"]
 
 #: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
 APPROACHES: int = 4
@@ -174,9 +176,7 @@ class GripperGrasp:
     def touch(self) -> tuple[str, str]:
         """How each pad touches: ``"pad"`` (its face on the part: the normal is the pad's
         closing direction) or ``"rim"`` (only its rim on a slope: the normal is the part's)."""
-        x = self.pose[:3, 0]
-        return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
-                     for n, sign in zip(self.normals, (1.0, -1.0)))
+        return pad_touch(self.pose, self.normals)
 
     def to_json(self) -> dict[str, Any]:
         """The grasp as a JSON object."""
@@ -219,6 +219,13 @@ class GripperPlan:
     seconds : float
     length : float
         The part's characteristic length (bounding-box diagonal), in ``units``.
+    mesh : dict
+        Where the part came from and what loading did to it
+        (:func:`synth.plan.result.describe_part`: ``path``, ``sha256``, ``units``,
+        ``length``, ``repairs``, ...), as a point-finger plan records it.
+    run_id : str
+        Name of the run (:func:`synth.plan.result.new_run_id`), written into its JSON, PNG
+        and GLB files.
     """
 
     gripper: Gripper
@@ -232,6 +239,8 @@ class GripperPlan:
     narrowest: float | None
     seconds: float
     length: float = 0.0
+    mesh: dict[str, Any] = field(default_factory=dict)
+    run_id: str = field(default_factory=new_run_id)
 
     def to_json(self) -> dict[str, Any]:
         """The ``synth.gripper_grasps`` document."""
@@ -241,7 +250,8 @@ class GripperPlan:
 
         p = self.params
         return {"format": "synth.gripper_grasps", "version": 1, "synth_version": __version__,
-                "units": self.units, "mesh": {"units": self.units, "length": self.length},
+                "run_id": self.run_id, "units": self.units,
+                "mesh": {**self.mesh, "units": self.units, "length": self.length},
                 "params": asdict(p), "timing": {"total_s": self.seconds},
                 "gripper": self.gripper.to_json(),
                 "model": {"mu": p.mu, "torsion": self.gripper.unit_scale * TORSION_M
@@ -431,7 +441,8 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     cone = cone_name(params.edges, gamma > 0)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
-                       counts, narrowest, time.perf_counter() - t0, float(part.length))
+                       counts, narrowest, time.perf_counter() - t0, float(part.length),
+                       describe_part(part))
 
 
 def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperParams,
@@ -542,16 +553,29 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     """Load a mesh file and plan gripper grasps; the ``synth.gripper_grasps`` document.
 
     The planner ``synth db build --gripper`` calls for every mesh: ``params`` holds
-    :class:`GripperParams` fields and ``units``, the unit of meshes whose file does not say.
+    :class:`GripperParams` fields and the mesh options :data:`synth.plan.LOAD_KEYS`
+    (``units``, the unit of meshes whose file does not say; ``body``; ``sharp_angle`` in
+    degrees).
     """
     from synth.part import load_part
+    from synth.plan import LOAD_KEYS, load_options
 
     prm = dict(params)
-    units = prm.pop("units", None)
+    load = {k: prm.pop(k) for k in LOAD_KEYS if k in prm}
     if isinstance(prm.get("gravity"), list):
         prm["gravity"] = tuple(prm["gravity"])
-    part = load_part(path, units=units)
-    return plan_gripper(part, GripperParams(**prm)).to_json()
+    part = load_part(path, **load_options(load))
+    doc = plan_gripper(part, GripperParams(**prm)).to_json()
+    doc["mesh"].update(loaded_with(load))
+    return doc
+
+
+def loaded_with(load: dict[str, Any]) -> dict[str, Any]:
+    """How a part was loaded, for a gripper document's ``mesh`` object (``body`` and
+    ``sharp_angle`` in degrees), so that a consumer loads the same part: ``load`` holds the
+    mesh options :data:`synth.plan.LOAD_KEYS` given (absent: the defaults)."""
+    return {"body": load.get("body", "largest"),
+            "sharp_angle": float(load.get("sharp_angle", 30.0))}
 
 
 def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperParams,

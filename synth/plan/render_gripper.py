@@ -4,7 +4,8 @@ The GLB holds the part (``part``) and the posed gripper's collision shapes at th
 (``gripper_0``, ``gripper_1``, ... in the order of :meth:`synth.fingers.Gripper.meshes_at`:
 palm shapes, then the +x finger's, then the -x finger's), each already placed in the part's
 frame, so a reader can check them against the JSON's ``pose`` and ``width``; the scene's
-extras hold the grasp's pose and width.
+extras hold the run id, the mesh's SHA-256, the parameters and the grasp's pose and width. The
+PNG names the run in its title and text chunks, as a point-finger plan's does.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import trimesh
+
+from synth.plan.render import run_title, save_png, scene_extras
 
 __all__ = ["export_gripper_glb", "render_gripper_png", "posed_gripper"]
 
@@ -27,15 +30,23 @@ def posed_gripper(plan: Any, grasp: int = 0) -> list[trimesh.Trimesh]:
 
 
 def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -> Path:
-    """Write the part and grasp ``grasp``'s posed gripper as a GLB scene."""
+    """Write the part and grasp ``grasp``'s posed gripper as a GLB scene (with no grasp, the
+    part alone); the scene's extras name the run, the mesh and the parameters as a point-
+    finger plan's do (:func:`synth.plan.render.scene_extras`), and the grasp's pose and
+    width."""
+    from dataclasses import asdict
+
     scene = trimesh.Scene()
+    shown = {"grasp_rank": None}
+    if plan.grasps:
+        g = plan.grasps[grasp]
+        shown = {"grasp_rank": grasp + 1, "pose": g.pose.tolist(), "width": g.width}
+    scene.metadata["synth"] = scene_extras(plan.mesh, plan.run_id, asdict(plan.params),
+                                           gripper=plan.gripper.name, **shown)
     body = part.mesh.copy()
     body.visual.face_colors = [190, 195, 205, 255]
     scene.add_geometry(body, geom_name="part")
     if plan.grasps:
-        g = plan.grasps[grasp]
-        scene.metadata["synth"] = {"gripper": plan.gripper.name, "grasp_rank": grasp + 1,
-                                   "pose": g.pose.tolist(), "width": g.width}
         for i, m in enumerate(posed_gripper(plan, grasp)):
             m.visual.face_colors = [70, 110, 200, 200]
             scene.add_geometry(m, geom_name=f"gripper_{i}")
@@ -81,8 +92,7 @@ def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 4) 
         ax.set_zlim(mid[2] - half, mid[2] + half)
         ax.set_box_aspect((1, 1, 1))
         ax.tick_params(labelsize=6)
-    fig.suptitle(f"synth: {plan.gripper.title} grasps", fontsize=11)
+    fig.suptitle(run_title(plan.mesh, plan.run_id, f": {plan.gripper.title} grasps"),
+                 fontsize=11)
     fig.tight_layout()
-    fig.savefig(path, format="png")
-    plt.close(fig)
-    return Path(path)
+    return save_png(fig, path, plan.mesh, plan.run_id, atomic=False)

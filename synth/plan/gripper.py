@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 
 from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
-from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
+from synth.fingers.gripper_collide import CLEAR, GripperChecker
 from synth.fingers.jaws import (EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws,
                                  pad_touch)
 from synth.plan.gripper_refine import Scored, refine
@@ -609,6 +609,9 @@ def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperPara
 
 def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int],
              narrowest: float | None, mass: float | None, units: str) -> str:
+    """The sentence of a plan: what was found, or why nothing was, in words (the counts stay
+    in the document's ``counts``): for a part the hand cannot grasp, the narrowest width the
+    jaws found across it and the hand's opening."""
     mm = 1000.0 / gripper.unit_scale  # part units -> millimetres
     if grasps:
         g = grasps[0]
@@ -617,10 +620,27 @@ def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int
             f"; best needs a squeeze of {g.squeeze_per_weight:.3g} times the part's weight")
         return (f"{len(grasps)} {gripper.title} grasps ({counts['collision_free']} "
                 f"collision-free of {counts['poses']} poses){hold}")
-    if counts["landed"] == 0 and counts["too_wide"] > 0 and narrowest is not None:
-        return (f"no grasp: the part is too large for the {gripper.title}'s "
-                f"{gripper.max_opening * mm:.0f} mm opening (the narrowest width found is "
-                f"{narrowest * mm:.0f} mm)")
-    why = ", ".join(f"{v} {GRIPPER_STATUS.get(k, k) if isinstance(k, int) else k}"
-                    for k, v in counts.items())
-    return f"no {gripper.title} grasp found ({why})"
+    opening = f"{gripper.max_opening * mm:.0f} mm opening"
+    width = ("" if narrowest is None else
+             f"the narrowest width found is {narrowest * mm:.0f} mm")
+    if counts["pairs"] == 0:
+        return ("no grasp: no two points of the part face each other within the friction "
+                "cones (mu = the pads' friction) among the surface points drawn; try more "
+                "--samples or a larger --mu")
+    if counts["landed"] == 0:
+        if counts["too_wide"] > 0 and narrowest is not None:
+            return (f"no grasp: the part is too large for the {gripper.title}'s {opening} "
+                    f"({width})")
+        return (f"no grasp: the {gripper.title}'s pads never both rest on the part "
+                f"({counts['poses']} poses: a pad misses the part, or touches it with its rim "
+                f"where it cannot rest)" + (f"; {width}" if width else ""))
+    if counts["collision_free"] == 0:
+        return (f"no grasp: where the {gripper.title}'s {opening} fits across the part "
+                f"({counts['landed']} of {counts['poses']} poses; {width}), its palm or "
+                f"fingers hit the part or the table: the part is too large around those "
+                f"places")
+    if counts["closure"] == 0:
+        return (f"no grasp: none of the {counts['distinct_contacts']} distinct collision-free "
+                f"jaw grasps closes (the line between the pads leaves a friction cone)")
+    return (f"no grasp: none of the {counts['closure']} closing jaw grasps holds the part "
+            f"against gravity with a finite squeeze")

@@ -151,6 +151,31 @@ def _hi(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
 
 
+def _on_top(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int, at: NDArray[np.float64],
+            sign: float, top: NDArray[np.float64], tol: float, touching: NDArray[np.bool_]
+            ) -> NDArray[np.bool_]:
+    """Whether the point ``at[b]`` (n, 2) of the pad plane, ``(y, z)``, lies on the part where
+    it touches pose ``b``'s pad: inside the projection of a ``touching`` triangle (``Tg``,
+    ``kb`` as for :func:`_extremes`, ``touching`` (K,)) where that triangle reaches the
+    extreme ``top[b]`` (``sign * x``) to within ``tol``."""
+    p0 = Tg[:, 0, 1:]
+    e1, e2 = Tg[:, 1, 1:] - p0, Tg[:, 2, 1:] - p0
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    ok = np.abs(det) > 1e-300
+    det = np.where(ok, det, 1.0)
+    c = at[kb]
+    dy, dz = c[:, 0] - p0[:, 0], c[:, 1] - p0[:, 1]
+    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
+    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
+    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+    with np.errstate(invalid="ignore"):
+        on = touching & ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
+            sign * xc >= top[kb] - tol)
+    out = np.zeros(n, bool)
+    np.logical_or.at(out, kb, on)
+    return out
+
+
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
               n: int, rect: tuple[float, float, float, float], sign: float, tol: float,
               half: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -229,14 +254,7 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     # where that triangle reaches the extreme; else (a patch of several pieces) the touching
     # point nearest to it stands for the patch
     c = centre[kb]
-    dy, dz = c[:, 0] - p0[:, 0], c[:, 1] - p0[:, 1]
-    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
-    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
-    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
-    on = has & ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
-        sign * xc >= top[kb] - tol)
-    centred = np.zeros(n, bool)
-    np.logical_or.at(centred, kb, on)
+    centred = _on_top(Tg, kb, n, centre, sign, top, tol, has)
     # a ridge crossing the pad: the patch's middle is inside the rectangle and on the part
     inner = (centre[:, 0] > y0 + tol) & (centre[:, 0] < y1 - tol) & (centre[:, 1] > z0 + tol) \
         & (centre[:, 1] < z1 - tol)
@@ -309,7 +327,26 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     # such as across a groove, has no single contact
     rim &= centred & (flat | edge) & ~buried & (sign * face_n[:, 0] > 0)  # False where NaN
     return x, centre, np.where(hit, diag, 0.0), good & hit, rim, face_n, np.where(
-        np.isfinite(top_all), sign * top_all, np.nan)
+        np.isfinite(top_all), sign * top_all, np.nan), np.stack([lo_y, hi_y, lo_z, hi_z],
+                                                                axis=1), has
+
+
+def _aligned(box_a: NDArray[np.float64], box_b: NDArray[np.float64], at_b: NDArray[np.float64],
+             patch_b: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Where a pad lying flat on the part (its touched patch's bounding box ``box_a``, (n, 4):
+    ``y`` and ``z`` ranges in the pad plane) presses straight across from the other pad:
+    the middle of the two patches' overlap when the other also lies flat (``patch_b``, its box
+    ``box_b``), else the point of ``box_a`` nearest the other's contact ``at_b`` (n, 2). A
+    patch transmits its normal force anywhere within it, so the squeeze passes along the
+    closing axis where the pads' contacts face each other."""
+    lo = np.stack([box_a[:, 0], box_a[:, 2]], axis=1)
+    hi = np.stack([box_a[:, 1], box_a[:, 3]], axis=1)
+    both_lo = np.maximum(lo, np.stack([box_b[:, 0], box_b[:, 2]], axis=1))
+    both_hi = np.minimum(hi, np.stack([box_b[:, 1], box_b[:, 3]], axis=1))
+    with np.errstate(invalid="ignore"):
+        overlap = patch_b[:, None] & (both_lo <= both_hi)
+        target = np.where(overlap, 0.5 * (both_lo + both_hi), at_b)
+    return np.clip(target, lo, hi)
 
 
 def close_jaws(
@@ -386,7 +423,7 @@ def close_jaws(
             zc = pz + gripper.rise(w)
             zk = zc[kb0]
             near = (yhi >= -reach) & (ylo <= reach) & (zhi >= zk - ph / 2) & (zlo <= zk + ph / 2)
-            found = []
+            found, pads = [], []
             for rect, sign, far in ((plus_rect, 1.0, xhi), (minus_rect, -1.0, -xlo)):
                 # a vertex inside the pad's rectangle bounds the extreme from below: triangles
                 # lying wholly behind it cannot reach it
@@ -401,7 +438,9 @@ def close_jaws(
                                         axis=1)[:, None, :]  # pad centre at z = 0
                 found.append(_extremes(Tg, _rotate(FN[kf0[sel]], Rk[sel]), kb, n, rect, sign,
                                        touch_tol, half))
-            (xp, cp, dp, gp, rp, np_, xp_all), (xm, cm, dm, gm, rm, nm, xm_all) = found
+                pads.append((Tg, kb))
+            ((xp, cp, dp, gp, rp, np_, xp_all, bp, hp),
+             (xm, cm, dm, gm, rm, nm, xm_all, bm, hm)) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms
             inside = (xp - xm <= 0) & (xp_all - xm_all > 0)
@@ -416,6 +455,17 @@ def close_jaws(
         wide = hit & (w > gripper.max_opening)
         edge = hit & ~wide & ~((gp | rp) & (gm | rm))
         ok = hit & ~wide & ~edge
+        # a pad lying flat presses where the other pad's contact faces it (on its patch)
+        flat_p, flat_m = ok & gp, ok & gm
+        targets = [np.where(flat[:, None], _aligned(box, other_box, at, other), mid)
+                   for flat, mid, box, at, other, other_box in (
+                       (flat_p, cp, bp, cm, flat_m, bm), (flat_m, cm, bm, cp, flat_p, bp))]
+        for mid, want, sign, (Tg, kb), x, has in ((cp, targets[0], 1.0, pads[0], xp, hp),
+                                                 (cm, targets[1], -1.0, pads[1], xm, hm)):
+            moved = np.any(want != mid, axis=1)
+            if moved.any():
+                good_at = moved & _on_top(Tg, kb, n, want, sign, sign * x, touch_tol, has)
+                mid[good_at] = want[good_at]
         width[idx[hit]] = w[hit]
         status[idx[wide]] = TOO_WIDE
         status[idx[edge]] = EDGE_TOUCH

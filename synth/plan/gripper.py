@@ -76,6 +76,10 @@ SHORTLIST: int = 2
 SCREEN: int = 4
 #: The best grasps refined by small moves of the pose (:mod:`synth.plan.gripper_refine`).
 REFINE_TOP: int = 10
+#: Surface points are drawn until this share of ``samples`` pairs fits the open jaws ...
+FIT_SHARE: float = 0.5
+#: ... or this many draws of ``samples`` points were made.
+MAX_DRAWS: int = 8
 #: Orders gripper grasps can be ranked by.
 GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
 
@@ -287,9 +291,12 @@ def part_mass(part: Any, params: GripperParams, scale: float) -> float | None:
     return float(params.density) * float(part.volume) / scale**3
 
 
-def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Antipodal pairs: points p, their ray's far hit q along the inward normal, axis x."""
+def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator,
+                  focus: NDArray[np.bool_] | None = None, with_faces: bool = False
+                  ) -> tuple[NDArray[np.float64], ...]:
+    """Antipodal pairs: points p, their ray's far hit q along the inward normal, axis x
+    (and, ``with_faces``, the face of each p). ``focus`` (f,) restricts the draw to those
+    faces (by area)."""
     import trimesh
 
     mesh = part.mesh
@@ -298,16 +305,18 @@ def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
     per_region = np.bincount(np.maximum(region, 0), weights=area)
     balanced = np.where(region >= 0, area / np.maximum(per_region[np.maximum(region, 0)],
                                                        1e-300), 0.0)
+    weights = ((n - n // 2, area), (n // 2, balanced)) if focus is None else (
+        (n, area * focus),)
     draws = [trimesh.sample.sample_surface(mesh, k, face_weight=w,
                                            seed=int(rng.integers(2**31)))
-             for k, w in ((n - n // 2, area), (n // 2, balanced)) if k and w.sum() > 0]
+             for k, w in weights if k and w.sum() > 0]
     if not draws:
-        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        return (np.zeros((0, 3)),) * 3 + ((np.zeros(0, np.int64),) if with_faces else ())
     pts = np.concatenate([d[0] for d in draws])
     faces = np.concatenate([d[1] for d in draws])
     out = np.asarray(mesh.face_normals, float)[faces]
     keep = part.exposed(pts, -out)
-    pts, out = pts[keep], out[keep]
+    pts, out, faces = pts[keep], out[keep], faces[keep]
     reach = 2.0 * part.length
     origins = pts - out * reach  # from beyond the part, back towards p along -out
     hit = mesh.ray.intersects_first(origins, out)
@@ -323,13 +332,14 @@ def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
     line = pts - q
     ln = np.linalg.norm(line, axis=1)
     good = np.isfinite(s) & (norm > 1e-9) & (ln > part.feature_tolerance)
-    pts, q, out, n_q, axis, line, ln = (a[good] for a in (pts, q, out, n_q, axis, line, ln))
+    pts, q, out, n_q, axis, line, ln, faces = (a[good] for a in (pts, q, out, n_q, axis, line,
+                                                                  ln, faces[ok]))
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     u = line / ln[:, None]
     cos_cone = 1.0 / math.sqrt(1.0 + mu * mu)
     inside = (np.einsum("ij,ij->i", u, out) > cos_cone) & (-np.einsum("ij,ij->i", u, n_q)
                                                             > cos_cone)
-    return pts[inside], q[inside], axis[inside]
+    return (pts[inside], q[inside], axis[inside]) + ((faces[inside],) if with_faces else ())
 
 
 def _poses(p: NDArray[np.float64], q: NDArray[np.float64], axis: NDArray[np.float64],
@@ -454,7 +464,7 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
     without a clear pose at the next, and so on (the measures depend on the contacts only;
     the refinement turns the best poses about their closing axis again)."""
     rng = np.random.default_rng(params.seed)
-    p, q, axis = _sample_pairs(part, params.samples, params.mu, rng)
+    p, q, axis, wide = _fitting_pairs(part, gripper, params, rng, counts)
     poses = _poses(p, q, axis, gripper.tcp, APPROACHES).reshape(len(p), APPROACHES, 4, 4)
     mesh = part.mesh
     touch = part.surface_tolerance  # follows the part's size and coordinate precision
@@ -462,7 +472,7 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
     pending = np.arange(len(p))
     found: list[JawContacts] = []
     tried = landed_n = too_wide = edge = 0
-    narrowest = np.inf
+    narrowest = wide
     for a in range(APPROACHES):
         if not len(pending):
             break
@@ -481,12 +491,49 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
         pending = pending[keep]
     jaws = JawContacts.concatenate(found) if found else close_jaws(V, F, FN, poses[:0, 0],
                                                                      gripper, touch)
-    counts.update(pairs=len(p), poses=tried, landed=landed_n, too_wide=too_wide,
-                  edge_touch=edge, collision_free=len(jaws.status))
+    counts.update(poses=tried, landed=landed_n, too_wide=too_wide, edge_touch=edge,
+                  collision_free=len(jaws.status))
     # poses landing on the same contacts (to DEDUPE_RTOL of the part's size) are scored once
     clear = _unique_contacts(jaws.points, DEDUPE_RTOL * part.length)
     counts["distinct_contacts"] = len(clear)
     return jaws, clear, float(narrowest) if np.isfinite(narrowest) else None
+
+
+def _fitting_pairs(part: Any, gripper: Gripper, params: GripperParams,
+                   rng: np.random.Generator, counts: dict[str, int]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                              float]:
+    """Step 1: antipodal pairs that may fit between the open jaws, and the narrowest extent
+    along the closing axis of those that cannot (inf if none).
+
+    A pair whose points lie further apart along its closing axis than the gripper opens
+    cannot be grasped there, so it is dropped before any jaw closes; surface points are drawn
+    ``params.samples`` at a time until at least ``FIT_SHARE`` of that many pairs fit or
+    ``MAX_DRAWS`` draws were made (a part much larger than the hand, graspable only at thin
+    features, gets more draws; one that fits gets the first draw only)."""
+    found, wide, drawn = [], np.inf, 0
+    n = 0
+    region = np.asarray(part.face_region)
+    focus = None
+    for _ in range(MAX_DRAWS):
+        p, q, axis, faces = _sample_pairs(part, params.samples, params.mu, rng, focus,
+                                          with_faces=True)
+        drawn += params.samples
+        extent = np.abs(np.einsum("ij,ij->i", p - q, axis))
+        fits = extent <= gripper.max_opening
+        if (~fits).any():
+            wide = min(wide, float(extent[~fits].min()))
+        found.append((p[fits], q[fits], axis[fits]))
+        n += int(fits.sum())
+        if n >= FIT_SHARE * params.samples:
+            break
+        # the next draws on the face regions where pairs fit: thin features of a large part
+        seen = np.unique(region[faces[fits]])
+        if len(seen) and (focus is None or not np.isin(region[focus], seen).all()):
+            focus = np.isin(region, seen) if focus is None else focus | np.isin(region, seen)
+    p, q, axis = (np.concatenate([f[i] for f in found]) for i in range(3))
+    counts.update(drawn=drawn, pairs=len(p))
+    return p, q, axis, wide
 
 
 def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams,
@@ -623,14 +670,13 @@ def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int
     opening = f"{gripper.max_opening * mm:.0f} mm opening"
     width = ("" if narrowest is None else
              f"the narrowest width found is {narrowest * mm:.0f} mm")
+    if counts["landed"] == 0 and narrowest is not None and narrowest > gripper.max_opening:
+        return f"no grasp: the part is too large for the {gripper.title}'s {opening} ({width})"
     if counts["pairs"] == 0:
         return ("no grasp: no two points of the part face each other within the friction "
                 "cones (mu = the pads' friction) among the surface points drawn; try more "
                 "--samples or a larger --mu")
     if counts["landed"] == 0:
-        if counts["too_wide"] > 0 and narrowest is not None:
-            return (f"no grasp: the part is too large for the {gripper.title}'s {opening} "
-                    f"({width})")
         return (f"no grasp: the {gripper.title}'s pads never both rest on the part "
                 f"({counts['poses']} poses: a pad misses the part, or touches it with its rim "
                 f"where it cannot rest)" + (f"; {width}" if width else ""))

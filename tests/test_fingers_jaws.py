@@ -185,16 +185,18 @@ def test_rim_contacts_pass_the_independent_check_and_a_wrong_normal_fails_it(tmp
                                                                  desc, 1.0, 0.5, 1e-4))
 
 
-def test_a_pad_rim_buried_in_a_slope_or_touching_twice_is_no_contact():
+def test_a_pad_rim_buried_in_a_slope_is_no_contact():
     # 70 degrees: inside the +x pad the face runs from x = 0.02 + 0.0085 tan(70) = 0.043,
     # behind the open pad (half the opening, 0.04), down to -0.003 on the other rim side,
     # the only part of it between the open pads: the pad is buried in the slope there
     res = _close(_tilted_box(70.0), [_pose([0, 0, 0])])
     assert res.status.tolist() == [EDGE_TOUCH]
-    # a groove along z under the +x pad, x = 0.02 + 0.2 |y|: both rim sides touch the part
-    # at once, at x = 0.0217, and there is no one contact with one normal
+
+
+def _groove(slope):
+    """A box 40 mm deep whose +x face has a groove along z, x = 0.02 + slope |y|."""
     y = np.array([-0.03, 0.0, 0.03])
-    outline = np.column_stack([np.r_[-0.02, 0.02 + 0.2 * np.abs(y), -0.02],
+    outline = np.column_stack([np.r_[-0.02, 0.02 + slope * np.abs(y), -0.02],
                                np.r_[-0.03, y, 0.03]])
     n = len(outline)
     V = np.vstack([np.column_stack([outline, np.full(n, z)]) for z in (-0.03, 0.03)])
@@ -204,8 +206,42 @@ def test_a_pad_rim_buried_in_a_slope_or_touching_twice_is_no_contact():
     groove = trimesh.Trimesh(V, F)
     groove.fix_normals()
     assert groove.is_watertight and groove.volume > 0
-    res = _close(groove, [_pose([0, 0, 0])], tol=1e-5)
+    return groove
+
+
+def test_a_pad_across_a_shallow_groove_rests_on_both_sides():
+    # x = 0.02 + 0.2 |y|: both rim sides of the +x pad (y = +-8.5 mm) touch at once, at
+    # x = 0.0217, and the groove's middle lies 0.2 x 8.5 mm = 1.7 mm behind the pad, a rise of
+    # 0.2 of half the span (at most GROOVE_RISE = 0.25): the pad rests on both sides and
+    # presses along its own normal; the contact is the groove's bottom under the pad's middle
+    res = _close(_groove(0.2), [_pose([0, 0, 0])], tol=1e-5)
+    assert res.status.tolist() == [LANDED]
+    pad_z = FRANKA.pad_center[1] - TCP[2]
+    assert res.width[0] == pytest.approx(0.02 + 0.2 * 0.0085 + 0.02, rel=1e-12)
+    assert np.allclose(res.points[0, 0], [0.02, 0.0, pad_z], atol=1e-12)
+    assert np.allclose(res.normals[0], [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
+    # x = 0.02 + 0.3 |y| rises 0.3 of half the span: the pad does not rest in it
+    res = _close(_groove(0.3), [_pose([0, 0, 0])], tol=1e-5)
     assert res.status.tolist() == [EDGE_TOUCH]
+
+
+def test_a_groove_contact_passes_the_independent_check_and_a_deep_one_fails_it(tmp_path):
+    desc = Path(__file__).parents[1] / "synth" / "fingers" / "grippers" / "franka.json"
+    path = tmp_path / "groove.stl"
+    _groove(0.2).export(path)
+    res = _close(trimesh.load(path), [_pose([0, 0, 0])], tol=1e-5)
+    g = {"pose": res.poses[0].tolist(), "width": float(res.width[0]),
+         "contacts": [{"point": p.tolist(), "normal": n.tolist()}
+                      for p, n in zip(res.points[0], res.normals[0])]}
+    assert check_grasp(g, path, desc, 1.0, 0.5, 1e-4) == []
+    # the same contact in a groove twice as steep lies twice as deep behind the pad: the pad
+    # cannot rest across it (0.4 of half the span), so the check refuses the point
+    steep = tmp_path / "steep.stl"
+    _groove(0.4).export(steep)
+    x_rim = 0.02 + 0.4 * 0.0085  # the pads at the steep groove's rims and at x = -0.02
+    deep = dict(g, pose=_pose([(x_rim - 0.02) / 2, 0, 0]).tolist(), width=x_rim + 0.02)
+    errors = check_grasp(deep, steep, desc, 1.0, 0.5, 1e-4)
+    assert any("contact 0 is not on its pad" in e for e in errors)
 
 
 @pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 30.0)])

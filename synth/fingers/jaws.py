@@ -59,6 +59,11 @@ JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                                           "on an edge or vertex at no single normal)"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
+#: A pad touching a concave surface on two opposite sides of its rectangle rests on it (a
+#: contact with the pad's normal) when the surface under its middle lies at most this
+#: fraction of half the span behind the pad: the groove's sides rise at most 1 in 4 on
+#: average (27 degrees at the rims of a circular groove).
+GROOVE_RISE: float = 0.25
 #: Poses per chunk times faces: a chunk's face centres in its poses' frames take about 16
 #: bytes times this, and only the triangles near a pad are transformed whole.
 _CHUNK_ENTRIES = 400_000
@@ -151,6 +156,23 @@ def _hi(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
 
 
+def _heights(Tg: NDArray[np.float64], at: NDArray[np.float64]
+             ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Whether each triangle of ``Tg`` (K, 3, 3), in its pad's frame, covers the point ``at``
+    (K, 2) of the pad plane ``(y, z)``, and its ``x`` there."""
+    p0 = Tg[:, 0, 1:]
+    e1, e2 = Tg[:, 1, 1:] - p0, Tg[:, 2, 1:] - p0
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    ok = np.abs(det) > 1e-300
+    det = np.where(ok, det, 1.0)
+    dy, dz = at[:, 0] - p0[:, 0], at[:, 1] - p0[:, 1]
+    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
+    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
+    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+    with np.errstate(invalid="ignore"):
+        return ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9), xc
+
+
 def _on_top(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int, at: NDArray[np.float64],
             sign: float, top: NDArray[np.float64], tol: float, touching: NDArray[np.bool_]
             ) -> NDArray[np.bool_]:
@@ -158,21 +180,23 @@ def _on_top(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int, at: NDArray[
     it touches pose ``b``'s pad: inside the projection of a ``touching`` triangle (``Tg``,
     ``kb`` as for :func:`_extremes`, ``touching`` (K,)) where that triangle reaches the
     extreme ``top[b]`` (``sign * x``) to within ``tol``."""
-    p0 = Tg[:, 0, 1:]
-    e1, e2 = Tg[:, 1, 1:] - p0, Tg[:, 2, 1:] - p0
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    ok = np.abs(det) > 1e-300
-    det = np.where(ok, det, 1.0)
-    c = at[kb]
-    dy, dz = c[:, 0] - p0[:, 0], c[:, 1] - p0[:, 1]
-    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
-    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
-    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+    covers, xc = _heights(Tg, at[kb])
     with np.errstate(invalid="ignore"):
-        on = touching & ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
-            sign * xc >= top[kb] - tol)
+        on = touching & covers & (sign * xc >= top[kb] - tol)
     out = np.zeros(n, bool)
     np.logical_or.at(out, kb, on)
+    return out
+
+
+def _surface_at(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int,
+                at: NDArray[np.float64], sign: float, half: float) -> NDArray[np.float64]:
+    """The highest ``sign * x`` of the part at the point ``at[b]`` (n, 2) of pose ``b``'s pad
+    plane, between the open pads (at most ``half``); -inf where no triangle covers it."""
+    covers, xc = _heights(Tg, at[kb])
+    with np.errstate(invalid="ignore"):
+        h = np.where(covers & (sign * xc <= half), sign * xc, -np.inf)
+    out = np.full(n, -np.inf)
+    np.maximum.at(out, kb, h)
     return out
 
 
@@ -259,6 +283,22 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     inner = (centre[:, 0] > y0 + tol) & (centre[:, 0] < y1 - tol) & (centre[:, 1] > z0 + tol) \
         & (centre[:, 1] < z1 - tol)
     good |= centred & inner
+    # a pad across a groove (a concave surface, as inside a mug): it touches on two opposite
+    # sides of its rectangle only, and the part falls away between them by at most
+    # GROOVE_RISE of half the span, so the pad rests on both sides and presses along its own
+    # normal; the contact is the part's surface under the middle (``sink`` behind the pad)
+    sink = np.zeros(n)
+    spans_y = (lo_y <= y0 + tol) & (hi_y >= y1 - tol)
+    spans_z = (lo_z <= z0 + tol) & (hi_z >= z1 - tol)
+    across = hit & ~good & ~centred & (spans_y | spans_z)
+    if across.any():
+        with np.errstate(invalid="ignore"):
+            depth = top - _surface_at(Tg, kb, n, centre, sign, half + eps)
+            span = np.where(spans_y, y1 - y0, z1 - z0)
+            groove = across & (depth <= GROOVE_RISE * span / 2)
+        good |= groove
+        centred |= groove
+        sink = np.where(groove, depth, 0.0)
     off = has & ~centred[kb]
     if off.any():
         d2 = np.where(touch, (P[..., 1] - c[:, None, 0]) ** 2 + (P[..., 2] - c[:, None, 1]) ** 2,
@@ -328,7 +368,7 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     rim &= centred & (flat | edge) & ~buried & (sign * face_n[:, 0] > 0)  # False where NaN
     return x, centre, np.where(hit, diag, 0.0), good & hit, rim, face_n, np.where(
         np.isfinite(top_all), sign * top_all, np.nan), np.stack([lo_y, hi_y, lo_z, hi_z],
-                                                                axis=1), has
+                                                                axis=1), has, sink
 
 
 def _aligned(box_a: NDArray[np.float64], box_b: NDArray[np.float64], at_b: NDArray[np.float64],
@@ -439,8 +479,8 @@ def close_jaws(
                 found.append(_extremes(Tg, _rotate(FN[kf0[sel]], Rk[sel]), kb, n, rect, sign,
                                        touch_tol, half))
                 pads.append((Tg, kb))
-            ((xp, cp, dp, gp, rp, np_, xp_all, bp, hp),
-             (xm, cm, dm, gm, rm, nm, xm_all, bm, hm)) = found
+            ((xp, cp, dp, gp, rp, np_, xp_all, bp, hp, sp),
+             (xm, cm, dm, gm, rm, nm, xm_all, bm, hm, sm)) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms
             inside = (xp - xm <= 0) & (xp_all - xm_all > 0)
@@ -456,7 +496,7 @@ def close_jaws(
         edge = hit & ~wide & ~((gp | rp) & (gm | rm))
         ok = hit & ~wide & ~edge
         # a pad lying flat presses where the other pad's contact faces it (on its patch)
-        flat_p, flat_m = ok & gp, ok & gm
+        flat_p, flat_m = ok & gp & (sp == 0), ok & gm & (sm == 0)
         targets = [np.where(flat[:, None], _aligned(box, other_box, at, other), mid)
                    for flat, mid, box, at, other, other_box in (
                        (flat_p, cp, bp, cm, flat_m, bm), (flat_m, cm, bm, cp, flat_p, bp))]
@@ -473,8 +513,8 @@ def close_jaws(
         status[idx[ok]] = LANDED
         shift = 0.5 * (xp + xm)
         out_pose[idx[ok], :3, 3] = t[ok] + R[ok, :, 0] * shift[ok, None]
-        cg = np.stack([np.column_stack([xp, cp[:, 0], cp[:, 1] + zc]),
-                       np.column_stack([xm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
+        cg = np.stack([np.column_stack([xp - sp, cp[:, 0], cp[:, 1] + zc]),
+                       np.column_stack([xm + sm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
         points[idx[ok]] = (np.einsum("bij,bkj->bki", R, cg) + t[:, None])[ok]
         # the pad's closing direction, or on a rim contact the face's inward normal
         face = -np.einsum("bij,bkj->bki", R, np.stack([np_, nm], axis=1))

@@ -341,8 +341,30 @@ def _decode_report(row: sqlite3.Row) -> dict[str, Any] | None:
     return None if text is None else dict(json.loads(text))
 
 
+class _StoredGrasp:
+    """What both kinds of stored grasps share: their contacts' count, and equality field by
+    field (arrays compared exactly, through ``to_dict``)."""
+
+    mesh_id: int
+    points: np.ndarray
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts k (2 for a gripper grasp, one per pad)."""
+        return int(self.points.shape[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def __eq__(self, other: object) -> bool:
+        """Field-by-field equality, arrays compared exactly."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True, eq=False)
-class GraspRecord:
+class GraspRecord(_StoredGrasp):
     """One stored grasp (a row of ``grasps``), arrays decoded.
 
     Attributes
@@ -392,17 +414,6 @@ class GraspRecord:
     tolerance: float | None = None
     contact_regions: dict[str, Any] | None = None
     sim: dict[str, Any] | None = None
-
-    @property
-    def n_contacts(self) -> int:
-        """Number of contacts k."""
-        return int(self.points.shape[0])
-
-    def __eq__(self, other: object) -> bool:
-        """Field-by-field equality, arrays compared exactly."""
-        if not isinstance(other, GraspRecord):
-            return NotImplemented
-        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
 
     def to_dict(self) -> dict[str, Any]:
         """The grasp in the planner's JSON format (format version 1), plus ``rank``; ``sim``
@@ -465,7 +476,7 @@ def _decode_sim(row: sqlite3.Row) -> dict[str, Any] | None:
 
 
 @dataclass(frozen=True, eq=False)
-class GripperGraspRecord:
+class GripperGraspRecord(_StoredGrasp):
     """One stored gripper grasp (a row of ``gripper_grasps``), arrays decoded.
 
     Attributes
@@ -498,17 +509,6 @@ class GripperGraspRecord:
     epsilon: float
     d_star: float
     sim: dict[str, Any] | None = None
-
-    @property
-    def n_contacts(self) -> int:
-        """Number of contacts: 2, one per pad."""
-        return int(self.points.shape[0])
-
-    def __eq__(self, other: object) -> bool:
-        """Field-by-field equality, arrays compared exactly."""
-        if not isinstance(other, GripperGraspRecord):
-            return NotImplemented
-        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
 
     def to_dict(self) -> dict[str, Any]:
         """The grasp in the gripper planner's JSON format (a grasp of a

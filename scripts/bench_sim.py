@@ -1,38 +1,42 @@
-"""Benchmark: which of synth's measures predicts what holds in MuJoCo.
+"""Benchmark: do synth's grasps hold in MuJoCo, which measure predicts it, and can the labels
+be trusted?
 
-For every mesh of ``meshes/corpus`` that plans, the planner's top grasps (defaults, seed 0)
-are simulated with ``synth.sim`` at several finger stiffnesses and grip forces. Printed (not
-asserted):
+For every mesh of ``meshes/corpus`` (``--files`` to choose), point fingers and jaws:
 
-* per part: grasps, convex pieces (and how many bodies CoACD decomposed, with its volume
-  error), and how many of the grasps hold at each setting;
-* the share of grasps that hold at each setting;
-* the share that holds in bands of conditioning (the planner's floor is 1e-3);
-* at each setting, the Spearman rank correlation between each measure the plan reports
-  (d*, conditioning, epsilon, and tolerance, d* on the facets and on the smooth surface when
-  the plan has them) and the weakest push held (``force_min``, over the grip force; 0 for a
-  grasp that did not hold under gravity) and the weakest torque held: pooled over every
-  grasp, and the median over parts of the correlation within each part (what a ranking of
-  one part's grasps needs);
-* grasps that should fail: the best grasp of each part with one contact (and its finger)
-  removed, three times at random: how many still hold, and the cosine between the motion
-  at failure and synth's predicted escape twist;
-* grasps the facets reject: the part planned again with ``--surface smooth`` (closure with
-  the interpolated normals alone); of its top grasps, those that are not form closure with
-  the mesh's own normals (``d_star_mesh`` 0, or a wrench matrix of lower rank) are simulated
-  with the default hand beside the ones the facets accept: how many hold, where they fail,
-  and the cosine between the motion at failure and the escape twist synth predicts from the
-  mesh's normals;
-* time per grasp.
+* **point fingers**: the planner's top ``--top`` grasps at the defaults (seed 0), simulated by
+  ``synth sim`` at its defaults (the balanced hand, grip 10 N, the part scaled to 0.1 m at
+  1000 kg/m^3, weight along +-x, +-y, +-z, a 1 g shake); and, to see what predicts holding
+  and what the physical floor costs, the top ``--auc-top`` grasps of the same plan without
+  the floor (``max_squeeze=None``), simulated the same way;
+* **jaws**: the Franka hand's top ``--top`` grasps (``synth plan --gripper franka`` at its
+  defaults) on every part whose unit is known and that fits the hand, simulated with the
+  hand's pads at its rated force, the part at its real size and 1000 kg/m^3.
+
+Printed (not asserted), for each hand:
+
+* per part: grasps and how many held;
+* the share of the top grasps that held, over all parts and over the parts kept out of all
+  tuning (``HELD_OUT``: every fifth corpus file in name order from the third, fixed before the
+  physical floor was chosen);
+* where the others failed (start, close, squeeze, gravity, shake, diverged, error);
+* the ROC AUC of each measure against the labels (the probability that a held grasp ranks
+  above a fallen one), pooled over all grasps and within parts (pairs of grasps of the same
+  part only: what ranking one part's grasps needs), on the grasps planned without the floor
+  (point fingers) or on the top grasps (jaws). Measures where smaller is better (the least
+  squeeze per weight, mu_min) are ranked smallest first;
+* what the floor costs: parts with no grasp, grasps fewer than ``--top``, and the best d* with
+  and without it;
+* convergence: the share of labels that change at half the time step, and at twice the solver
+  iterations;
+* agreement with an independent simulation (``tests/sim_independent.py``: its own MJCF, its
+  own protocol, no synth code) on the same grasps.
 
 Usage:
 
-    python scripts/bench_sim.py [--files a.obj b.stl] [--evals N] [--top N]
+    python scripts/bench_sim.py [--files a.obj b.stl] [--top 5] [--hands points jaws]
     python scripts/bench_sim.py --part 1/2 --dump a.json &  # two processes, then
     python scripts/bench_sim.py --part 2/2 --dump b.json
     python scripts/bench_sim.py --merge a.json b.json
-    python scripts/bench_sim.py --smooth-only [--part 1/2 --dump c.json]  # the last part only
-    python scripts/bench_sim.py --hands-only [--part 1/2 --dump d.json]  # all but the last
 
 Convex decompositions are cached (see ``synth.sim.cache_dir``); the first run decomposes
 every non-convex body with CoACD, which takes minutes.
@@ -47,268 +51,224 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from scipy.stats import spearmanr  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # tests.sim_independent
 
 from synth import PlanParams, load_part, plan_part  # noqa: E402
-from synth.sim import SimSettings, check_document, predicted_escape, simulate_file  # noqa: E402
+from synth.sim import SimSettings, check_document, simulate_file  # noqa: E402
 
-__all__ = ["main", "SETTINGS"]
+__all__ = ["main", "HELD_OUT", "roc_auc"]
 
-CORPUS = Path(__file__).resolve().parent.parent / "meshes" / "corpus"
-
-#: (label, settings): the default hand first.
-SETTINGS: tuple[tuple[str, SimSettings], ...] = (
-    ("1e5 N/m, 10 N", SimSettings()),
-    ("1e5 N/m,  2 N", SimSettings(grip=2.0)),
-    ("2e3 N/m,  2 N", SimSettings(stiffness=2e3, grip=2.0)),
-)
-MEASURES = ("d_star", "conditioning", "epsilon", "tolerance", "d_star_mesh", "d_star_smooth")
-
-
-def _without(doc: dict, grasp: dict, drop: int) -> dict:
-    """A document holding one grasp with contact ``drop`` and its finger removed."""
-    f = grasp["fingers"]
-    finger = f["contact_finger"][drop]
-    keep = [i for i in range(len(grasp["points"])) if f["contact_finger"][i] != finger]
-    fingers = [j for j in range(len(f["tip_centers"])) if j != finger]
-    g = dict(grasp)
-    g["points"] = [grasp["points"][i] for i in keep]
-    g["normals"] = [grasp["normals"][i] for i in keep]
-    g["fingers"] = dict(f, tip_centers=[f["tip_centers"][j] for j in fingers],
-                        approach=[f["approach"][j] for j in fingers])
-    return dict(doc, grasps=[g])
+CORPUS = ROOT / "meshes" / "corpus"
+ENTRIES = {e["file"]: e for e in json.loads((CORPUS / "corpus.json").read_text())
+           if e.get("expect", "plan") == "plan"}
+#: Parts kept out of all tuning: every fifth file in name order, from the third.
+HELD_OUT = tuple(sorted(ENTRIES)[2::5])
+#: Measures per hand, and whether larger is better.
+MEASURES = {
+    "points": {"d_star": True, "conditioning": True, "epsilon": True,
+               "squeeze_per_weight": False},
+    "jaws": {"d_star": True, "epsilon": True, "squeeze_per_weight": False, "mu_min": False},
+}
 
 
-def _spearman(x: np.ndarray, y: np.ndarray) -> float:
-    ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 4 or np.ptp(x[ok]) == 0 or np.ptp(y[ok]) == 0:
-        return float("nan")
-    return float(spearmanr(x[ok], y[ok]).statistic)
+def roc_auc(score: np.ndarray, held: np.ndarray, group: np.ndarray | None = None,
+            larger_better: bool = True) -> tuple[float, int]:
+    """The probability that a held grasp scores better than a fallen one (ties count half),
+    over all pairs, or over the pairs of the same ``group`` only; and the number of pairs."""
+    s = np.asarray(score, float) * (1.0 if larger_better else -1.0)
+    s = np.where(np.isnan(s), -np.inf, s)
+    held = np.asarray(held, bool)
+    groups = [np.ones(len(s), bool)] if group is None else [group == g for g in set(group)]
+    wins = pairs = 0.0
+    for m in groups:
+        a, b = s[m & held], s[m & ~held]
+        if len(a) and len(b):
+            d = a[:, None] - b[None, :]
+            wins += float((d > 0).sum() + 0.5 * (d == 0).sum())
+            pairs += d.size
+    return (wins / pairs if pairs else float("nan")), int(pairs)
 
 
-def _correlations(rows: list[dict], m: str) -> str:
-    """One line: measure ``m`` against the weakest push and torque held."""
-    x = np.array([r.get(m, np.nan) for r in rows], float)
-    if not np.isfinite(x).any():
-        return f"    {m:<14}  (not in the plans)"
-    parts = sorted({r["part"] for r in rows})
-    line = f"    {m:<14}"
-    for target in ("force", "torque"):
-        y = np.array([r[target] for r in rows], float)
-        within = []
-        for q in parts:
-            sel = np.array([r["part"] == q for r in rows])
-            w = _spearman(x[sel], y[sel])
-            if np.isfinite(w):
-                within.append(w)
-        med = np.median(within) if within else float("nan")
-        line += f"  {target} {_spearman(x, y):+.2f} / {med:+.2f} ({len(within)})"
-    return line
+def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
+    from tests.sim_independent import simulate as independent
 
-
-def _hands(part, path: Path, name: str, args: argparse.Namespace, rng: np.random.Generator,
-           acc: dict) -> None:
-    """The planner's top grasps at every hand of ``SETTINGS``, and the best one with a contact
-    removed; one line per part, measurements added to ``acc``."""
-    plan = plan_part(part, PlanParams(top=args.top, evals=args.evals, seed=0, regions=True))
-    if not plan.grasps:
-        print(f"{name:<44} {'no grasp':>6}", flush=True)
-        return
+    part = load_part(path, units=entry.get("units"))
+    rows = []
+    free = plan_part(part, PlanParams(top=args.auc_top, max_squeeze=None)).to_json()
+    plan = plan_part(part, PlanParams(top=args.top))
     doc = plan.to_json()
-    file = check_document(doc, str(path))
-    cells = []
-    report = None
-    for label, st in SETTINGS:
-        r = simulate_file(file, st)
-        report = report or r
-        for g, lab in zip(file.grasps, r.labels):
-            acc["rows"][label].append({"part": name, "held": lab.held, "force": lab.force_min,
-                                       "torque": lab.torque_min, **g.measures})
-        n_held = sum(lab.held for lab in r.labels)
-        acc["held"][label][0] += n_held
-        acc["held"][label][1] += len(r.labels)
-        cells.append(f"{n_held:>4}/{len(r.labels):<2}")
-        acc["seconds"].extend(lab.seconds for lab in r.labels)
-    assert report is not None
-    best = doc["grasps"][0]
-    for drop in rng.choice(len(best["points"]), size=min(3, len(best["points"])),
-                           replace=False):
-        one = check_document(_without(doc, best, int(drop)), str(path))
-        lab = simulate_file(one, SETTINGS[0][1]).labels[0]
-        acc["fails"].append([lab.held, lab.escape_cos, lab.failed_at])
-    p = report.pieces
-    dec = "-" if not p.decomposed else (f"{p.decomposed} {p.error:6.1%}" if p.error == p.error
-                                        else f"{p.decomposed} open")
-    print(f"{name:<44} {len(file.grasps):>6} {len(p.pieces):>6} {dec:>10}  "
-          + "  ".join(f"{cell:>13}" for cell in cells)
-          + f"   {np.mean([lab.seconds for lab in report.labels]):7.2f}", flush=True)
+    st = SimSettings()
+    if free["grasps"]:
+        labels = simulate_file(check_document(free, str(path)), st, part=part).labels
+        for g, a in zip(free["grasps"], labels, strict=True):
+            rows.append({"file": path.name, "hand": "points", "set": "no floor",
+                         "held": a.held, "failed_at": a.failed_at, "seconds": a.seconds,
+                         **{m: g.get(m) for m in MEASURES["points"]}})
+    rows.append({"file": path.name, "hand": "points", "set": "cost",
+                 "grasps": len(doc["grasps"]), "grasps_free": len(free["grasps"][:args.top]),
+                 "best": doc["grasps"][0]["d_star"] if doc["grasps"] else None,
+                 "best_free": free["grasps"][0]["d_star"] if free["grasps"] else None})
+    if not doc["grasps"]:
+        print(f"{path.name}: points: no grasp ({plan.message})", flush=True)
+        return rows
+    f = check_document(doc, str(path))
+    labels = simulate_file(f, st, part=part).labels
+    half = simulate_file(f, replace(st, timestep=st.dt / 2), part=part).labels
+    iters = simulate_file(f, replace(st, iterations=2 * st.iterations), part=part).labels
+    with tempfile.TemporaryDirectory() as tmp:
+        gf = Path(tmp) / "g.json"
+        gf.write_text(json.dumps(doc))
+        other = independent(gf, path)
+    for g, a, b, c, o in zip(doc["grasps"], labels, half, iters, other, strict=True):
+        rows.append({"file": path.name, "hand": "points", "set": "defaults", "held": a.held,
+                     "failed_at": a.failed_at, "half_dt": b.held, "iterations": c.held,
+                     "independent": o, "seconds": a.seconds,
+                     **{m: g.get(m) for m in MEASURES["points"]}})
+    return rows
 
 
-def _smooth(part, path: Path, name: str, args: argparse.Namespace) -> list[dict]:
-    """The top grasps planned with ``--surface smooth``, each simulated with the default
-    hand and classified by form closure with the mesh's own normals; one line per part and
-    one per grasp the facets reject."""
-    plan = plan_part(part, PlanParams(top=args.top, evals=args.evals, seed=0,
-                                      surface="smooth"))
-    if not plan.grasps:
-        print(f"{name:<44} smooth: no grasp", flush=True)
+def _jaws(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
+    from synth.plan.gripper import GripperParams, plan_gripper
+    from synth.sim.jaws import simulate_jaw_document
+    from tests.sim_independent import simulate as independent
+
+    if entry.get("units") is None:
         return []
+    part = load_part(path, units=entry["units"])
+    plan = plan_gripper(part, GripperParams(gripper="franka", top=args.top))
     doc = plan.to_json()
-    file = check_document(doc, str(path))
-    labels = simulate_file(file, SETTINGS[0][1]).labels
-    out = []
-    for i, (g, lab) in enumerate(zip(file.grasps, labels), 1):
-        escape = predicted_escape(g.points, g.normals, file.mu, file.center_mass, file.length)
-        out.append({"part": name, "rank": i, "rejected": escape is not None,
-                    "d_star_smooth": g.measures["d_star_smooth"],
-                    "d_star_mesh": g.measures["d_star_mesh"],
-                    "conditioning": g.measures["conditioning"], "held": lab.held,
-                    "failed_at": lab.failed_at, "escape_cos": lab.escape_cos,
-                    "motion": lab.motion_words, "motion_at": lab.motion_at,
-                    "force": lab.force_min, "seconds": lab.seconds})
-    rej = [r for r in out if r["rejected"]]
-    acc = [r for r in out if not r["rejected"]]
-    print(f"{name:<44} smooth: {len(rej)} of {len(out)} rejected on the facets, "
-          f"{sum(r['held'] for r in rej)} of them held; {sum(r['held'] for r in acc)} of "
-          f"{len(acc)} accepted held", flush=True)
-    for r in rej:
-        cos = "" if r["escape_cos"] is None else f", cos {r['escape_cos']:+.2f} to the escape"
-        print(f"    #{r['rank']:<2} d* smooth {r['d_star_smooth']:.3f} mesh "
-              f"{r['d_star_mesh']:.3f}: {'held' if r['held'] else 'failed at ' + r['failed_at']}"
-              + ("" if r["held"] else f", {r['motion_at']}: {r['motion']}{cos}"), flush=True)
-    return out
+    doc["mesh"].update(body="largest", sharp_angle=30.0)
+    if not doc["grasps"]:
+        print(f"{path.name}: jaws: no grasp ({plan.message})", flush=True)
+        return []
+    st = SimSettings()
+    labels = simulate_jaw_document(doc, part, st)["grasps"]
+    half = simulate_jaw_document(doc, part, replace(st, timestep=st.dt / 2))["grasps"]
+    iters = simulate_jaw_document(doc, part, replace(st, iterations=2 * st.iterations))["grasps"]
+    with tempfile.TemporaryDirectory() as tmp:
+        gf = Path(tmp) / "g.json"
+        gf.write_text(json.dumps(doc))
+        other = independent(gf, path)
+    rows = []
+    for g, a, b, c, o in zip(doc["grasps"], labels, half, iters, other, strict=True):
+        m = g["measures"]
+        rows.append({"file": path.name, "hand": "jaws", "set": "defaults",
+                     "held": a["sim"]["held"],
+                     "failed_at": a["sim"]["failed_at"], "half_dt": b["sim"]["held"],
+                     "iterations": c["sim"]["held"], "independent": o,
+                     "seconds": a["sim"]["seconds"], **{k: m.get(k) for k in MEASURES["jaws"]}})
+    return rows
+
+
+def _auc(rows: list[dict], hand: str) -> None:
+    held = np.array([r["held"] is True for r in rows])
+    files = np.array([r["file"] for r in rows])
+    print(f"  ROC AUC against 'held' on {len(rows)} grasps ({held.sum()} held; pooled / within "
+          "parts, pairs):")
+    for m, larger in MEASURES[hand].items():
+        x = np.array([np.nan if r[m] is None else r[m] for r in rows], float)
+        pooled, n1 = roc_auc(x, held, None, larger)
+        within, n2 = roc_auc(x, held, files, larger)
+        print(f"    {m:<20} {pooled:.2f} ({n1}) / {within:.2f} ({n2})")
+
+
+def _summary(all_rows: list[dict], hand: str) -> None:
+    rows = [r for r in all_rows if r["hand"] == hand and r["set"] == "defaults"]
+    if not rows:
+        return
+    held = np.array([r["held"] is True for r in rows])
+    files = np.array([r["file"] for r in rows])
+    out = np.isin(files, HELD_OUT)
+    print(f"\n{hand}: {len(rows)} grasps on {len(set(files))} parts, at the defaults")
+    print(f"  held: {held.sum()} of {len(rows)} ({held.mean():.0%}); on the parts kept out of "
+          f"tuning: {held[out].sum()} of {out.sum()}"
+          + (f" ({held[out].mean():.0%})" if out.any() else ""))
+    stages: dict[str, int] = {}
+    for r in rows:
+        if r["held"] is not True:
+            stages[r["failed_at"]] = stages.get(r["failed_at"], 0) + 1
+    print("  failed at: " + (", ".join(f"{k} {v}" for k, v in sorted(stages.items()))
+                             or "none"))
+    lab = np.array([r["held"] for r in rows], object)
+    for key, what in (("half_dt", "half the time step"), ("iterations", "twice the iterations")):
+        other = np.array([r[key] for r in rows], object)
+        print(f"  labels that change at {what}: {int((other != lab).sum())} of {len(rows)} "
+              f"({(other != lab).mean():.1%})")
+    ind = np.array([r["independent"] for r in rows], object)
+    simulated = np.array([r["held"] is not None for r in rows])
+    agree = (ind == lab) & simulated
+    print(f"  agreement with the independent simulation: {int(agree.sum())} of "
+          f"{int(simulated.sum())} ({agree.sum() / max(1, simulated.sum()):.0%})")
+    sec = np.array([r["seconds"] for r in rows])
+    print(f"  time per grasp: median {np.median(sec):.2f} s, max {sec.max():.2f} s")
+    free = [r for r in all_rows if r["hand"] == hand and r["set"] == "no floor"]
+    if free:
+        h = np.array([r["held"] is True for r in free])
+        print(f"  without the physical floor: {h.sum()} of {len(free)} held ({h.mean():.0%})")
+        _auc(free, hand)
+    else:
+        _auc(rows, hand)
+    cost = [r for r in all_rows if r["hand"] == hand and r["set"] == "cost"]
+    if cost:
+        none = [r["file"] for r in cost if r["grasps"] == 0 and r["grasps_free"] > 0]
+        fewer = sum(r["grasps"] < r["grasps_free"] for r in cost)
+        both = [r for r in cost if r["best"] is not None and r["best_free"] is not None]
+        ratio = np.array([r["best"] / r["best_free"] for r in both])
+        print(f"  what the floor costs: {len(none)} parts lose every grasp "
+              f"({', '.join(none) or 'none'}); {fewer} of {len(cost)} get fewer grasps; best "
+              f"d* with the floor over without: median {np.median(ratio):.3f}, min "
+              f"{ratio.min():.3f} ({len(both)} parts)")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the benchmark and print its tables."""
+    """Run the benchmark (see the module)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--files", nargs="*", default=None)
+    ap.add_argument("--top", type=int, default=5)
+    ap.add_argument("--auc-top", type=int, default=10,
+                    help="grasps planned without the floor, for the AUC (point fingers)")
+    ap.add_argument("--hands", nargs="+", choices=("points", "jaws"),
+                    default=["points", "jaws"])
     ap.add_argument("--part", default="1/1", metavar="I/N",
-                    help="run the I-th of N slices of the corpus (to run N processes)")
-    ap.add_argument("--dump", default=None, metavar="JSON",
-                    help="also write the measurements to this file, for --merge")
+                    help="run every N-th file from the I-th (for several processes)")
+    ap.add_argument("--dump", default=None, metavar="JSON", help="write the rows here")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
-                    help="print the summary of the measurements in these --dump files")
-    only = ap.add_mutually_exclusive_group()
-    only.add_argument("--smooth-only", action="store_true",
-                      help="only the grasps planned with --surface smooth (not the hands)")
-    only.add_argument("--hands-only", action="store_true",
-                      help="only the hands (not the grasps planned with --surface smooth)")
-    ap.add_argument("--evals", type=int, default=PlanParams().evals)
-    ap.add_argument("--top", type=int, default=10)
+                    help="print the summary of dumped rows")
     args = ap.parse_args(argv)
     if args.merge:
-        dumps = [json.loads(Path(f).read_text()) for f in args.merge]
-        acc = {"rows": {name: [r for d in dumps for r in d["rows"][name]] for name, _ in SETTINGS},
-               "held": {name: [sum(d["held"][name][k] for d in dumps) for k in (0, 1)]
-                        for name, _ in SETTINGS},
-               "fails": [f for d in dumps for f in d["fails"]],
-               "seconds": [x for d in dumps for x in d["seconds"]],
-               "smooth": [r for d in dumps for r in d["smooth"]]}
-        parts = {r["part"] for r in acc["rows"][SETTINGS[0][0]] + acc["smooth"]}
-        print(f"{len(parts)} parts")
-        _summary(acc, max(d["total_s"] for d in dumps))
-        return 0
-    corpus = [c for c in json.loads((CORPUS / "corpus.json").read_text())
-              if c["expect"] == "plan" and (args.files is None or c["file"] in args.files)]
-    i, n = (int(x) for x in args.part.split("/"))
-    corpus = corpus[i - 1::n]
-    acc = {"rows": {name: [] for name, _ in SETTINGS},  # one per grasp
-           "held": {name: [0, 0] for name, _ in SETTINGS},
-           "fails": [],  # [held, escape_cos, failed_at] per grasp with a contact removed
-           "seconds": [], "smooth": []}
-    if not args.smooth_only:
-        print(f"{'part':<44} {'grasps':>6} {'pieces':>6} {'CoACD':>10}  "
-              + "  ".join(f"{name:>13}" for name, _ in SETTINGS) + "   s/grasp", flush=True)
-    rng = np.random.default_rng(0)
-    t_all = time.perf_counter()
-    for c in corpus:
-        path = CORPUS / c["file"]
-        part = load_part(path, units=c.get("units"))
-        if not args.smooth_only:
-            _hands(part, path, c["file"], args, rng, acc)
-        if not args.hands_only:
-            acc["smooth"].extend(_smooth(part, path, c["file"], args))
-        if args.dump:  # after every part, so that a run cut short still counts
-            Path(args.dump).write_text(json.dumps({**acc,
-                                                   "total_s": time.perf_counter() - t_all}))
-    _summary(acc, time.perf_counter() - t_all)
+        rows = [r for f in args.merge for r in json.loads(Path(f).read_text())]
+    else:
+        i, n = (int(x) for x in args.part.split("/"))
+        names = sorted(args.files or ENTRIES)[i - 1 :: n]
+        rows = []
+        t0 = time.perf_counter()
+        for name in names:
+            path = CORPUS / name if (CORPUS / name).exists() else Path(name)
+            entry = ENTRIES.get(path.name, {})
+            for hand, run in (("points", _points), ("jaws", _jaws)):
+                if hand not in args.hands:
+                    continue
+                got = run(path, entry, args)
+                rows.extend(got)
+                top = [r for r in got if r["set"] == "defaults"]
+                if top:
+                    print(f"{path.name}: {hand}: {sum(r['held'] is True for r in top)} of "
+                          f"{len(top)} held; independent {sum(r['independent'] for r in top)}; "
+                          f"{time.perf_counter() - t0:.0f} s", flush=True)
+            if args.dump:
+                Path(args.dump).write_text(json.dumps(rows))
+    for hand in ("points", "jaws"):
+        _summary(rows, hand)
     return 0
-
-
-def _summary(acc: dict, total: float) -> None:
-    """Print the shares, the correlations, the grasps that should fail, the grasps the
-    facets reject, the times."""
-    if acc["seconds"]:
-        _hand_summary(acc["rows"], acc["held"], acc["fails"])
-    if acc["smooth"]:
-        _smooth_summary(acc["smooth"])
-    s = np.array(acc["seconds"] + [r["seconds"] for r in acc["smooth"]])
-    print(f"\ntime per grasp: median {np.median(s):.2f} s, mean {s.mean():.2f} s, max "
-          f"{s.max():.2f} s; whole benchmark {total:.0f} s")
-
-
-def _cosines(rows: list) -> str:
-    cos = np.array([c for c in rows if c is not None])
-    return (f"median {np.median(cos) if len(cos) else float('nan'):.2f}, above 0.9 in "
-            f"{int((cos > 0.9).sum())} of {len(cos)}")
-
-
-def _stages(failed_at: list) -> str:
-    return ", ".join(f"{s} {sum(1 for f in failed_at if f == s)}" for s in
-                     ("squeeze", "gravity", "shake", "diverged"))
-
-
-def _smooth_summary(rows: list[dict]) -> None:
-    """The grasps planned with ``--surface smooth``, rejected on the facets or not."""
-    rej = [r for r in rows if r["rejected"]]
-    acc = [r for r in rows if not r["rejected"]]
-    zero = sum(r["d_star_mesh"] == 0 for r in rej)
-    parts = len({r["part"] for r in rows})
-    print(f"\ngrasps planned with --surface smooth ({len(rows)} on {parts} parts), simulated "
-          f"with the default hand ({SETTINGS[0][0]}):")
-    print(f"  rejected on the facets (not form closure with the mesh's own normals): "
-          f"{len(rej)} on {len({r['part'] for r in rej})} parts (d_star_mesh 0: {zero}; "
-          f"d_star_mesh > 0 but rank < 6: {len(rej) - zero})")
-    print(f"    held: {sum(r['held'] for r in rej)} of {len(rej)}; failed at: "
-          f"{_stages([r['failed_at'] for r in rej])}")
-    print(f"    cosine of the motion at failure to the escape predicted from the mesh's "
-          f"normals: {_cosines([r['escape_cos'] for r in rej if not r['held']])}")
-    print(f"  accepted on the facets: {sum(r['held'] for r in acc)} of {len(acc)} held; "
-          f"failed at: {_stages([r['failed_at'] for r in acc])}")
-
-
-def _hand_summary(rows: dict, held: dict, fails: list) -> None:
-    """The hands of ``SETTINGS``: shares held, correlations, a contact removed."""
-    print("\nshare of the top grasps that hold (squeeze, gravity, shake of 1 g):")
-    for name, (h, n) in held.items():
-        print(f"  {name}: {h} of {n} ({h / max(n, 1):.0%})")
-    print("\nshare held by conditioning (the planner's floor is 1e-3):")
-    bands = (0.001, 0.003, 0.01, 0.03, 0.1, 1.0)
-    print(f"  {'':<14}" + "".join(f"  {lo:g}-{hi:g}".ljust(14) for lo, hi in
-                                  zip(bands[:-1], bands[1:])))
-    for name, _ in SETTINGS:
-        cond = np.array([r["conditioning"] for r in rows[name]], float)
-        ok = np.array([r["held"] for r in rows[name]], bool)
-        cells = []
-        for lo, hi in zip(bands[:-1], bands[1:]):
-            sel = (cond >= lo) & (cond < hi)
-            cells.append(f"  {int(ok[sel].sum())}/{int(sel.sum())}".ljust(14))
-        print(f"  {name:<14}" + "".join(cells))
-    print("\nSpearman rank correlation of each measure with the weakest push and torque held: "
-          "pooled over all grasps / median over parts of the within-part correlation (parts)")
-    for name, _ in SETTINGS:
-        print(f"  {name}")
-        for m in MEASURES:
-            print(_correlations(rows[name], m))
-    n_fail = sum(not h for h, _, _ in fails)
-    print(f"\ngrasps with one contact removed: {n_fail} of {len(fails)} fail "
-          f"({_stages([f for _, _, f in fails])}); cosine of the motion to the predicted "
-          f"escape: {_cosines([c for h, c, _ in fails if not h])}")
 
 
 if __name__ == "__main__":

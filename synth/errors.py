@@ -20,6 +20,7 @@ __all__ = [
     "DatabaseError",
     "DatabaseFileError",
     "OutputError",
+    "SimulationError",
     "InternalError",
     "shown",
 ]
@@ -63,6 +64,12 @@ class DatabaseFileError(DatabaseError, InputError):
 class OutputError(SynthError):
     """A result could not be written (no such folder, no permission, disk full); the file it
     was to replace is left as it was."""
+
+
+class SimulationError(SynthError):
+    """The simulator could not build or run a grasp's scene (a convex decomposition, a MuJoCo
+    compile): synth's own failure, recorded in that grasp's ``sim`` label with its reason,
+    never blamed on the input and never a reason to discard a plan."""
 
 
 class InternalError(SynthError):

@@ -137,13 +137,16 @@ def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
 
 def plan_for_sim(path: str, params: dict[str, Any]) -> dict[str, Any]:
     """Like :func:`plan_mesh_file`, with what ``synth.sim`` needs and synth's planner gives:
-    the mesh's digest, centre of mass and volume, and fingers approaching from outside."""
+    the mesh's digest, size (bounding-box diagonal), centre of mass, volume and how it was
+    loaded, and fingers approaching from outside."""
     doc = plan_mesh_file(path, params)
     mesh = _load(path)
     with open(path, "rb") as fh:
         digest = hashlib.sha256(fh.read()).hexdigest()
     doc["mesh"].update(sha256=digest, center_mass=mesh.center_mass.tolist(),
-                       volume=float(mesh.volume))
+                       volume=float(mesh.volume), units=None,
+                       length=float(np.linalg.norm(mesh.extents)),
+                       load={"units": None, "body": "largest", "sharp_angle": 30.0})
     for g in doc["grasps"]:
         g["fingers"]["approach"] = (-np.asarray(g["normals"])).tolist()
     return doc

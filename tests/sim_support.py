@@ -53,6 +53,9 @@ def write_cube(folder: Path, R: np.ndarray | None = None, t: np.ndarray | None =
     return path
 
 
+_CORNERS = np.array([[x, y, z] for x in (-.5, .5) for y in (-.5, .5) for z in (-.5, .5)])
+
+
 def write_grasps(folder: Path, mesh: Path, points, normals, *, mu: float = 0.0,
                  R: np.ndarray | None = None, t: np.ndarray | None = None,
                  name: str = "cube.grasps.json") -> Path:
@@ -63,7 +66,8 @@ def write_grasps(folder: Path, mesh: Path, points, normals, *, mu: float = 0.0,
     N = np.asarray(normals, float) @ R.T
     doc = {
         "format": "synth.grasps", "version": 1,
-        "mesh": {"path": str(mesh), "sha256": None, "length": float(np.sqrt(3)),
+        "mesh": {"path": str(mesh), "sha256": None,
+                 "length": float(np.linalg.norm(np.ptp(_CORNERS @ R.T, axis=0))),
                  "center_mass": t.tolist(), "volume": 1.0},
         "params": {"mu": mu},
         "grasps": [{"rank": 1, "points": P.tolist(), "normals": N.tolist(),
@@ -98,3 +102,39 @@ def push_bounds(points, normals, center, length: float, weight: float) -> np.nda
         assert res.status == 0, res.message
         out[j] = res.x[-1]
     return out
+
+
+def write_split_obj(folder: Path, split: str, name: str | None = None) -> Path:
+    """The unit cube centred at the origin as an OBJ file whose vertices are split as many
+    exporters write them: ``"normal"``, every face with its own four corners and a ``vn``
+    normal (flat shading); ``"uv"``, two texture islands (the top with the sides, and the
+    bottom) that share no vertex, each corner with a ``vt`` coordinate."""
+    m = trimesh.creation.box((1.0, 1.0, 1.0))
+    tri = np.asarray(m.triangles)  # (12, 3, 3)
+    normals = np.asarray(m.face_normals)
+    lines = ["# written by tests.sim_support.write_split_obj", "o cube"]
+    if split == "normal":
+        for f in range(12):
+            for c in tri[f]:
+                lines.append("v {:.6f} {:.6f} {:.6f}".format(*c))
+            lines.append("vn {:.6f} {:.6f} {:.6f}".format(*normals[f]))
+        for f in range(12):
+            a = 3 * f + 1
+            lines.append(f"f {a}//{f + 1} {a + 1}//{f + 1} {a + 2}//{f + 1}")
+    elif split == "uv":
+        bottom = normals[:, 2] < -0.5
+        offset = 0
+        for island in (~bottom, bottom):
+            faces = np.asarray(m.faces)[island]
+            used, inverse = np.unique(faces, return_inverse=True)
+            for i, v in enumerate(used):
+                lines.append("v {:.6f} {:.6f} {:.6f}".format(*m.vertices[v]))
+                lines.append(f"vt {i / len(used):.6f} {float(island.sum() > 2):.1f}")
+            for f in inverse.reshape(-1, 3) + offset + 1:
+                lines.append(f"f {f[0]}/{f[0]} {f[1]}/{f[1]} {f[2]}/{f[2]}")
+            offset += len(used)
+    else:
+        raise ValueError(split)
+    path = folder / (name or f"cube_{split}.obj")
+    path.write_text("\n".join(lines) + "\n")
+    return path

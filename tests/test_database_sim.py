@@ -56,7 +56,7 @@ def test_build_stores_what_synth_sim_says_and_every_reader_carries_it(meshes, tm
     # the same document simulated directly, without the database
     doc = plan_for_sim(str(meshes / "box.stl"), normalize_params(
         {"evals": 300, "top": 2, "seed": 3}))
-    settings = SimSettings(grip=50.0, shake=0.5, seed=3)
+    settings = SimSettings(grip=50.0, shake=0.5)
     want = [_untimed(g["sim"]) for g in simulate_plan(doc, meshes / "box.stl",
                                                       settings)["grasps"]]
     with GraspDatabase(out) as db:
@@ -103,14 +103,19 @@ def test_other_settings_do_not_resume_and_an_unsimulated_export_says_so(meshes, 
     assert z["sim"].tolist() == ["", ""] and np.isnan(z["sim_held"]).all()
 
 
-def test_a_simulation_that_cannot_run_fails_the_mesh_with_its_reason(meshes, tmp_path):
+def test_a_simulation_that_cannot_run_keeps_the_grasps_with_its_reason(meshes, tmp_path):
+    # the plain test planner's document has no centre of mass: the simulation cannot run,
+    # and the mesh is still planned, its grasps stored with an error label saying why
     out = tmp_path / "g.sqlite"
-    assert _build(meshes, out, *SIM, planner=PLANNER) == 0  # no centre of mass in its document
+    assert _build(meshes, out, *SIM, planner=PLANNER) == 0
     with GraspDatabase(out) as db:
         m = db.mesh("box")
-    assert (m.status, m.error_kind) == ("failed", "sim")
-    assert m.error.startswith("simulation failed: ") and "field mesh.center_mass: missing" in \
-        m.error
+        labels = [g.sim for g in db.grasps("box")]
+    assert m.status == "done" and len(labels) == 2
+    for lab in labels:
+        assert lab["held"] is None and lab["failed_at"] == "error"
+        assert lab["reason"].startswith("simulation failed: ")
+        assert "field mesh.center_mass: missing" in lab["reason"]
 
 
 def test_settings_are_checked_and_completed():
@@ -119,9 +124,11 @@ def test_settings_are_checked_and_completed():
     assert "sim" not in normalize_params({}) and "sim" not in normalize_params({"sim": None})
     with pytest.raises(InputError, match="unknown setting 'speed'"):
         normalize_params({"sim": {"speed": 1}})
+    with pytest.raises(InputError, match="never mix"):  # labels of another simulator
+        normalize_params({"sim": {"simulator": "synth.sim 1"}})
     with pytest.raises(InputError, match="'sim': grip: expected a number from 0.001"):
         normalize_params({"sim": {"grip": -1}})
-    with pytest.raises(InputError, match="'sim' must be null or an object"):
+    with pytest.raises(InputError, match="'sim': expected an object of simulation settings"):
         normalize_params({"gripper": "franka", "sim": 3})
 
 
@@ -182,7 +189,7 @@ def test_dask_workers_simulate_as_one_process_does(meshes, tmp_path, monkeypatch
     labels = {}
     for path in (one, out):
         with GraspDatabase(path) as db:
-            assert db.params["sim"] == SimSettings(grip=50.0, shake=0.5, seed=3).to_dict()
+            assert db.params["sim"] == SimSettings(grip=50.0, shake=0.5).to_dict()
             labels[path] = {m: [_untimed(g.sim) for g in db.grasps(m)] for m in ("box", "long")}
     assert labels[out] == labels[one]
     assert all(s is not None and "held" in s for grasps in labels[one].values() for s in grasps)

@@ -14,7 +14,7 @@ pytest.importorskip("mujoco")
 
 from synth.cli import main  # noqa: E402
 from synth.sim import SimSettings  # noqa: E402
-from tests.sim_support import CUBE6, write_cube, write_grasps  # noqa: E402
+from tests.sim_support import CUBE6, CUBE7, write_cube, write_grasps, write_split_obj  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,10 +34,11 @@ def test_sim_labels_every_grasp_in_place(tmp_path, capsys):
     path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
     assert main(["sim", str(path), "--quiet"]) == 0
     out = capsys.readouterr().out
-    assert "0 of 1 grasps held" in out and "shake: translate along" in out
+    assert "0 of 1 grasps held" in out and "gravity +x   translate along +x" in out
     doc = json.loads(path.read_text())
     s = doc["grasps"][0]["sim"]
-    assert s["held"] is False and s["failed_at"] == "shake" and s["escape_cos"] > 0.98
+    assert s["held"] is False and s["failed_at"] == "gravity" and s["escape_cos"] > 0.98
+    assert s["simulator"] == doc["sim"]["settings"]["simulator"] == "synth.sim 2"
     assert doc["sim"]["contact"]["condim"] == 1 and doc["sim"]["settings"]["grip"] == 10.0
     assert doc["grasps"][0]["d_star"] == 0.5  # the rest of the file is kept
 
@@ -46,12 +47,12 @@ def test_sim_out_and_no_files(tmp_path, capsys):
     path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE6)
     before = path.read_text()
     assert main(["sim", str(path), "--out", str(tmp_path / "labelled.json"), "--quiet",
-                 "--shake", "0"]) == 0
+                 "--sim-shake", "0"]) == 0
     assert path.read_text() == before
     capsys.readouterr()
     assert "sim" in json.loads((tmp_path / "labelled.json").read_text())["grasps"][0]
-    assert main(["sim", str(path), "--no-files", "--json", "--shake", "0"]) == 0
-    assert json.loads(capsys.readouterr().out)["grasps"][0]["sim"]["failed_at"] is None
+    assert main(["sim", str(path), "--no-files", "--json", "--sim-shake", "0"]) == 0
+    assert json.loads(capsys.readouterr().out)["grasps"][0]["sim"]["failed_at"] == "gravity"
 
 
 def test_without_mujoco_the_command_names_the_extra(tmp_path, capsys, monkeypatch):
@@ -66,8 +67,13 @@ def test_without_mujoco_the_command_names_the_extra(tmp_path, capsys, monkeypatc
 def test_bad_input_is_one_line(tmp_path, capsys):
     mesh = write_cube(tmp_path)
     path = write_grasps(tmp_path, mesh, *CUBE6)
-    assert main(["sim", str(path), "--grip", "-1"]) == 2
-    assert "--grip" in _one_line(capsys.readouterr().err)
+    assert main(["sim", str(path), "--sim-grip", "-1"]) == 2
+    assert "--sim-grip" in _one_line(capsys.readouterr().err)
+    # a mesh where the grasp file belongs is named as such, before any option is looked at
+    assert main(["sim", str(mesh)]) == 2
+    assert "a mesh file (.stl), not a grasp file" in _one_line(capsys.readouterr().err)
+    assert main(["sim", str(mesh), "--no-files"]) == 2
+    assert "a mesh file (.stl), not a grasp file" in _one_line(capsys.readouterr().err)
     doc = json.loads(path.read_text())
     doc["grasps"][0]["fingers"]["tip_radius"] = "big"
     bad = tmp_path / "bad.json"
@@ -84,10 +90,10 @@ def test_bad_input_is_one_line(tmp_path, capsys):
     bad.write_text(json.dumps(doc))
     assert main(["sim", str(bad)]) == 2
     assert "gone.stl: no such file" in _one_line(capsys.readouterr().err)
-    assert main(["sim", str(bad), "--mesh", str(mesh), "--no-files", "--shake", "0"]) == 0
+    assert main(["sim", str(bad), "--mesh", str(mesh), "--no-files", "--sim-shake", "0"]) == 0
 
 
-def test_a_gripper_grasp_file_is_simulated_as_its_plan_would_be(tmp_path, capsys):
+def test_a_gripper_grasp_file_is_simulated_with_its_pads(tmp_path, capsys):
     from synth.part import load_part
     from synth.plan.gripper import GripperParams, plan_gripper
     from synth.sim.jaws import simulate_jaw_document
@@ -95,20 +101,22 @@ def test_a_gripper_grasp_file_is_simulated_as_its_plan_would_be(tmp_path, capsys
     mesh = ROOT / "meshes" / "cube.stl"
     part = load_part(mesh, units="cm")
     doc = plan_gripper(part, GripperParams(top=2, samples=60)).to_json()
+    doc["mesh"].update(body="largest", sharp_angle=30.0)
+    doc["mesh"].pop("path", None)  # a file of an older synth names no mesh
     path = tmp_path / "jaws.json"
     path.write_text(json.dumps(doc))
-    assert main(["sim", str(path), "--shake", "0"]) == 2  # the file does not name its mesh
+    assert main(["sim", str(path), "--sim-shake", "0"]) == 2
     assert "--mesh" in _one_line(capsys.readouterr().err)
-    assert main(["sim", str(path), "--mesh", str(mesh), "--shake", "0", "--quiet"]) == 0
+    assert main(["sim", str(path), "--mesh", str(mesh), "--sim-shake", "0", "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "grasps held" in text and text.splitlines()[1].split()[0] == "1"
+    assert "2 of 2 grasps held" in text and "Franka" in text
     got = [g["sim"] for g in json.loads(path.read_text())["grasps"]]
-    want = [g["sim"] for g in simulate_jaw_document(doc, part, mesh, SimSettings(shake=0.0))[
+    want = [g["sim"] for g in simulate_jaw_document(doc, part, SimSettings(shake=0.0))[
         "grasps"]]
     untimed = [[{k: v for k, v in s.items() if k != "seconds"} for s in x] for x in (got, want)]
     assert untimed[0] == untimed[1]
     # --mu simulates with another coefficient; the plan's own stays in the file
-    assert main(["sim", str(path), "--mesh", str(mesh), "--shake", "0", "--quiet",
+    assert main(["sim", str(path), "--mesh", str(mesh), "--sim-shake", "0", "--quiet",
                  "--mu", "0.3"]) == 0
     capsys.readouterr()
     again = json.loads(path.read_text())
@@ -129,12 +137,52 @@ def test_a_gripper_grasp_file_is_simulated_as_its_plan_would_be(tmp_path, capsys
         capsys.readouterr().err)
 
 
+@pytest.mark.parametrize("split", ["normal", "uv"])
+def test_split_vertex_obj_files_are_labelled_as_their_welded_copy(tmp_path, capsys, split):
+    # the same grasp of the same cube, planned on an OBJ whose vertices are split along
+    # normal or texture seams and on a welded copy: the simulation sees the planned part
+    # (welded) in both, so the labels are the same
+    split_mesh = write_split_obj(tmp_path, split)
+    welded = tmp_path / "welded.obj"
+    trimesh.load(split_mesh, force="mesh").export(welded)  # trimesh merges on loading
+    labels = []
+    for mesh in (split_mesh, welded):
+        path = write_grasps(tmp_path, mesh, *CUBE7, name=f"{mesh.stem}.json")
+        assert main(["sim", str(path), "--quiet", "--sim-shake", "0"]) == 0
+        capsys.readouterr()
+        lab = json.loads(path.read_text())["grasps"][0]["sim"]
+        labels.append({k: v for k, v in lab.items() if k not in ("seconds", "steps")})
+    assert labels[0] == labels[1] and labels[0]["held"] is True
+
+
+def test_a_simulation_synth_cannot_run_keeps_the_plan(tmp_path, capsys, monkeypatch):
+    # synth's own failure (here CoACD's) is never bad input and never loses the plan: the
+    # files are written and each grasp's label says why it was not simulated
+    import synth.sim.decompose as dec
+
+    def broken(*args, **kwargs):
+        raise dec.SimulationError("CoACD could not decompose a body of 44 faces (boom)")
+
+    monkeypatch.setattr(dec, "_decompose", broken)
+    out = tmp_path / "bracket.grasps.json"
+    assert main(["plan", str(ROOT / "meshes" / "bracket.stl"), "--units", "dm", "--sim",
+                 "--top", "2", "--evals", "2000", "--quiet", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "0 of 2 grasps held, 2 not simulated (CoACD could not decompose" in text
+    doc = json.loads(out.read_text())
+    assert out.with_suffix(".png").exists() and out.with_suffix(".glb").exists()
+    assert [g["sim"]["failed_at"] for g in doc["grasps"]] == ["error", "error"]
+    assert all(g["sim"]["held"] is None and "boom" in g["sim"]["reason"]
+               for g in doc["grasps"])
+
+
 def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):
     mesh = write_cube(tmp_path)
     out = tmp_path / "cube.grasps.json"
     assert main(["plan", str(mesh), "--sim", "--top", "1", "--evals", "2000", "--quiet",
                  "--out", str(out), "--sim-shake", "0"]) == 0
     doc = json.loads(out.read_text())
+    assert doc["mesh"]["load"] == {"units": None, "body": "largest", "sharp_angle": 30.0}
     assert all("sim" in g for g in doc["grasps"]) and doc["sim"]["held"] >= 1
     assert "grasps held" in capsys.readouterr().out
 
@@ -146,6 +194,6 @@ def test_fields_the_simulation_does_not_read_are_left_alone(tmp_path, capsys):
     doc = json.loads(path.read_text())
     doc["grasps"][0]["measures"] = "x"
     path.write_text(json.dumps(doc))
-    assert main(["sim", str(path), "--shake", "0", "--quiet"]) == 0
+    assert main(["sim", str(path), "--sim-shake", "0", "--quiet"]) == 0
     assert "grasps held" in capsys.readouterr().out
     assert json.loads(path.read_text())["grasps"][0]["measures"] == "x"

@@ -1,49 +1,82 @@
-"""Gripper grasps simulated as the scorer scored them: the least squeeze against gravity
-predicts when MuJoCo's part stays between the two soft fingertips."""
+"""Gripper grasps simulated with the gripper's pads: a box pinched at its centre holds its
+weight along the pads' plane by friction alone, up to ``2 mu F`` (both pads, each pressing with
+the rated force ``F``), and across the pads by the fingers' coupling, whatever its weight."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+import trimesh
 
 pytest.importorskip("mujoco")
 
+from synth.fingers.gripper import load_gripper  # noqa: E402
 from synth.part import load_part  # noqa: E402
-from synth.plan.gripper import GripperParams, plan_gripper  # noqa: E402
-from synth.scores.gravity import least_squeeze_batch  # noqa: E402
 from synth.sim import SimSettings  # noqa: E402
 from synth.sim.jaws import simulate_jaw_document  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+MU = 0.5
 
 
-@pytest.mark.parametrize("name, units", [("cube.stl", "cm"), ("prism.stl", "cm")])
-def test_least_squeeze_predicts_the_gravity_stage(name, units):
-    mesh = ROOT / "meshes" / name
+def _pinch(tmp_path, mass: float, units: str = "m"):
+    """A 40 x 50 x 50 mm box between the Franka hand's pads, its centre at theirs, and the
+    grasp document of that pinch (the pose is the identity: the mesh is in the hand's
+    frame)."""
+    franka = load_gripper("franka")
+    scale = {"m": 1.0, "mm": 1000.0}[units]
+    zc = float(franka.pad_center[1])
+    box = trimesh.creation.box((0.04, 0.05, 0.05))
+    box.apply_translation([0.0, 0.0, zc])
+    box.apply_scale(scale)
+    mesh = tmp_path / f"box_{units}.stl"
+    box.export(mesh)
     part = load_part(mesh, units=units)
-    plan = plan_gripper(part, GripperParams(top=2, samples=60, torsion=0.05 * part.length))
-    assert plan.grasps
-    doc = plan.to_json()
-    st = SimSettings()
-    weight = st.density * part.volume * (st.size / part.length) ** 3 * 9.81
-    for k, g in enumerate(plan.grasps):
-        need = float(least_squeeze_batch(g.points[None], g.normals[None], 0.5,
-                                         doc["model"]["torsion"], part.center_mass,
-                                         part.length, [[0, 0, -1.0]])[0, 0])
-        one = dict(doc, grasps=[doc["grasps"][k]])
-        weak = simulate_jaw_document(one, part, mesh, SimSettings(grip=0.7 * need * weight,
-                                                                  shake=0.0))
-        strong = simulate_jaw_document(one, part, mesh, SimSettings(grip=1.5 * need * weight,
-                                                                    shake=0.0))
-        assert weak["grasps"][0]["sim"]["failed_at"] == "gravity"
-        assert strong["grasps"][0]["sim"]["failed_at"] != "gravity"
+    c = np.array([0.0, 0.0, zc]) * scale
+    doc = {
+        "format": "synth.gripper_grasps", "version": 1,
+        "mesh": {"units": units, "length": float(part.length), "body": "largest",
+                 "sharp_angle": 30.0},
+        "gripper": {"source": "franka"}, "params": {"gripper": "franka"},
+        "model": {"mu": MU, "torsion": 0.005 * scale, "mass": mass},
+        "grasps": [{"pose": np.eye(4).tolist(), "width": 0.04 * scale,
+                    "contacts": [{"point": (c + [0.02 * scale, 0, 0]).tolist(),
+                                  "normal": [-1.0, 0, 0]},
+                                 {"point": (c - [0.02 * scale, 0, 0]).tolist(),
+                                  "normal": [1.0, 0, 0]}],
+                    "measures": {"d_star": 1.0}}],
+    }
+    return doc, part, franka
+
+
+@pytest.mark.parametrize("units", ["m", "mm"])
+def test_a_pinch_holds_its_weight_up_to_twice_mu_times_the_grip(tmp_path, units):
+    franka = load_gripper("franka")
+    critical = 2 * MU * franka.grip_force / 9.80665  # kg
+    doc, part, _ = _pinch(tmp_path, 0.9 * critical, units)
+    light = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    lab = light["grasps"][0]["sim"]
+    assert lab["held"] and all(lab["gravity_held"].values()), lab
+    assert lab["forces"] == pytest.approx([1.0], abs=1e-3)  # the servo at the rated force
+    doc, part, _ = _pinch(tmp_path, 1.1 * critical, units)
+    heavy = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    lab = heavy["grasps"][0]["sim"]
+    assert not lab["held"] and lab["failed_at"] == "gravity"
+    # across the pads the coupled fingers hold it; along them friction gives way
+    assert lab["gravity_held"] == {"+x": True, "-x": True, "+y": False, "-y": False,
+                                   "+z": False, "-z": False}
+
+
+def test_pads_start_clear_of_the_part(tmp_path):
+    doc, part, _ = _pinch(tmp_path, 0.1)
+    doc["grasps"][0]["width"] = 0.03  # the pads would start inside the 40 mm box
+    out = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    lab = out["grasps"][0]["sim"]
+    assert lab["failed_at"] == "start" and "pad" in lab["reason"]
 
 
 def test_a_soft_pinch_has_no_predicted_escape_and_a_point_pinch_turns_about_its_line():
     # two opposed contacts on x: point contacts leave the turn about x free, soft ones
-    # (torsion) resist it, so the simulation has no escape to compare the motion with
+    # (torsion) resist it
     from synth.sim.label import predicted_escape
 
     P = np.array([[0.5, 0.0, 0.0], [-0.5, 0.0, 0.0]])

@@ -15,7 +15,7 @@ from synth.errors import OptionError
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
            "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
 
-_ONLY_GRIPPER = ("mass", "density", "gravity", "torsion", "samples")
+_ONLY_GRIPPER = ("gravity", "torsion", "samples")
 
 
 def add_hold_options(g: argparse._ArgumentGroup) -> None:
@@ -52,6 +52,16 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
                    f"approach angles (default {d.samples})")
 
 
+def refuse_point_options(args: argparse.Namespace) -> None:
+    """Point-finger options are refused with ``--gripper`` (a gripper presses with its rated
+    force and is held to its own measures)."""
+    for option, value in (("--grip", getattr(args, "grip", None)),
+                          ("--max-squeeze", getattr(args, "max_squeeze", None))):
+        if value is not None:
+            raise OptionError(f"{option} applies to point fingers: a gripper presses with its "
+                              "rated force (its description's grip_force)")
+
+
 def refuse_gripper_options(args: argparse.Namespace) -> None:
     """Options that only mean something with ``--gripper`` are refused without it."""
     from synth.plan import params as lim
@@ -70,6 +80,7 @@ def refuse_finger_options(args: argparse.Namespace, time: float) -> None:
     from synth.limits import DEFAULT_SURFACE
     from synth.plan.params import PlanParams
 
+    refuse_point_options(args)  # --grip, --max-squeeze
     d = PlanParams()
     defaults = {"contacts": d.contacts, "fingers": None, "evals": d.evals, "time": time,
                 "min_d_star": d.min_d_star, "min_tolerance": d.min_tolerance,
@@ -170,7 +181,7 @@ def run_gripper(args: argparse.Namespace) -> int:
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
 
-        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        settings = settings_from_args(args)
         require_sim()
     from synth.fingers.gripper import load_gripper
 
@@ -190,9 +201,9 @@ def run_gripper(args: argparse.Namespace) -> int:
     doc["mesh"].update(path=stored_mesh_path(part.source, None if paths is None else paths[0]),
                        **loaded_with(vars(args)))
     if settings is not None and plan.grasps:
-        from synth.sim import simulate_plan
+        from synth.cli.plan import simulate_planned
 
-        doc = simulate_plan(doc, args.mesh, settings, part=part)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):

@@ -118,6 +118,14 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
                    "work, so small budgets evaluate about 2,500 grasps")
     s.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
+    s.add_argument("--max-squeeze", type=float, default=None, metavar="WEIGHTS",
+                   help="the physical floor: return no grasp whose fingers must each press with "
+                   "more than this many times the part's weight to hold it in every "
+                   f"orientation, positive (default {d.max_squeeze:g}; 0: no floor)")
+    s.add_argument("--grip", type=float, default=None, metavar="N",
+                   help="force limit of each point finger, N: with --mass or --density each "
+                   "grasp reports its margin, the grip over the least squeeze that holds the "
+                   "part")
     s.add_argument("--min-d-star", type=float, default=d.min_d_star, metavar="D",
                    help="return no grasp with a lower d*; in [0, 1], the range of d* "
                    "(default 0)")
@@ -173,6 +181,8 @@ def check_planning_options(args: argparse.Namespace) -> None:
     real("--time", args.time, 0, math.inf, open_lo=True, open_hi=True, unit=" seconds")
     integer("--evals", args.evals, MIN_EVALS, MAX_EVALS)
     real("--min-d-star", args.min_d_star, 0, 1)
+    real("--max-squeeze", args.max_squeeze, 0, MAX_LENGTH)
+    real("--grip", args.grip, 0, MAX_LENGTH, open_lo=True, unit=" N")
     real("--min-tolerance", args.min_tolerance, 0, MAX_LENGTH)
     integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
     real("--table", args.table, -MAX_LENGTH, MAX_LENGTH)
@@ -192,6 +202,10 @@ def planning_params(args: argparse.Namespace) -> dict[str, Any]:
         "approach_cone": args.approach_cone, "min_d_star": args.min_d_star,
         "support_z": args.table, "rank_by": args.rank_by, "regions": args.regions,
         "min_tolerance": args.min_tolerance, "surface": args.surface,
+        "max_squeeze": (PlanParams().max_squeeze if args.max_squeeze is None
+                        else args.max_squeeze or None),
+        "grip": args.grip,
+        "mass": getattr(args, "mass", None), "density": getattr(args, "density", None),
         "units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
     }  # fmt: skip
 

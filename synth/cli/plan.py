@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 from pathlib import Path
 
 from synth.cli.checks import output_path
@@ -81,14 +82,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "notes (dropped objects are still said), no list of files written")
     from synth.cli.sim import add_sim_options
 
-    add_sim_options(p, prefix="sim-")
+    add_sim_options(p, switch=True)
     p.set_defaults(run=run)
 
 
 def format_plan_table(plan) -> str:
-    """Ranked table of a plan's grasps (a tolerance column when regions were computed)."""
+    """Ranked table of a plan's grasps (a tolerance column when regions were computed, a
+    margin column when the part's mass and the grip are known). ``N/weight``: the least
+    force each finger must press with, in the part's weights, to hold it in every
+    orientation."""
     show = any(g.contact_regions is not None for g in plan.grasps)
+    margin = any(g.margin is not None for g in plan.grasps)
     lines = [f"{'#':>3}  {'d*':>8}  {'closure':<15}  {'cond':>7}  {'epsilon':>8}  "
+             f"{'N/weight':>8}  " + (f"{'margin':>7}  " if margin else "")
              + (f"{'tolerance':>10}  " if show else "") + f"{'features':<18}  regions"]
     for i, g in enumerate(plan.grasps, 1):
         feats = ", ".join(f"{g.features.count(k)} {k}" for k in ("face", "edge", "vertex")
@@ -97,8 +103,10 @@ def format_plan_table(plan) -> str:
         r = g.contact_regions
         tol = "-" if r is None else f"{r.tolerance:.3g}" + ("" if r.certified else "~")
         lines.append(f"{i:>3}  {g.d_star:>8.5f}  {g.closure:<15}  {g.conditioning:>7.4f}  "
-                     f"{g.epsilon:>8.5f}  " + (f"{tol:>10}  " if show else "")
-                     + f"{feats:<18}  {regs}")
+                     f"{g.epsilon:>8.5f}  {g.squeeze_per_weight:>8.3f}  "
+                     + (f"{g.margin:>7.2f}  " if margin and g.margin is not None else
+                        f"{'-':>7}  " if margin else "")
+                     + (f"{tol:>10}  " if show else "") + f"{feats:<18}  {regs}")
     return "\n".join(lines)
 
 
@@ -112,15 +120,19 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
     return out, png, glb
 
 
-def _simulate(doc: dict, mesh: str, settings, quiet: bool) -> dict:  # type: ignore[no-untyped-def]
-    """The plan's document with every grasp simulated (``--sim``)."""
+def simulate_planned(doc: dict, mesh: str, part: Any, settings: Any, quiet: bool) -> dict:
+    """The plan's document with every grasp simulated (``--sim``) on the part just planned.
+    A simulation synth cannot run never discards the plan: its grasps get error labels
+    (:func:`synth.sim.unsimulated`) and the files are written."""
     from synth.cli.progress import LineProgress
-    from synth.sim import simulate_plan
+    from synth.sim import simulate_plan, unsimulated
 
     bar = LineProgress(enabled=not quiet)
     try:
-        return simulate_plan(doc, mesh, settings,
+        return simulate_plan(doc, mesh, settings, part=part,
                              progress=lambda i, n: bar(i / n, f"simulating grasp {i} of {n}"))
+    except Exception as e:  # noqa: BLE001 - synth's own failure: the plan is kept
+        return unsimulated(doc, f"simulation raised {type(e).__name__}: {e}", settings)
     finally:
         bar.close()
 
@@ -151,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
 
-        settings = settings_from_args(args, prefix="sim-", seed=args.seed)
+        settings = settings_from_args(args)
         require_sim()
     given = planning_params(args)
     params = PlanParams(**{k: v for k, v in given.items() if k not in LOAD_KEYS})
@@ -167,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
     doc["mesh"] = {**doc["mesh"], "path": stored_mesh_path(
         part.source, None if paths is None else paths[0])}  # relative to the JSON's folder
     if settings is not None and plan.grasps:
-        doc = _simulate(doc, args.mesh, settings, args.quiet or args.json)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none

@@ -49,6 +49,9 @@ class RankedCandidate:
     smooth_normals: np.ndarray | None = field(default=None, repr=False)
     d_star_mesh: float = float("nan")
     d_star_smooth: float = float("nan")
+    squeeze_per_weight: float = float("nan")
+    least_squeeze: float | None = None
+    margin: float | None = None
 
     @property
     def tolerance(self) -> float:
@@ -73,6 +76,10 @@ class RankedCandidate:
             else self.smooth_normals.tolist(),
             "d_star_mesh": None if self.closure is None else self.d_star_mesh,
             "d_star_smooth": None if self.closure is None else self.d_star_smooth,
+            "squeeze_per_weight": None if not np.isfinite(self.squeeze_per_weight)
+            else self.squeeze_per_weight,
+            "least_squeeze": self.least_squeeze,
+            "margin": self.margin,
             "features": list(self.features),
             "fingers": self.fingers,
             "tolerance": None if self.contact_regions is None else self.tolerance,
@@ -112,6 +119,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--regions", action="store_true",
                    help="compute each closure candidate's contact regions and placement "
                    "tolerance (as synth plan --regions)")
+    p.add_argument("--grip", type=float, default=None, metavar="N",
+                   help="force limit of each point finger, N: with --mass or --density each "
+                   "candidate reports its margin, the grip over the least squeeze that holds "
+                   "the part")
     from synth.plan.gripper import GRIPPER_RANK_BY
 
     add_rank_by(p, "candidates (tolerance computes the regions)", extra=GRIPPER_RANK_BY)
@@ -136,6 +147,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                     regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0,
+                    weight: float | None = None, grip: float | None = None,
                     edges: int = 8, index: list[int] | None = None, surface: str = "both"
                     ) -> list[RankedCandidate]:
     """Snap, resolve, check and score candidates on a part; best first (errors last).
@@ -151,8 +163,11 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     for the messages (default: 0, 1, ...). Conditioning and epsilon are those ``synth plan``
     reports (with friction, of the cone-edge wrenches with ``edges`` edges). Each candidate is
     scored under the surface model ``surface`` (:mod:`synth.scores.surface`): its d*, closure,
-    conditioning and epsilon are those of its weaker reading of the normals.
+    conditioning and epsilon are those of its weaker reading of the normals, and its least
+    squeeze per weight (:mod:`synth.scores.hold`) the larger of the two; with the part's
+    ``weight`` (N) its least squeeze in newtons, and with ``grip`` too its margin.
     """
+    from synth.scores.hold import finger_hold_batch
     from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
     from synth.robust import contact_regions
@@ -212,6 +227,10 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         eps = worst_reading(lambda n: float(epsilon_quality(P, n, center, L, m, edges)), N, S,
                             surface)
         ids = np.unique(con.finger, return_inverse=True)[1]
+        spw = max(float(finger_hold_batch(P[None], n[None], center, L, m, ids[None], edges)
+                        .squeeze_per_weight[0]) for n in readings(N, S, surface))
+        least = None if weight is None or not np.isfinite(spw) else spw * weight
+        margin = None if least is None or grip is None else grip / least
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
         fing = None
         if chk.mask[0]:
@@ -228,7 +247,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                                            f"below --min-tolerance {min_tolerance:g}")
         rows.append(RankedCandidate(c.name, status, reason, d, closure, cond, eps, P, N,
                                     tuple(con.features), fing, robust, i, S,
-                                    float(both.d_mesh[0]), float(both.d_smooth[0])))
+                                    float(both.d_mesh[0]), float(both.d_smooth[0]), spw, least,
+                                    margin))
     return order_rows(rows, rank_by)
 
 
@@ -269,6 +289,7 @@ def run(args: argparse.Namespace) -> int:
     real("--max-distance", args.max_distance, 0, MAX_LENGTH, unit=" (mesh units)")
     real("--min-tolerance", args.min_tolerance, 0, MAX_LENGTH, unit=" (mesh units)")
     integer("--top", args.top, 0)
+    real("--grip", args.grip, 0, MAX_LENGTH, open_lo=True, unit=" N")
     check_part_options(args)
     check_finger_options(args)
     out = None if args.out is None else output_path("--out", args.out, ".json")
@@ -280,11 +301,15 @@ def run(args: argparse.Namespace) -> int:
     report_part(part, args.quiet or args.json)
     fingers = default_fingers(part, **finger_overrides(args))
     max_d = args.max_distance if args.max_distance is not None else 0.01 * part.length
+    from synth.plan import PlanParams
+    from synth.plan.search import part_weight
+
+    weight = part_weight(part, PlanParams(mass=args.mass, density=args.density))
     index = sorted(i for g in table.groups for i in g.index.tolist())
     rows = rank_candidates(part, table.candidates(), args.mu, fingers, max_d,
                            regions=args.regions, rank_by=args.rank_by,
                            min_tolerance=args.min_tolerance, edges=args.edges, index=index,
-                           surface=args.surface)
+                           surface=args.surface, weight=weight, grip=args.grip)
     rows = order_rows(rows + [RankedCandidate(table.names[i], "error", message, index=i)
                               for i, message in table.errors], args.rank_by)
     unusable = [r for r in rows if r.status == "error"]
@@ -310,15 +335,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         w = max([4] + [len(r.name) for r in shown])
         show = args.regions or args.rank_by == "tolerance" or args.min_tolerance > 0
+        margin = any(r.margin is not None for r in shown)
         print(f"{'#':>3}  {'name':<{w}}  {'d*':>8}  {'closure':<15}  {'cond':>7}  "
-              f"{'epsilon':>8}  " + (f"{'tolerance':>10}  " if show else "") + "status")
+              f"{'epsilon':>8}  {'N/weight':>8}  " + (f"{'margin':>7}  " if margin else "")
+              + (f"{'tolerance':>10}  " if show else "") + "status")
         for i, r in enumerate(shown, 1):
             status = r.status if r.reason is None else f"{r.status}: {r.reason}"
             reg = r.contact_regions
             tol = "-" if reg is None else f"{reg.tolerance:.3g}" + ("" if reg.certified else "~")
             print(f"{i:>3}  {r.name:<{w}}  {_cell(r.d_star, '.5f', 8)}  "
                   f"{r.closure or '-':<15}  {_cell(r.conditioning, '.4f', 7)}  "
-                  f"{_cell(r.epsilon, '.5f', 8)}  " + (f"{tol:>10}  " if show else "") + status)
+                  f"{_cell(r.epsilon, '.5f', 8)}  {_cell(r.squeeze_per_weight, '.3f', 8)}  "
+                  + (f"{_cell(np.nan if r.margin is None else r.margin, '.2f', 7)}  "
+                     if margin else "") + (f"{tol:>10}  " if show else "") + status)
     for _, message in table.errors:
         print(f"synth: error: {message}", file=sys.stderr)
     if not args.quiet:

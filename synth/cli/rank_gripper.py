@@ -12,7 +12,7 @@ from synth.errors import InputError, OptionError
 
 __all__ = ["add_rank_gripper_options", "refuse_rank_gripper_options", "run_rank_gripper"]
 
-_ONLY_GRIPPER = ("gripper", "mass", "density", "gravity", "torsion", "table")
+_ONLY_GRIPPER = ("gripper", "gravity", "torsion", "table")
 
 
 def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:

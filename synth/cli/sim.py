@@ -9,54 +9,66 @@ from typing import Any
 
 from synth.cli.checks import integer, output_path, real
 
-__all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args"]
+__all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args",
+           "summary"]
+
+#: Every simulation option takes this prefix, in ``synth sim`` as in ``plan --sim`` and
+#: ``db build --sim``: ``--sim-grip`` is one thing everywhere.
+PREFIX = "sim-"
 
 
-def add_sim_options(p: argparse.ArgumentParser, prefix: str = "") -> None:
-    """The simulated hand's options (``prefix`` "sim-" for ``synth plan --sim`` and ``synth db
-    build --sim``)."""
-    from synth.sim.settings import RANGES, SimSettings
+def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
+    """The simulated hand's options (``--sim-...``); ``switch`` adds ``--sim`` itself (for
+    ``synth plan`` and ``synth db build``)."""
+    from synth.sim.settings import COUNTS, HANDS, RANGES, SimSettings
 
     d = SimSettings()
 
     def rng(name: str) -> str:
-        lo, hi = RANGES[name]
+        lo, hi = RANGES[name] if name in RANGES else COUNTS[name]
         return f"{lo:g} to {hi:g}"
 
-    g = p.add_argument_group(f"simulation (MuJoCo; the part scaled to --{prefix}size)")
-    if prefix:
+    g = p.add_argument_group("simulation (MuJoCo)")
+    if switch:
         g.add_argument("--sim", action="store_true",
                        help="simulate every grasp found in MuJoCo, as 'synth sim' does, and "
                        "store its label with the grasp ('sim'); needs pip install 'synth[sim]'")
-    g.add_argument(f"--{prefix}stiffness", type=float, default=d.stiffness, metavar="N/M",
+    g.add_argument("--sim-hand", choices=HANDS, default=d.hand,
+                   help="point fingers: 'balanced' presses with the grasp's own balanced "
+                   "squeeze; 'saturated' presses every finger with the full grip (default "
+                   f"{d.hand})")
+    g.add_argument("--sim-grip", type=float, default=d.grip, metavar="N",
+                   help=f"force limit of each point finger, N, {rng('grip')} (default "
+                   f"{d.grip:g}); a gripper presses with its rated force")
+    g.add_argument("--sim-stiffness", type=float, default=d.stiffness, metavar="N/M",
                    help=f"gain of each finger's position servo, N/m, {rng('stiffness')} "
                    f"(default {d.stiffness:g})")
-    g.add_argument(f"--{prefix}grip", type=float, default=d.grip, metavar="N",
-                   help=f"force limit of each finger, N, {rng('grip')} (default {d.grip:g})")
-    g.add_argument(f"--{prefix}size", type=float, default=d.size, metavar="M",
-                   help=f"the part's bounding-box diagonal in the simulation, m, {rng('size')} "
-                   f"(default {d.size:g})")
-    g.add_argument(f"--{prefix}density", type=float, default=d.density, metavar="KG/M3",
-                   help=f"the part's density, {rng('density')} (default {d.density:g}, water)")
-    g.add_argument(f"--{prefix}shake", type=float, default=d.shake, metavar="G",
-                   help=f"peak acceleration of the shake along x, y and z, in g, 0 to 100 "
-                   f"(default {d.shake:g}; 0: no shake)")
+    g.add_argument("--sim-size", type=float, default=d.size, metavar="M",
+                   help="a point-finger part's bounding-box diagonal in the simulation, m, "
+                   f"{rng('size')} (default {d.size:g}); gripper parts keep their real size")
+    g.add_argument("--sim-density", type=float, default=d.density, metavar="KG/M3",
+                   help=f"the simulated part's density, {rng('density')} (default "
+                   f"{d.density:g}, water); a gripper plan's own --mass or --density wins")
+    g.add_argument("--sim-shake", type=float, default=d.shake, metavar="G",
+                   help=f"peak acceleration of the shake along x, y and z, in g, "
+                   f"{rng('shake')} (default {d.shake:g}; 0: no shake)")
+    g.add_argument("--sim-seed", type=int, default=d.seed, metavar="SEED",
+                   help="seed of the convex decomposition of non-convex bodies, 0 to "
+                   f"2**63 - 1 (default {d.seed})")
 
 
-def settings_from_args(args: argparse.Namespace, prefix: str = "", seed: int = 0):
-    """:class:`synth.sim.SimSettings` from the options, each checked against its range."""
+def settings_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    """:class:`synth.sim.SimSettings` from the ``--sim-...`` options, each checked against its
+    range."""
+    from synth.limits import MAX_SEED
     from synth.sim.settings import RANGES, SimSettings
 
-    key = prefix.replace("-", "_")
-    values = {name: getattr(args, key + name) for name in
-              ("stiffness", "grip", "size", "density", "shake")}
+    values = {name: getattr(args, f"sim_{name}") for name in
+              ("grip", "stiffness", "size", "density", "shake")}
     for name, value in values.items():
-        option = f"--{prefix}{name}"
-        if name == "shake":
-            real(option, value, 0, 100, unit=" g")
-        else:
-            real(option, value, *RANGES[name])
-    return SimSettings(seed=seed, **values)
+        real(f"--{PREFIX}{name}", value, *RANGES[name], unit=" g" if name == "shake" else "")
+    integer(f"--{PREFIX}seed", args.sim_seed, 0, MAX_SEED, "2**63 - 1")
+    return SimSettings(hand=args.sim_hand, seed=args.sim_seed, **values)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -65,30 +77,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
     p = sub.add_parser(
         "sim",
-        help="simulate the grasps of a grasp file in MuJoCo: held or not, the largest push "
-        "held, the motion at failure",
-        description="Simulate every grasp of a grasp file (written by 'synth plan --out') "
-        "in MuJoCo with force-limited point fingers: squeeze, gravity, pushes along and "
-        "torques about +-x, +-y, +-z of the part until it moves, and a shake. Each grasp "
-        "gets a 'sim' label in the JSON. A gripper grasp file ('synth plan --gripper') is "
-        "simulated as the scorer scored it, one soft fingertip pressing at each pad's "
-        "contact; name its mesh with --mesh. Needs pip install 'synth[sim]' (mujoco, coacd).",
-        epilog="Exit status: 0 every grasp simulated (held or not; a simulation that "
-        "diverged is labelled so); 1 the file could not be written; 2 bad input (the line "
-        "says what is wrong, also when mujoco is not installed); 3 internal error (a bug in "
-        "synth). Non-convex bodies are decomposed with CoACD, cached in $SYNTH_CACHE_DIR "
-        "(default ~/.cache/synth).",
+        help="simulate the grasps of a grasp file in MuJoCo: held or not, where it failed, "
+        "how the part moved",
+        description="Simulate every grasp of a grasp file (written by 'synth plan --out', "
+        "point fingers or --gripper) in MuJoCo on the part that was planned (the mesh "
+        "loaded again with the plan's options): the fingers close onto the part and squeeze "
+        "it, then the part's weight pulls along +-x, +-y, +-z of the hand in turn, then the "
+        "hand is shaken. Point fingers press with the grasp's balanced squeeze, each "
+        "limited to --sim-grip; a gripper's pads close, coupled, with its rated force. Each "
+        "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, "
+        "coacd).",
+        epilog="Exit status: 0 every grasp simulated (held or not; one synth could not "
+        "simulate is labelled 'error' with the reason); 1 the file could not be written; 2 "
+        "bad input (the line says what is wrong, also when mujoco is not installed); 3 "
+        "internal error (a bug in synth). Non-convex bodies are decomposed with CoACD, cached "
+        "in $SYNTH_CACHE_DIR (default ~/.cache/synth).",
     )
     p.add_argument("grasps", metavar="GRASPS.json",
                    help="grasp file written by synth plan (point fingers or --gripper)")
     p.add_argument("--mesh", default=None, metavar="MESH",
                    help="the mesh file, when it is no longer where the grasp file's mesh.path "
-                   "says (it must have the same content); required for a gripper grasp file")
+                   "says (it must have the same content)")
     p.add_argument("--mu", type=float, default=None, metavar="MU",
                    help=f"simulate with this friction coefficient, in [0, {MAX_MU:g}] "
-                   "(default: the grasps' own, params.mu)")
-    p.add_argument("--seed", type=int, default=0, metavar="SEED",
-                   help="seed of the convex decomposition of non-convex bodies (default 0)")
+                   "(default: the grasps' own)")
     add_sim_options(p)
     o = p.add_argument_group("output")
     o.add_argument("--out", default=None, metavar="JSON",
@@ -103,9 +115,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 def format_sim_table(doc: dict) -> str:
     """Table of a labelled document's grasps: measures beside the simulation's labels."""
-    lines = [f"{'#':>3}  {'d*':>8}  {'cond':>7}  {'held':<4}  {'failed at':<9}  "
-             f"{'force':>6}  {'torque':>6}  motion"]
     jaws = doc.get("format") == "synth.gripper_grasps"  # its measures are kept apart
+    lines = [f"{'#':>3}  {'d*':>8}  {'cond' if not jaws else 'N/weight':>8}  {'held':<5}  "
+             f"{'failed at':<11}  motion"]
 
     def num(value: Any, spec: str, width: int) -> str:
         ok = isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -113,65 +125,64 @@ def format_sim_table(doc: dict) -> str:
 
     for i, g in enumerate(doc["grasps"], 1):
         s = g["sim"]
-        failed = s["failed_at"] or "-"
+        held = "-" if s["held"] is None else ("yes" if s["held"] else "no")
         m = g["measures"] if jaws else g
+        second = m.get("squeeze_per_weight") if jaws else m.get("conditioning")
+        what = s.get("motion_at") or s.get("failed_at") or "-"
+        detail = s["motion_words"] or s.get("reason") or ""
         lines.append(f"{i:>3}  {num(m.get('d_star'), '>8.5f', 8)}  "
-                     f"{num(m.get('conditioning'), '>7.4f', 7)}  "
-                     + f"{'yes' if s['held'] else 'no':<4}  {failed:<9}  "
-                     f"{s['force_min']:>6.3f}  {s['torque_min']:>6.3f}  "
-                     + (f"{s['motion_at']}: {s['motion_words']}" if s["motion_words"] else "-")
-                     + ("" if s["escape_cos"] is None else
+                     f"{num(second, '>8.4f', 8)}  {held:<5}  {what:<11}  {detail or '-'}"
+                     + ("" if s.get("escape_cos") is None else
                         f" (cos {s['escape_cos']:+.2f} to the predicted escape)"))
     return "\n".join(lines)
 
 
 def summary(doc: dict) -> str:
-    """One line: how many grasps held and what the figures mean."""
+    """One line: how many grasps held, with which hand and part."""
     s = doc["sim"]
     n = len(doc["grasps"])
     st = s["settings"]
-    bodies = f"{s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'}"
-    dec = "" if not s["decomposed"] else (
-        f"; {bodies} decomposed into {s['pieces']} convex pieces with the others (volume "
-        f"error {s['decomposition_error']:.1%})" if s["decomposition_error"] is not None
-        else f"; {bodies} (open) decomposed into {s['pieces']} convex pieces with the others")
-    return (f"{s['held']} of {n} grasps held (fingers {st['stiffness']:g} N/m, grip "
-            f"{st['grip']:g} N, shake {st['shake']:g} g; force and torque: the weakest push "
-            f"held, over the grip force and grip force x size){dec} in {s['seconds']:.1f} s")
+    jaws = doc.get("format") == "synth.gripper_grasps"
+    hand = s.get("hand") if jaws else (f"{st['hand']} point fingers, grip {st['grip']:g} N "
+                                       f"each, part scaled to {st['size']:g} m")
+    pieces = s.get("pieces")
+    dec = "" if not s.get("decomposed") else (
+        f"; {s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'} decomposed into "
+        f"{pieces} convex pieces with the others"
+        + (f" (volume error {s['decomposition_error']:.1%})"
+           if s.get("decomposition_error") is not None else ""))
+    errors = f", {s['errors']} not simulated ({s['error'] or 'see each label'})" \
+        if s.get("errors") else ""
+    return (f"{s['held']} of {n} grasps held{errors} ({hand}; weight along +-x, +-y, +-z, "
+            f"shake {st['shake']:g} g; {st['simulator']}){dec} in {s['seconds']:.1f} s")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``synth sim``."""
+    from dataclasses import replace
+
     from synth.cli.progress import LineProgress
-    from synth.limits import MAX_MU, MAX_SEED
-    from synth.sim import (
-        ContactModel,
-        check_document,
-        check_jaw_document,
-        labelled_document,
-        read_json,
-        require_sim,
-        simulate_file,
-    )
-    from synth.sim.document import JAW_FORMAT
+    from synth.limits import MAX_MU
+    from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
+    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document, read_json
 
     real("--mu", args.mu, 0, MAX_MU)
-    integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
-    settings = settings_from_args(args, seed=args.seed)
+    settings = settings_from_args(args)
+    doc = read_json(args.grasps, "a grasp file written by synth plan --out")
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
-    doc = read_json(args.grasps)  # a bad file is said first, installed or not
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
         return _run_jaws(args, check_jaw_document(doc, str(args.grasps)), settings, out)
     file = check_document(doc, str(args.grasps))
-    require_sim()
     if args.mesh is not None:
-        from dataclasses import replace
-
         file = replace(file, mesh_path=Path(args.mesh))
+    require_sim()
+    from synth.sim import load_planned_part
+
+    part = load_planned_part(file)
     contact = None if args.mu is None else ContactModel(args.mu)
     bar = LineProgress(enabled=not (args.quiet or args.json))
     try:
-        report = simulate_file(file, settings, contact=contact,
+        report = simulate_file(file, settings, contact=contact, part=part,
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
@@ -180,8 +191,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | None) -> int:
-    """``synth sim`` of a gripper grasp file: two soft fingertips per grasp, as
-    :func:`synth.sim.simulate_jaw_document` builds them, on the mesh given by ``--mesh``."""
+    """``synth sim`` of a gripper grasp file: its pads, as :func:`synth.sim.
+    simulate_jaw_document` builds them, on the mesh the file names (or ``--mesh``)."""
     import numpy as np
 
     from synth.cli.progress import LineProgress
@@ -191,20 +202,21 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
     from synth.plan import load_options
     from synth.sim import require_sim, simulate_jaw_document
 
-    if args.mesh is None:
-        raise InputError(f"{args.grasps}: a gripper grasp file does not record its mesh's path: "
-                         "name the mesh it was planned on with --mesh")
+    mesh = doc["mesh"]
+    path = args.mesh if args.mesh is not None else mesh.get("path")
+    if path is None:
+        raise InputError(f"{args.grasps}: a gripper grasp file of an older synth does not "
+                         "record its mesh's path: name the mesh it was planned on with --mesh")
     if args.mu is not None and args.mu <= 0:
         raise InputError(f"--mu: a gripper's soft contacts need friction: expected mu > 0, got "
                          f"{args.mu:g}")
     require_sim()
-    mesh = doc["mesh"]
-    part = load_part(args.mesh, **load_options({"units": mesh["units"],
-                                                "body": mesh.get("body", "largest"),
-                                                "sharp_angle": mesh.get("sharp_angle", 30.0)}))
+    part = load_part(path, **load_options({"units": mesh["units"],
+                                           "body": mesh.get("body", "largest"),
+                                           "sharp_angle": mesh.get("sharp_angle", 30.0)}))
     planned = float(mesh["length"])
     if abs(part.length - planned) > 1e-6 * planned:
-        raise InputError(f"{args.mesh}: not the mesh these grasps were planned on (its size "
+        raise InputError(f"{path}: not the mesh these grasps were planned on (its size "
                          f"is {part.length:.9g} {mesh['units']}, the file's mesh.length "
                          f"is {planned:.9g})")
     P = np.array([c["point"] for g in doc["grasps"] for c in g["contacts"]], float)
@@ -216,13 +228,12 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
     worst = int(np.argmax(off))
     if off[worst] > part.surface_tolerance:
         how = f"{off[worst]:.3g} {mesh['units']}" if np.isfinite(off[worst]) else "far"
-        raise InputError(f"{args.mesh}: not the mesh these grasps were planned on (contact "
+        raise InputError(f"{path}: not the mesh these grasps were planned on (contact "
                          f"{worst % 2} of grasp {worst // 2 + 1} lies {how} off its surface)")
     bar = LineProgress(enabled=not (args.quiet or args.json))
     try:
-        labelled = simulate_jaw_document(
-            doc, part, args.mesh, settings, mu=args.mu,
-            progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
+        labelled = simulate_jaw_document(doc, part, settings, mu=args.mu,
+                                         progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
     _write(args, labelled, out)

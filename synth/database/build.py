@@ -65,13 +65,14 @@ MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
                                   "body": "largest", "sharp_angle": 30.0}
 #: What a parameter was before it existed, for databases built then: before ``surface``, grasps
-#: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`). Any other
+#: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`); before
+#: ``max_squeeze`` there was no physical floor. Any other
 #: parameter missing from a stored set matches its default.
-PARAMS_BEFORE: dict[str, Any] = {"surface": "smooth"}
+PARAMS_BEFORE: dict[str, Any] = {"surface": "smooth", "max_squeeze": None}
 #: Parameters that are numbers (stored as floats, so 1 and 1.0 are one parameter set).
 _REAL_PARAMS = ("mu", "time", "finger_radius", "body_length", "body_radius", "approach_cone",
                 "support_z", "min_d_star", "min_conditioning", "diversity", "min_tolerance",
-                "sharp_angle")
+                "sharp_angle", "max_squeeze", "grip", "mass", "density")
 
 
 @dataclass(frozen=True)
@@ -246,18 +247,7 @@ def _check_sim(sim: Any) -> dict[str, Any] | None:
         return None
     from synth.sim.settings import SimSettings
 
-    if not isinstance(sim, dict):
-        raise InputError(f"planner parameter 'sim' must be null or an object of simulation "
-                         f"settings, got {sim!r}")
-    fields = set(SimSettings().to_dict())
-    unknown = sorted(set(sim) - fields)
-    if unknown:
-        raise InputError(f"planner parameter 'sim': unknown setting {unknown[0]!r}; valid: "
-                         f"{sorted(fields)}")
-    try:
-        return SimSettings(**sim).to_dict()
-    except InputError as e:
-        raise InputError(f"planner parameter 'sim': {e}") from None
+    return SimSettings.from_dict(sim, "planner parameter 'sim'").to_dict()
 
 
 def gripper_defaults() -> dict[str, Any]:

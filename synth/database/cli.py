@@ -142,7 +142,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--quiet", action="store_true", help="no progress bar nor summary")
     from synth.cli.sim import add_sim_options
 
-    add_sim_options(b, prefix="sim-")  # --sim: each mesh's grasps simulated on the worker
+    add_sim_options(b, switch=True)  # --sim: each mesh's grasps simulated on the worker
 
     i = sub.add_parser("info", help="counts, failures and parameters of a database", description="Counts, failures and parameters of a database.")
     i.add_argument("database", help="database file")
@@ -203,7 +203,7 @@ def _build(args: argparse.Namespace) -> int:
     if args.sim:
         from synth.cli.sim import settings_from_args
 
-        params["sim"] = settings_from_args(args, prefix="sim-", seed=args.seed).to_dict()
+        params["sim"] = settings_from_args(args).to_dict()
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
         scheduler=args.scheduler, planner=planner, retry_failed=args.retry_failed,

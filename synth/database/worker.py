@@ -364,25 +364,30 @@ def mesh_report(mesh: Any) -> str | None:
 
 def _simulated(path: str, doc: Any, settings: dict[str, Any], params: dict[str, Any]
                ) -> tuple[Any, str | None]:
-    """The planner's document with every grasp simulated (:func:`synth.sim.simulate_plan`),
-    or the document as it is and why the simulation failed. A document with nothing to
-    simulate (not a plan, no grasp, cut by the time cap) is returned as it is, to be recorded
-    for what it is."""
+    """The planner's document with every grasp simulated (:func:`synth.sim.simulate_plan`).
+    A simulation synth could not run (its own failure, or the simulation's packages missing
+    on this worker) never loses the plan: each grasp is stored with an error label saying
+    why (:func:`synth.sim.unsimulated`). A document with nothing to simulate (not a plan, no
+    grasp, cut by the time cap) is returned as it is, to be recorded for what it is. The
+    second value is always None (kept for the caller's failure path)."""
     timing = doc.get("timing") if isinstance(doc, dict) else None
     if not isinstance(doc, dict) or doc.get("format") not in _FORMATS or not doc.get("grasps") \
             or (isinstance(timing, dict) and timing.get("stopped_by_time")):
         return doc, None
+    from synth.plan import load_options
+    from synth.sim.plans import unsimulated
+    from synth.sim.settings import SimSettings
+
+    st = SimSettings.from_dict(settings)
     try:
-        from synth.plan import load_options
-        from synth.sim import SimSettings, require_sim, simulate_plan
+        from synth.sim import require_sim, simulate_plan
 
         require_sim()
-        return simulate_plan(doc, path, SimSettings(**settings),
-                             load=load_options(params)), None
+        return simulate_plan(doc, path, st, load=load_options(params)), None
     except SynthError as e:
-        return doc, f"simulation failed: {e}"
+        return unsimulated(doc, f"simulation failed: {e}", st), None
     except Exception as e:  # noqa: BLE001 - a simulation bug must not stop a long run
-        return doc, f"simulation raised {type(e).__name__}: {e}"
+        return unsimulated(doc, f"simulation raised {type(e).__name__}: {e}", st), None
 
 
 def run_one(

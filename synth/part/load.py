@@ -395,6 +395,11 @@ def load_part(
                                              [bodies[i][2] for i in chosen],
                                              max(tol.DEGENERATE_RTOL * length, precision),
                                              tol.surface_tolerance(length, precision))
+    # the closed convex bodies of the file, by their index among those chosen: a body united
+    # from such pieces is exactly their union, so a consumer that needs convex pieces (the
+    # simulator) takes them instead of decomposing the union again
+    convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
+                     if bodies[i][2] and bodies[i][1].is_convex}
     repairs.extend(notes)
     mesh = meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
     mesh = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
@@ -402,4 +407,5 @@ def load_part(
     mesh.units = unit
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,
                 warnings=warnings, source=path, sha256=digest, body_names=names,
-                dropped=dropped, precision=precision, face_source=np.concatenate(sources))
+                dropped=dropped, precision=precision, face_source=np.concatenate(sources),
+                body=body, convex_inputs=convex_inputs)

@@ -62,12 +62,24 @@ class Part:
     dropped : tuple of str
         Bodies of the file that are not part of this part (a file holding several objects
         far apart), one line each.
+    sharp_angle : float
+        Dihedral angle (radians) above which an edge is sharp.
+    body : int or str
+        Which object of the file the loader kept (``load_part``'s ``body``).
+    load_options : dict
+        How to load the same part again: :func:`synth.load_part` keywords (``units``,
+        ``body``, ``sharp_angle`` in radians).
 
     Parameters
     ----------
     face_source : (f,) int, optional
         For bodies united on loading, which input body each face came from: the seams
-        between them are creases (sharp edges), never smoothed over.
+        between them are creases (sharp edges), never smoothed over. Kept as the attribute
+        of the same name (None when not given).
+    convex_inputs : dict of int to (v, 3) float, optional
+        The input bodies (as numbered in ``face_source``) that were closed and convex, by
+        their vertices: a body united from such pieces is exactly their union. Kept as the
+        attribute of the same name (empty when not given).
     source : str or None
         File the part came from.
     sha256 : str or None
@@ -96,6 +108,8 @@ class Part:
         dropped: tuple[str, ...] | list[str] = (),
         precision: float | None = None,
         face_source: np.ndarray | None = None,
+        body: int | str = "largest",
+        convex_inputs: dict[int, np.ndarray] | None = None,
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
@@ -104,6 +118,8 @@ class Part:
             raise InputError(f"sharp_angle: expected radians in (0, pi), got {sharp_angle}")
         self.mesh = mesh
         self.units = units
+        self.sharp_angle = sharp_angle
+        self.body = body
         self.repairs = tuple(repairs)
         self.warnings = tuple(warnings)
         self.dropped = tuple(dropped)
@@ -127,6 +143,10 @@ class Part:
         src = None if face_source is None else np.asarray(face_source, np.int64)
         if src is not None and src.shape != (len(mesh.faces),):
             raise InputError(f"face_source: expected shape ({len(mesh.faces)},), got {src.shape}")
+        if src is not None:
+            src.flags.writeable = False
+        self.face_source = src
+        self.convex_inputs = dict(convex_inputs or {})
         self.features: Features = compute_features(mesh, sharp_angle, src, tol.COPLANAR_ANGLE)
         self._regions: RegionSet = compute_regions(
             mesh, self.features, tol.COPLANAR_ANGLE, tol.PATCH_HALF_ANGLE, self.precision
@@ -172,6 +192,11 @@ class Part:
             f"<Part{src}: {len(self.mesh.faces)} faces, {len(self.regions)} regions, "
             f"length {self.length:.4g} {self.units or '(unit unknown)'}>"
         )
+
+    @property
+    def load_options(self) -> dict[str, Any]:
+        """:func:`synth.load_part` keywords that load this part again from its file."""
+        return {"units": self.units, "body": self.body, "sharp_angle": self.sharp_angle}
 
     # tolerances -----------------------------------------------------------------------
     @property

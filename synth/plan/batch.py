@@ -1,9 +1,12 @@
 """Grasps under evaluation and their fitness, shared by the stages of the search.
 
-A grasp's *fitness* orders the search: its d* when it is (frictional) form closure, well
-conditioned (``PlanParams.min_conditioning``) and its fingertips do not overlap; d* - 1 when
-only closure or conditioning fails (so better candidates still rank higher); -2 when two
-fingertips overlap. All of it under the surface model ``PlanParams.surface``
+A grasp's *fitness* orders the search: its d* when it is (frictional) form closure, passes
+the physical floor (its fingers need at most ``PlanParams.max_squeeze`` times the part's
+weight to hold it in every orientation, :mod:`synth.scores.hold`; checked here for
+frictionless grasps of one contact per fingertip, and for every grasp when it is chosen),
+is conditioned at least ``PlanParams.min_conditioning``, and its fingertips do not overlap;
+d* - 1 when closure, the floor or conditioning fails (so better candidates still rank
+higher); -2 when two fingertips overlap. All of it under the surface model ``PlanParams.surface``
 (:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must hold with the
 mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every
 candidate scored counts as one evaluation of the budget.
@@ -19,6 +22,7 @@ results can depend on how it is split, and the same seed must give the same gras
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,6 +34,7 @@ from synth.fingers import Fingers, tip_centers
 from synth.plan.params import PlanParams
 from synth.scores import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.scores.hold import stiff_hold_batch
 from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
 from synth.scores.surface import differs, readings
 
@@ -158,10 +163,11 @@ class Scorer:
             s = e
         return d, fit
 
-    def _closure(self, P: NDArray[np.float64], N: NDArray[np.float64]
+    def _closure(self, P: NDArray[np.float64], N: NDArray[np.float64], own: bool = True
                  ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-        """d* and whether each grasp is well-conditioned (frictional) form closure with the
-        normals ``N``."""
+        """d* and whether each grasp is (frictional) form closure with the normals ``N``,
+        within the physical floor (frictionless, ``own``: one contact per fingertip) and
+        conditioned at least ``min_conditioning``."""
         prm = self.params
         # the numpy simplex always: a plan must not depend on whether numba is installed, nor
         # stall in the kernel's first compile (about 10 s) under a time cap
@@ -172,7 +178,10 @@ class Scorer:
             res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges,
                                                 compiled=False)
         d, ok = res.d_star, res.closure.copy()
-        if ok.any():  # conditioning matters only for closure grasps
+        if ok.any() and prm.mu == 0 and own and math.isfinite(prm.floor):
+            hold = stiff_hold_batch(P[ok], N[ok], self.center, self.length)
+            ok[ok] = hold.squeeze_per_weight <= prm.floor
+        if ok.any() and prm.min_conditioning > 0:  # conditioning matters only for closure
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
         return d, ok
 
@@ -180,11 +189,12 @@ class Scorer:
                finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
         sets = self.readings(N, S)
-        d, ok = self._closure(P, sets[0])
+        own = finger is None or bool((finger == np.arange(P.shape[1])).all())
+        d, ok = self._closure(P, sets[0], own)
         if len(sets) == 2:  # the second reading only where it differs from the first
             rows = np.flatnonzero(differs(N, S))
             if len(rows):
-                d2, ok2 = self._closure(P[rows], S[rows])
+                d2, ok2 = self._closure(P[rows], S[rows], own)
                 d[rows], ok[rows] = np.minimum(d[rows], d2), ok[rows] & ok2
         if finger is None:
             tips, present = P - self.r * N, np.ones(P.shape[:2], bool)

@@ -30,12 +30,17 @@ from synth.limits import (
     SURFACES,
 )
 
-__all__ = ["PlanParams", "RANK_BY", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
+__all__ = ["PlanParams", "RANK_BY", "MAX_SQUEEZE", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
            "MAX_LENGTH"]
 
-#: Orders the planner can rank its grasps by.
-RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon", "tolerance")
+#: Orders the planner can rank its grasps by (``margin``: the least squeeze per weight,
+#: smallest first, so the largest margin whatever the part's mass).
+RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon", "tolerance", "margin")
+#: The physical floor: a grasp whose fingers must each press with more than this many times
+#: the part's weight to hold it in every orientation (:mod:`synth.scores.hold`) is not
+#: returned. Chosen by measurement (``scripts/bench_sim.py``; the README's "What holds").
+MAX_SQUEEZE: float = 2.5
 
 
 def _integer(value: object) -> bool:
@@ -96,8 +101,19 @@ class PlanParams:
     min_d_star : float
         Grasps with a lower d* are not returned; in [0, 1], the range of d*.
     min_conditioning : float
-        Grasps whose scaled wrench matrix has ``sigma_min / sigma_max`` below this are
-        near-degenerate and not returned (default 1e-3).
+        Grasps whose scaled wrench matrix has ``sigma_min / sigma_max`` below this are not
+        returned (default 0: the physical floor ``max_squeeze`` decides).
+    max_squeeze : float or None
+        The physical floor: the most finger force per unit of the part's weight a returned
+        grasp may need to hold the part in every orientation (:mod:`synth.scores.hold`),
+        positive; None for no floor (default ``MAX_SQUEEZE``).
+    grip : float or None
+        Force limit of each finger, N; with ``mass`` or ``density`` each grasp reports its
+        ``margin``, the grip over the least squeeze that holds the part.
+    mass : float or None
+        The part's mass, kg (each grasp then reports its least squeeze in newtons).
+    density : float or None
+        Or its density, kg/m^3, times the closed bodies' volume (needs the part's unit).
     diversity : float
         Returned grasps differ pairwise by at least this fraction of the part's length
         (Hausdorff distance between their contact sets; default 0.05).
@@ -132,7 +148,11 @@ class PlanParams:
     approach_cone: float = 0.0
     support_z: float | None = None
     min_d_star: float = 0.0
-    min_conditioning: float = 1e-3
+    min_conditioning: float = 0.0
+    max_squeeze: float | None = MAX_SQUEEZE
+    grip: float | None = None
+    mass: float | None = None
+    density: float | None = None
     diversity: float = 0.05
     edges: int = 8
     rank_by: str = "d_star"
@@ -184,6 +204,16 @@ class PlanParams:
             raise bad("min_d_star", "a number in [0, 1] (d* lies in [0, 1])")
         if not (_real(self.min_conditioning) and 0 <= self.min_conditioning < 1):
             raise bad("min_conditioning", "a number in [0, 1)")
+        if self.max_squeeze is not None and not (_real(self.max_squeeze)
+                                                 and self.max_squeeze > 0):
+            raise bad("max_squeeze", "a positive, finite number of weights, or None")
+        for name, what in (("grip", "a force in newtons"), ("mass", "a mass in kg"),
+                           ("density", "a density in kg/m^3")):
+            v = getattr(self, name)
+            if v is not None and not (_real(v) and 0 < v <= MAX_LENGTH):
+                raise bad(name, f"{what}, positive and finite")
+        if self.mass is not None and self.density is not None:
+            raise InputError("mass, density: give one of them, not both")
         if not (_real(self.diversity) and 0 <= self.diversity < 1):
             raise bad("diversity", "a fraction in [0, 1)")
         integer("edges", MIN_EDGES, MAX_EDGES)
@@ -195,6 +225,11 @@ class PlanParams:
             raise bad("min_tolerance", f"a length in [0, {MAX_LENGTH:g}] in the mesh's units")
         if self.surface not in SURFACES:
             raise bad("surface", f"one of {', '.join(SURFACES)}")
+
+    @property
+    def floor(self) -> float:
+        """The physical floor as a number (``inf`` for none)."""
+        return math.inf if self.max_squeeze is None else float(self.max_squeeze)
 
     @property
     def wants_regions(self) -> bool:

@@ -4,7 +4,8 @@ Tables print d* with ``D_STAR_DIGITS`` decimals. Ranked by d*, grasps are ordere
 *as printed* (rounded to those digits), and rows that print the same d* by conditioning,
 best first: a reader sees why each row is where it is (values such as 0.5000004 and
 0.4999988 both print 0.50000, and differ by less than the LPs' accuracy anyway). Ranked by
-conditioning, epsilon or placement tolerance, by that measure (largest first), then as by d*.
+conditioning, epsilon or placement tolerance, by that measure (largest first), then as by d*;
+ranked by margin, by the least squeeze per weight (smallest first), then as by d*.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ def rank_grasps(grasps: Sequence[G], rank_by: str = "d_star") -> list[G]:
     grasps : sequence
         Anything with ``d_star``, ``conditioning`` and ``epsilon`` (and ``tolerance`` for
         ``rank_by="tolerance"``); a measure that is None or NaN ranks last.
-    rank_by : {"d_star", "conditioning", "epsilon", "tolerance"}
+    rank_by : {"d_star", "conditioning", "epsilon", "tolerance", "margin"}
+        ``margin`` orders by ``squeeze_per_weight``, smallest first.
 
     Returns
     -------
@@ -64,4 +66,8 @@ def rank_grasps(grasps: Sequence[G], rank_by: str = "d_star") -> list[G]:
 
     if rank_by == "d_star":
         return sorted(grasps, key=by_d_star)
+    if rank_by == "margin":  # the least squeeze per weight, smallest first; unknown last
+        return sorted(grasps, key=lambda g: (-_measure(-g.squeeze_per_weight
+                                                       if g.squeeze_per_weight is not None
+                                                       else None), *by_d_star(g)))
     return sorted(grasps, key=lambda g: (-_measure(getattr(g, rank_by)), *by_d_star(g)))

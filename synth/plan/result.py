@@ -34,6 +34,7 @@ drawn from the same plan carry it too, so the files of one run can be matched.
 from __future__ import annotations
 
 import json
+import math
 import struct
 import time
 import uuid
@@ -64,7 +65,9 @@ def new_run_id() -> str:
 def describe_part(part: Any) -> dict[str, Any]:
     """The ``mesh`` object of a grasp file: where the part came from and what was done to it.
 
-    Keys: ``path``, ``sha256``, ``units``, ``length`` (bounding-box diagonal), ``precision``
+    Keys: ``path``, ``sha256``, ``units``, ``load`` (how to load the same part again:
+    ``units``, ``body`` and ``sharp_angle`` in degrees, as :func:`synth.plan.load_options`
+    reads them), ``length`` (bounding-box diagonal), ``precision``
     (rounding error of the coordinates), ``center_mass``, ``volume``, ``bodies`` (one
     summary per body: name, faces, closed, convex, volume, area, exposed_area), ``repairs``,
     ``warnings`` and ``dropped`` (bodies of the file left out, one line each).
@@ -73,6 +76,8 @@ def describe_part(part: Any) -> dict[str, Any]:
         "path": part.source,
         "sha256": part.sha256,
         "units": part.units,
+        "load": {"units": part.units, "body": part.body,
+                 "sharp_angle": float(f"{math.degrees(part.sharp_angle):.12g}")},
         "length": float(part.length),
         "precision": float(part.precision),
         "center_mass": np.asarray(part.center_mass, float).tolist(),
@@ -82,6 +87,11 @@ def describe_part(part: Any) -> dict[str, Any]:
         "warnings": list(part.warnings),
         "dropped": list(part.dropped),
     }
+
+
+def _finite(x: float) -> float | None:
+    """A number for JSON: None for NaN or infinity."""
+    return float(x) if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -116,6 +126,17 @@ class PlannedGrasp:
         The smooth reading of the normals (interpolated on tessellated curved patches).
     d_star_mesh, d_star_smooth : float
         d* with ``normals`` and with ``smooth_normals``.
+    squeeze_per_weight : float
+        Least force each finger must be able to press with, over the part's weight, to hold
+        it in every orientation (:mod:`synth.scores.hold`; the larger over the surface
+        model's readings).
+    hold_model : str
+        The hand it is exact for: ``"stiff"`` (equal-stiffness fingers from a balanced
+        squeeze) or ``"any"`` (each finger free to press with any force).
+    least_squeeze : float or None
+        ``squeeze_per_weight`` times the part's weight, N (None without a mass).
+    margin : float or None
+        The grip over the least squeeze (None without a grip and a mass).
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -131,6 +152,10 @@ class PlannedGrasp:
     smooth_normals: NDArray[np.float64] | None = field(default=None, repr=False)
     d_star_mesh: float = float("nan")
     d_star_smooth: float = float("nan")
+    squeeze_per_weight: float = float("nan")
+    hold_model: str = ""
+    least_squeeze: float | None = None
+    margin: float | None = None
 
     @property
     def tolerance(self) -> float:
@@ -155,6 +180,10 @@ class PlannedGrasp:
             "closure": self.closure,
             "conditioning": float(self.conditioning),
             "epsilon": float(self.epsilon),
+            "squeeze_per_weight": _finite(self.squeeze_per_weight),
+            "hold_model": self.hold_model or None,
+            "least_squeeze": self.least_squeeze,
+            "margin": self.margin,
             "tolerance": None if r is None else float(r.tolerance),
             "tolerance_ratio": None if r is None else float(r.tolerance / tip),
             "contact_regions": None if r is None else r.to_dict(),

@@ -294,13 +294,14 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
 
 #: The key of ``_select``'s rejection counts for grasps below ``--min-tolerance``.
 _LOW_TOLERANCE = "placement tolerance below --min-tolerance"
+_ABOVE_FLOOR = "needs more squeeze than --max-squeeze"
 
 
 def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
     """Why found grasps were dropped, in words: the finger checks' most common reason, and
     how many fell below ``--min-tolerance``."""
     parts = []
-    fingers = {k: v for k, v in rejected.items() if k != _LOW_TOLERANCE}
+    fingers = {k: v for k, v in rejected.items() if k not in (_LOW_TOLERANCE, _ABOVE_FLOOR)}
     if fingers:
         reason, _ = max(fingers.items(), key=lambda kv: kv[1])
         parts.append(f"{sum(fingers.values())} the fingers could not make (most often: "
@@ -308,6 +309,9 @@ def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
     if rejected.get(_LOW_TOLERANCE):
         parts.append(f"{rejected[_LOW_TOLERANCE]} with a placement tolerance below "
                      f"--min-tolerance {prm.min_tolerance:g}")
+    if rejected.get(_ABOVE_FLOOR):
+        parts.append(f"{rejected[_ABOVE_FLOOR]} whose fingers would need more than "
+                     f"--max-squeeze {prm.max_squeeze:g} times the part's weight to hold it")
     return "; ".join(parts)
 
 
@@ -448,6 +452,46 @@ def _hausdorff(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
     return float(max(D.min(axis=1).max(), D.min(axis=0).max()))
 
 
+def _hold(P: NDArray[np.float64], N: NDArray[np.float64], S: NDArray[np.float64],
+          finger: NDArray[np.int64], prm: PlanParams, score: Scorer) -> tuple[float, str]:
+    """The least finger force per weight that holds a grasp in every orientation
+    (:func:`synth.scores.hold.finger_hold_batch`), the larger over the surface model's
+    readings of the normals, and the hand model it is exact for."""
+    from synth.scores.hold import finger_hold_batch
+
+    worst, model = 0.0, "stiff"
+    for n in score.readings(N, S):
+        h = finger_hold_batch(P[None], n[None], score.center, score.length, prm.mu,
+                              finger[None], prm.edges)
+        worst, model = max(worst, float(h.squeeze_per_weight[0])), h.model
+    return worst, model
+
+
+def part_weight(part: Part, prm: PlanParams) -> float | None:
+    """The part's weight in newtons from ``prm.mass`` or ``prm.density`` (None without).
+
+    Raises
+    ------
+    InputError
+        A density for a part whose unit is unknown, or that has no closed body.
+    """
+    from synth.scores.gravity import GRAVITY
+
+    if prm.mass is not None:
+        return prm.mass * GRAVITY
+    if prm.density is None:
+        return None
+    if part.units is None:
+        raise InputError("density: the part's unit is unknown, so its volume in m^3 is too; "
+                         "give --units, or --mass instead")
+    if part.volume <= 0:
+        raise InputError("density: the part has no closed body, so no volume; give --mass")
+    import trimesh
+
+    metres = float(trimesh.units.unit_conversion(part.units, "meters"))
+    return prm.density * part.volume * metres**3 * GRAVITY
+
+
 def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
             deadline: float) -> tuple[list[PlannedGrasp], dict[str, int]]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
@@ -461,6 +505,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     the best grasp it found when one of the 64 best passes the finger checks."""
     valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
+    weight = part_weight(part, prm)
     chosen: list[PlannedGrasp] = []
     picked: list[NDArray[np.float64]] = []
     rejected: dict[str, int] = {}
@@ -506,10 +551,17 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
             if robust is not None and robust.tolerance < prm.min_tolerance:
                 rejected[_LOW_TOLERANCE] = rejected.get(_LOW_TOLERANCE, 0) + 1
                 continue
+            spw, model = _hold(P, N, S, archive.finger[i], prm, score)
+            if not spw <= prm.floor:
+                rejected[_ABOVE_FLOOR] = rejected.get(_ABOVE_FLOOR, 0) + 1
+                continue
+            least = None if weight is None else spw * weight
+            margin = None if least is None or prm.grip is None else prm.grip / least
             chosen.append(PlannedGrasp(P.copy(), N.copy(), _features(part, P, archive.faces[i]),
                                        archive.regions[i].copy(), float(archive.d[i]), closure,
                                        cond, eps, placement, robust, S.copy(),
-                                       float(both.d_mesh[0]), float(both.d_smooth[0])))
+                                       float(both.d_mesh[0]), float(both.d_smooth[0]),
+                                       spw, model, least, margin))
             picked.append(P)
             if len(chosen) == want:
                 return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected

@@ -24,13 +24,15 @@ _WHERE = {
     "check_jaw_document": "document", "read_grasp_file": "document", "read_json": "document",
     "simulate_jaw_document": "jaws",
     "Escape": "label", "SimLabel": "label", "label_run": "label", "predicted_escape": "label",
-    "ConvexPieces": "pieces", "cache_dir": "pieces", "convex_pieces": "pieces",
-    "PLAN_FORMATS": "plans", "simulate_plan": "plans",
+    "error_label": "label",
+    "ConvexPieces": "decompose", "cache_dir": "decompose", "convex_pieces": "decompose",
+    "PLAN_FORMATS": "plans", "simulate_plan": "plans", "unsimulated": "plans",
     "DIRECTIONS": "protocol", "SimRun": "protocol", "run_protocol": "protocol",
     "Scene": "scene", "build_scene": "scene",
-    "SimSettings": "settings",
+    "SimSettings": "settings", "SIMULATOR": "settings", "HANDS": "settings",
     "SimReport": "simulate", "check_mesh": "simulate", "labelled_document": "simulate",
     "require_sim": "simulate", "simulate_file": "simulate",
+    "load_planned_part": "simulate", "balanced_preload": "simulate",
 }  # fmt: skip
 
 __all__ = list(_WHERE)

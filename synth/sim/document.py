@@ -46,7 +46,11 @@ class SimGrasp:
         Fingertip radius (> 0).
     measures : dict of str to float
         The grasp's scores as written (``d_star``, ``conditioning``, ``epsilon``, and
-        ``tolerance``, ``d_star_mesh``, ``d_star_smooth`` when present); NaN where absent.
+        ``tolerance``, ``d_star_mesh``, ``d_star_smooth``, ``squeeze_per_weight`` when
+        present); NaN where absent.
+    contact_finger : (k,) int
+        The fingertip of each contact (several contacts share one in a groove or an inside
+        corner); one each when the file does not say.
     """
 
     points: NDArray[np.float64] = field(repr=False)
@@ -55,6 +59,7 @@ class SimGrasp:
     approach: NDArray[np.float64] = field(repr=False)
     tip_radius: float
     measures: dict[str, float] = field(default_factory=dict)
+    contact_finger: NDArray[np.int64] | None = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,10 @@ class GraspFile:
     grasps : tuple of SimGrasp
     document : dict
         The whole document as read, to write back with the simulation's labels.
+    load : dict
+        :func:`synth.load_part` keywords that load the part the grasps were planned on
+        (``mesh.load``; a file written before it was recorded: ``mesh.units`` and the
+        loader's defaults).
     """
 
     path: str
@@ -91,6 +100,7 @@ class GraspFile:
     mu: float
     grasps: tuple[SimGrasp, ...] = field(repr=False)
     document: dict[str, Any] = field(repr=False)
+    load: dict[str, Any] = field(default_factory=dict)
 
 
 def _where(name: str, key: str) -> str:
@@ -161,8 +171,24 @@ def _grasp(g: Any, i: int, name: str) -> SimGrasp:
                      lo_open=True)
     measures = {key: _measure(g, key, where, name) for key in
                 ("d_star", "conditioning", "epsilon", "tolerance", "d_star_mesh",
-                 "d_star_smooth")}
-    return SimGrasp(points, normals, centers, approach, radius, measures)
+                 "d_star_smooth", "squeeze_per_weight")}
+    owner = fingers.get("contact_finger")
+    if owner is None:
+        if len(centers) != k:
+            raise InputError(f"{_where(name, f'{fw}.contact_finger')}: missing, and there are "
+                             f"{len(centers)} fingertips for {k} contacts")
+        owner = np.arange(k)
+    try:
+        cf = np.asarray(owner)
+        ok = cf.shape == (k,) and cf.dtype.kind in "iu" and cf.min() >= 0 \
+            and cf.max() < len(centers)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InputError(f"{_where(name, f'{fw}.contact_finger')}: expected {k} fingertip "
+                         f"indices from 0 to {len(centers) - 1}, got {shown(owner)}")
+    return SimGrasp(points, normals, centers, approach, radius, measures,
+                    np.asarray(owner, np.int64))
 
 
 def _mesh_path(text: Any, name: str) -> Path:
@@ -230,7 +256,33 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
         raise InputError(f"{_where(name, 'grasps')}: expected a list, got "
                          f"{type(grasps).__name__}")
     return GraspFile(name, mesh_path, sha, length, com, volume, mu,
-                     tuple(_grasp(g, i, name) for i, g in enumerate(grasps)), doc)
+                     tuple(_grasp(g, i, name) for i, g in enumerate(grasps)), doc,
+                     _load(mesh, name))
+
+
+def _load(mesh: dict[str, Any], name: str) -> dict[str, Any]:
+    """:func:`synth.load_part` keywords from a document's ``mesh`` object."""
+    from synth.plan import load_options
+    from synth.part.load import length_unit
+
+    load = mesh.get("load")
+    if load is None:
+        load = {"units": mesh.get("units")}
+    if not isinstance(load, dict):
+        raise InputError(f"{_where(name, 'mesh.load')}: expected an object, got {shown(load)}")
+    units = load.get("units")
+    if units is not None and (not isinstance(units, str) or length_unit(units) is None):
+        raise InputError(f"{_where(name, 'mesh.load.units')}: expected a length unit or null, "
+                         f"got {shown(units)}")
+    body = load.get("body", "largest")
+    if isinstance(body, bool) or not isinstance(body, (str, int)):
+        raise InputError(f"{_where(name, 'mesh.load.body')}: expected 'largest', 'all', a name "
+                         f"or an index, got {shown(body)}")
+    angle = _number(load.get("sharp_angle", 30.0), "mesh.load.sharp_angle", name, 0.0, True)
+    if angle >= 180:
+        raise InputError(f"{_where(name, 'mesh.load.sharp_angle')}: expected degrees in "
+                         f"(0, 180), got {shown(angle)}")
+    return load_options({"units": units, "body": body, "sharp_angle": angle})
 
 
 JAW_FORMAT = "synth.gripper_grasps"
@@ -314,21 +366,36 @@ def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
     return check_document(read_json(path), str(path))
 
 
-def read_json(path: str | os.PathLike[str]) -> Any:
+def read_json(path: str | os.PathLike[str], what: str = "a JSON file") -> Any:
     """The JSON document of a file.
+
+    Parameters
+    ----------
+    path : path
+    what : str
+        What the file should be, for the message when it is a mesh file instead.
 
     Raises
     ------
     InputError
-        The file is missing, cannot be read, or is not JSON (the message names it).
+        The file is missing, cannot be read, is a mesh file, or is not JSON (the message
+        names it).
     """
+    from synth.part.load import SUPPORTED_FORMATS
+
     name = str(path)
+    ext = Path(name).suffix.lower().lstrip(".")
+    if ext in SUPPORTED_FORMATS:
+        raise InputError(f"{name}: a mesh file (.{ext}), not {what}; plan it first "
+                         f"(synth plan {name} --out GRASPS.json)")
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError(f"{name}: no such file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"{name}: cannot be read ({getattr(e, 'strerror', None) or e})") from e
+    except UnicodeDecodeError:
+        raise InputError(f"{name}: not a text file, so not {what}") from None
+    except OSError as e:
+        raise InputError(f"{name}: cannot be read ({e.strerror or e})") from e
     try:
         return json.loads(text)
     except json.JSONDecodeError as e:

@@ -1,95 +1,225 @@
-"""Gripper grasps in MuJoCo: the model the scorer scored, two soft fingertips.
+"""Gripper grasps in MuJoCo: the gripper's pads, coupled, at its rated force.
 
-A parallel-jaw grasp is scored as two soft contacts, one per pad at the centre of its patch
-(:mod:`synth.scores.cones`: MuJoCo's condim-4 cone with the plan's ``mu`` and torsion). The
-simulation puts exactly that model to the test: each pad becomes a force-limited fingertip
-(:mod:`synth.sim.scene`) pressing at its contact along the contact's normal (the pad's, or
-the part's where the pad touches with its rim), with ``condim`` 4,
-the plan's ``mu`` and its torsion scaled with the part (the simulation scales the part to
-``size``). So the simulation checks the scores, not the gripper's geometry: its palm and
-fingers are not in the scene (the planner checked them against the part with FCL).
+A ``synth.gripper_grasps`` grasp is simulated with the hand as the gripper is built, not with
+the scorer's model of it: the world is the gripper's frame (ACRONYM's: approach +z, fingers
+closing along x), and the part sits where the grasp's pose puts it, at its real size (gripper
+plans know the part's unit). Each finger is a box pad of the gripper's pad size (a quarter of
+its smaller side thick) on a slide joint along x, at the height the finger reaches at the
+grasp's width (a Robotiq linkage's rise, ``Gripper.rise``). The two fingers are coupled as on
+the real hand: an equality keeps them symmetric about the hand's axis, and one position servo
+drives both through a tendon, its force limited to the gripper's rated grip force, so each pad
+presses with that force once the jaws close (the servo aims at a closed hand and saturates).
+The pads start ``JAW_GAP`` of the width clear on each side and close onto the part; the
+contacts are the ones MuJoCo finds between the boxes and the part's convex pieces (several per
+pad on a face), with the plan's ``mu`` and torsion (``condim`` 4). The palm and the finger
+bodies are not in the scene: the planner checked them against the part.
 
-With a grip force ``F`` per finger, the least squeeze per weight ``s`` of a grasp for the
-simulation's gravity (-z of the file) predicts the gravity stage. Measured on the top three
-grasps of the cube, the prism and the bread (8 grasps): at ``F = 0.8 s`` times the weight all
-fell, at ``0.95 s`` three of eight fell, at ``1.05 s`` and ``1.25 s`` none did; the scorer's
-inscribed cone is conservative by up to ``1 / cos(pi / 8) = 1.08`` against MuJoCo's elliptic
-one (``tests/test_sim_jaws.py`` checks 0.7 and 1.5).
+Mass: the plan's ``--mass`` when it had one, else its ``--density``, else the simulation's
+``density``, times the part's volume. Gravity during the shake is along the approach (+z of
+the hand: a gripper picking from above).
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.document import GraspFile, SimGrasp
+from synth.sim.decompose import ConvexPieces
+from synth.sim.scene import (
+    GRAVITY,
+    HAND_BITS,
+    PART_BITS,
+    START_RTOL,
+    Scene,
+    add_part,
+    compile_spec,
+    contact_params,
+    new_spec,
+)
 from synth.sim.settings import SimSettings
-from synth.sim.simulate import labelled_document, simulate_file
 
-__all__ = ["TIP_RTOL", "jaw_grasp_file", "simulate_jaw_document"]
+__all__ = ["JAW_GAP", "PAD_THICKNESS", "build_jaw_scene", "simulate_jaw_document",
+           "jaw_mass"]
 
-#: Radius of the simulated fingertips, as a fraction of the part's size.
-TIP_RTOL: float = 0.02
+#: How far each pad starts from its contact, as a fraction of the grasp's width (at least a
+#: tenth of the pad's thickness).
+JAW_GAP: float = 0.05
+#: Pad thickness, as a fraction of the pad's smaller side.
+PAD_THICKNESS: float = 0.25
 
 
-def jaw_grasp_file(doc: dict[str, Any], part: Any, mesh_path: str | Path) -> GraspFile:
-    """A ``synth.gripper_grasps`` document as a grasp file the simulation reads.
+def jaw_mass(doc: dict[str, Any], part: Any, metres: float, settings: SimSettings) -> float:
+    """The simulated part's mass, kg: the plan's mass, else its density, else the
+    simulation's, times the part's volume (``metres`` per mesh unit)."""
+    model, params = doc.get("model", {}), doc.get("params", {})
+    mass = model.get("mass") if isinstance(model, dict) else None
+    if isinstance(mass, (int, float)) and not isinstance(mass, bool) and mass > 0:
+        return float(mass)
+    density = params.get("density") if isinstance(params, dict) else None
+    if not (isinstance(density, (int, float)) and not isinstance(density, bool)
+            and density > 0):
+        density = settings.density
+    volume = float(part.volume) if part.volume > 0 else 0.0
+    if volume <= 0:
+        import trimesh
+
+        volume = float(trimesh.convex.convex_hull(part.mesh.vertices).volume)
+    return float(density) * volume * metres**3
+
+
+def build_jaw_scene(pieces: ConvexPieces, part: Any, pose: NDArray[np.float64], width: float,
+                    gripper: Any, metres: float, mass: float, settings: SimSettings,
+                    contact: ContactModel) -> Scene:
+    """Compile the model of one gripper grasp.
 
     Parameters
     ----------
-    doc : dict
-        From :meth:`synth.plan.gripper.GripperPlan.to_json`.
+    pieces : ConvexPieces
     part : Part
-        The part it was planned on.
-    mesh_path : str or Path
-        Its mesh file.
+        The part planned on (centre of mass, volume, size).
+    pose : (4, 4) float
+        The gripper's pose in the part's frame, mesh units (``grasps[i].pose``).
+    width : float
+        Distance between the pads at the grasp, mesh units.
+    gripper : synth.fingers.Gripper
+        As described (metres).
+    metres : float
+        Metres per mesh unit.
+    mass : float
+        kg.
+    settings : SimSettings
+    contact : ContactModel
+        Its torsion in metres.
 
     Returns
     -------
-    GraspFile
-        One fingertip per pad, touching its contact from outside along the contact's normal.
+    Scene
     """
-    r = TIP_RTOL * float(part.length)
-    grasps = []
-    for g in doc["grasps"]:
-        P = np.array([c["point"] for c in g["contacts"]], float)
-        N = np.array([c["normal"] for c in g["contacts"]], float)
-        grasps.append(SimGrasp(P, N, P - r * N, -N, r,
-                               {"d_star": g["measures"]["d_star"]}))
-    return GraspFile(str(mesh_path), Path(mesh_path), None, float(part.length),
-                     np.asarray(part.center_mass, float), float(part.volume),
-                     float(doc["model"]["mu"]), tuple(grasps), doc)
+    import mujoco
+
+    T = np.asarray(pose, float)
+    R, t = T[:3, :3], T[:3, 3]
+    com = np.asarray(part.center_mass, float)
+    spec = new_spec(settings)
+    common = contact_params(settings, contact)
+    volume = float(part.volume) if part.volume > 0 else 0.0
+    density = mass / ((volume if volume > 0 else pieces.volume) * metres**3)
+    add_part(spec, pieces, center_mass=com, volume=volume, scale=metres, rotation=R,
+             position=R.T @ (com - t) * metres, density=density, common=common)
+    w = float(width) * metres
+    pad_w, pad_h = (float(x) for x in gripper.pad_size)
+    yc, zc = (float(x) for x in gripper.pad_center)
+    zc += float(gripper.rise(min(w, gripper.max_opening)))
+    thick = PAD_THICKNESS * min(pad_w, pad_h)
+    gap = max(JAW_GAP * w, 0.1 * thick)
+    half = [0.5 * thick, 0.5 * pad_w, 0.5 * pad_h]
+    kv = 2.0 * np.sqrt(settings.stiffness * settings.finger_mass)
+    for j, sign in enumerate((1.0, -1.0)):
+        body = spec.worldbody.add_body(name=f"finger{j}")
+        body.gravcomp = 1.0
+        body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[-sign, 0.0, 0.0],
+                       name=f"slide{j}")
+        body.add_geom(name=f"pad {j}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
+                      pos=[sign * (0.5 * w + gap + 0.5 * thick), sign * yc, zc],
+                      mass=settings.finger_mass, contype=HAND_BITS, conaffinity=PART_BITS,
+                      **common)
+    eq = spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1="slide0", name2="slide1")
+    eq.data[:5] = [0.0, 1.0, 0.0, 0.0, 0.0]
+    eq.solref = [2.0 * settings.dt, 1.0]  # as stiff as the contacts (MuJoCo's default 0.02 s
+    # lets fingers of 20 g drift apart by centimetres under the part's weight)
+    tendon = spec.add_tendon(name="jaws")
+    tendon.wrap_joint("slide0", 1.0)
+    tendon.wrap_joint("slide1", 1.0)
+    act = spec.add_actuator(name="grip", target="jaws", trntype=mujoco.mjtTrn.mjTRN_TENDON)
+    act.set_to_position(kp=settings.stiffness, kv=kv)
+    act.forcelimited = True
+    grip = float(gripper.grip_force)
+    act.forcerange = [-grip, grip]
+    model = compile_spec(spec)
+    # tendon length is the sum of both slides: touching at 2 gap, closed at 2 gap + w
+    return Scene(model, 1, 1, metres, com, R, float(part.length) * metres, mass, mass * GRAVITY,
+                 np.asarray(model.body_inertia[1]), np.zeros(1), np.array([2.0 * gap]),
+                 np.array([2.0 * gap + w]), None, grip, 0.0, 0.5 * thick, START_RTOL * thick,
+                 np.array([0.0, 0.0, 1.0]), settings, contact)
 
 
-def simulate_jaw_document(doc: dict[str, Any], part: Any, mesh_path: str | Path,
-                          settings: SimSettings | None = None, mu: float | None = None,
-                          **kwargs: Any) -> dict[str, Any]:
+def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings | None = None,
+                          mu: float | None = None, cache: Any = True,
+                          progress: Any = None) -> dict[str, Any]:
     """Simulate every grasp of a gripper plan's document; the document with ``sim`` labels.
 
     Parameters
     ----------
     doc : dict
-        A ``synth.gripper_grasps`` document with at least one grasp.
+        A checked ``synth.gripper_grasps`` document (:func:`synth.sim.check_jaw_document`)
+        with at least one grasp.
     part : Part
-    mesh_path : str or Path
+        The part it was planned on.
     settings : SimSettings, optional
     mu : float, optional
         Simulate with this friction coefficient instead of the plan's ``model.mu`` (the
-        document keeps its own; the label's ``contact`` says what was simulated).
-    **kwargs
-        Passed to :func:`synth.sim.simulate_file` (``cache``, ``progress``).
+        document keeps its own; the run's ``contact`` says what was simulated).
+    cache : pathlib.Path, True or None
+        Where convex decompositions are cached.
+    progress : callable, optional
+        Called with (grasps done, grasps) after each grasp.
 
     Returns
     -------
     dict
-        ``doc`` with each grasp's ``sim`` label and the run's ``sim`` summary.
+        A copy of ``doc`` with each grasp's ``sim`` label and the run's ``sim`` summary.
     """
+    import copy
+
+    from synth.fingers.gripper import load_gripper
+    from synth.formats.arrays import unit_metres
+    from synth.sim.decompose import convex_pieces
+    from synth.sim.label import SimLabel, error_label, label_run
+    from synth.sim.protocol import run_protocol
+    from synth.sim.simulate import SimReport
+
+    t0 = time.perf_counter()
     st = settings or SimSettings()
-    file = jaw_grasp_file(doc, part, mesh_path)
-    torsion = float(doc["model"]["torsion"]) * st.size / float(part.length)
-    report = simulate_file(file, st, contact=ContactModel(file.mu if mu is None else mu,
-                                                          torsion), **kwargs)
-    return labelled_document(file, report)
+    metres = unit_metres(doc["mesh"]["units"], "mesh", "units")
+    source = doc.get("gripper", {}).get("source") or doc.get("params", {}).get("gripper")
+    if not isinstance(source, str):
+        raise InputError("field gripper.source: expected the gripper's name or description "
+                         "file")
+    gripper = load_gripper(source if not Path(source).suffix else Path(source))
+    model = doc["model"]
+    torsion = float(model.get("torsion") or 0.0) * metres
+    contact = ContactModel(float(model["mu"]) if mu is None else mu, torsion)
+    mass = jaw_mass(doc, part, metres, st)
+    labels: list[SimLabel] = []
+    pieces = None
+    error = None
+    try:
+        pieces = convex_pieces(part, seed=st.seed, cache=cache)
+    except SimulationError as e:
+        error = str(e)
+    for i, g in enumerate(doc["grasps"]):
+        if pieces is None:
+            labels.append(error_label(error or ""))
+        else:
+            try:
+                scene = build_jaw_scene(pieces, part, np.asarray(g["pose"], float),
+                                        float(g["width"]), gripper, metres, mass, st, contact)
+                labels.append(label_run(run_protocol(scene), scene, None))
+            except SimulationError as e:
+                labels.append(error_label(str(e)))
+        if progress is not None:
+            progress(i + 1, len(doc["grasps"]))
+    report = SimReport(tuple(labels), st, contact, pieces, error, time.perf_counter() - t0)
+    out = copy.deepcopy(doc)
+    for g, lab in zip(out["grasps"], labels, strict=True):
+        g["sim"] = lab.to_dict()
+    out["sim"] = {**report.to_dict(), "hand": f"{gripper.title}: pads {gripper.pad_size[0]:g} x "
+                  f"{gripper.pad_size[1]:g} m, coupled, rated force {gripper.grip_force:g} N",
+                  "mass": mass}
+    return out

@@ -1,13 +1,14 @@
-"""The label of a simulated grasp: held or not, how much it held, how it moved when it failed.
+"""The label of a simulated grasp: held or not, where it failed, how the part moved.
 
-Loads are relative, so that they do not depend on the scale the part was simulated at:
-forces over the grip force (one finger's force limit), torques over the grip force times the
-part's size, and the weight over the grip force. A motion is reported as a unit twist about
-the centre of mass, ``[v, w * size / 2]`` normalised (a rotation counts as the motion of a
-point half the size away), in the mesh file's axes, and compared with the escape twist synth
-predicts for a grasp that is not closure: ``escape_cos`` is the cosine between the two (1:
-the part moved exactly as predicted; taken in absolute value when the predicted motion is
-free in both senses).
+A motion is reported as a unit twist about the centre of mass, ``[v, w * size / 2]``
+normalised (a rotation counts as the motion of a point half the size away), in the mesh
+file's axes, and compared with the escape twist synth predicts for a grasp that is not
+closure: ``escape_cos`` is the cosine between the two (1: the part moved exactly as predicted;
+taken in absolute value when the predicted motion is free in both senses).
+
+A label that could not be made (synth's own failure: a decomposition, a MuJoCo load) is an
+*error* label (:func:`error_label`): ``held`` is null and ``error`` says why. Every label
+names the simulation that made it (``simulator``, :data:`synth.sim.settings.SIMULATOR`).
 """
 
 from __future__ import annotations
@@ -21,8 +22,14 @@ from numpy.typing import NDArray
 from synth.scores.escape import describe_twist
 from synth.sim.protocol import DIRECTIONS, SimRun
 from synth.sim.scene import Scene
+from synth.sim.settings import SIMULATOR
 
-__all__ = ["SimLabel", "Escape", "predicted_escape", "label_run"]
+__all__ = ["SimLabel", "Escape", "predicted_escape", "label_run", "error_label",
+           "FAILURE_STAGES"]
+
+#: Values of ``failed_at``, in the order the stages run; ``"error"``: not simulated.
+FAILURE_STAGES: tuple[str, ...] = ("start", "close", "squeeze", "gravity", "shake",
+                                   "diverged", "error")
 
 
 @dataclass(frozen=True)
@@ -59,7 +66,7 @@ def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], 
         The part's size, to weigh rotations.
     torsion : float
         Torsional coefficient of soft contacts, a length in the points' unit (0: point
-        contacts); soft contacts take the frictional test with it.
+        contacts).
     """
     from synth.scores import form_closure, frictional_form_closure, wrench_matrix
 
@@ -85,38 +92,36 @@ class SimLabel:
 
     Attributes
     ----------
-    held : bool
-        The part stayed put through the squeeze, gravity and the shake.
+    held : bool or None
+        The part stayed put through every stage; None when it could not be simulated.
     failed_at : str or None
-        ``"squeeze"``, ``"gravity"``, ``"shake"`` or ``"diverged"``; None when held.
-    diverged : str or None
-        Why the simulation was stopped (never reported as held).
-    force_held : (6,) float
-        Largest push held along +x, -x, +y, -y, +z, -z of the part's frame, over the grip
-        force (0 when the part fell under gravity alone).
-    torque_held : (6,) float
-        Largest torque held about the same axes, over grip force times size.
+        One of ``FAILURE_STAGES``; None when held.
+    reason : str or None
+        Why, for ``"start"``, ``"diverged"`` and ``"error"``.
+    gravity_held : (6,) bool
+        Held under its weight along +x, -x, +y, -y, +z, -z of the hand.
     weight : float
-        The part's weight over the grip force.
+        The part's weight over the grip force (a finger's, or the jaws').
+    forces : (a,) float
+        Each finger's (or the jaws') force in the held pose, over the grip force.
     motion : (6,) float or None
-        Unit twist of the failure: the failing stage's, else the weakest push's.
+        Unit twist of the failure, mesh axes.
     motion_at : str or None
-        Which stage or push ``motion`` belongs to.
+        The stage it belongs to (``"gravity -z"``).
     motion_words : str or None
-        The motion in words, as synth puts escapes (``"translate along +z"``), with points in
-        mesh coordinates.
+        The motion in words, as synth puts escapes, with points in mesh coordinates.
     escape_cos : float or None
         Cosine between ``motion`` and synth's predicted escape, when there is one.
     steps : int
     seconds : float
     """
 
-    held: bool
+    held: bool | None
     failed_at: str | None
-    diverged: str | None
-    force_held: NDArray[np.float64] = field(repr=False)
-    torque_held: NDArray[np.float64] = field(repr=False)
+    reason: str | None
+    gravity_held: NDArray[np.bool_] = field(repr=False)
     weight: float
+    forces: NDArray[np.float64] = field(repr=False)
     motion: NDArray[np.float64] | None = field(repr=False)
     motion_at: str | None
     motion_words: str | None
@@ -124,28 +129,20 @@ class SimLabel:
     steps: int
     seconds: float
 
-    @property
-    def force_min(self) -> float:
-        """The weakest push held, over the grip force."""
-        return float(self.force_held.min())
-
-    @property
-    def torque_min(self) -> float:
-        """The weakest torque held, over grip force times size."""
-        return float(self.torque_held.min())
-
     def to_dict(self) -> dict[str, Any]:
         """The ``sim`` object of a grasp in a grasp file."""
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
         return {
+            "simulator": SIMULATOR,
             "held": self.held,
             "failed_at": self.failed_at,
-            "diverged": self.diverged,
-            "force_held": [float(x) for x in self.force_held],
-            "torque_held": [float(x) for x in self.torque_held],
-            "force_min": self.force_min,
-            "torque_min": self.torque_min,
-            "force_min_weights": self.force_min / self.weight if self.weight > 0 else None,
-            "weight": float(self.weight),
+            "reason": self.reason,
+            "gravity_held": {d: bool(h) for d, h in zip(DIRECTIONS, self.gravity_held,
+                                                        strict=True)},
+            "weight": num(self.weight),
+            "forces": [num(x) for x in self.forces],
             "motion": None if self.motion is None else [float(x) for x in self.motion],
             "motion_at": self.motion_at,
             "motion_words": self.motion_words,
@@ -155,6 +152,12 @@ class SimLabel:
         }
 
 
+def error_label(reason: str) -> SimLabel:
+    """The label of a grasp synth could not simulate (its own failure, said in ``reason``)."""
+    return SimLabel(None, "error", reason, np.zeros(6, bool), float("nan"), np.zeros(0), None,
+                    None, None, None, 0, 0.0)
+
+
 def _unit(mo: NDArray[np.float64], size: float) -> NDArray[np.float64] | None:
     u = np.concatenate([mo[:3], mo[3:] * size / 2])
     n = float(np.linalg.norm(u))
@@ -162,20 +165,19 @@ def _unit(mo: NDArray[np.float64], size: float) -> NDArray[np.float64] | None:
 
 
 def _words(mo: NDArray[np.float64], scene: Scene) -> str:
-    """A finite motion (displacement, rotation vector) in words, in mesh coordinates; a
-    rotation that moves the part's surface less than a tenth of its displacement is left out
-    (a translation with a little wobble is a translation)."""
+    """A finite motion (displacement, rotation vector; mesh axes) in words, in mesh
+    coordinates; a rotation that moves the part's surface less than a tenth of its
+    displacement is left out (a translation with a little wobble is a translation)."""
     v, w = mo[:3] / scene.scale, mo[3:]
-    length = scene.settings.size / scene.scale
+    length = scene.size / scene.scale
     if np.linalg.norm(w) * length / 2 < 0.1 * np.linalg.norm(v):
         w = np.zeros(3)
-    twist = np.concatenate([v, w])
-    text = describe_twist(twist, scene.origin, length=length)
+    text = describe_twist(np.concatenate([v, w]), scene.origin, length=length)
     return text.replace("free to ", "")
 
 
 def label_run(run: SimRun, scene: Scene, escape: Escape | None) -> SimLabel:
-    """Turn raw measurements into a grasp's label (relative loads, failure motion).
+    """Turn raw measurements into a grasp's label (relative forces, failure motion).
 
     Parameters
     ----------
@@ -185,23 +187,17 @@ def label_run(run: SimRun, scene: Scene, escape: Escape | None) -> SimLabel:
     escape : Escape or None
         synth's prediction (:func:`predicted_escape`).
     """
-    st = scene.settings
-    forces = run.pushes[:6] / st.grip
-    torques = run.pushes[6:] / (st.grip * st.size)
-    row: int | None
-    if run.diverged is not None:
-        failed, row, at = "diverged", None, None
-    elif run.failed_at is not None:
-        failed, row, at = run.failed_at, 12, run.failed_at
-    else:
-        failed = None
-        row = int(np.argmin(forces))
-        at = DIRECTIONS[row]
-    motion = None if row is None else _unit(run.motions[row], st.size)
-    words = None if motion is None or row is None else _words(run.motions[row], scene)
+    failed = "diverged" if run.diverged is not None else run.failed_at
+    reason = run.diverged if run.diverged is not None else run.reason
+    motion = words = None
+    if run.motion is not None and run.diverged is None:
+        mo = np.concatenate([scene.frame @ run.motion[:3], scene.frame @ run.motion[3:]])
+        motion = _unit(mo, scene.size)
+        words = None if motion is None else _words(mo, scene)
     cos = None
     if motion is not None and escape is not None:
         c = float(motion @ escape.twist)
         cos = abs(c) if escape.both_senses else c
-    return SimLabel(run.held, failed, run.diverged, forces, torques, scene.weight / st.grip,
-                    motion, at, words, cos, run.steps, run.seconds)
+    return SimLabel(run.held, failed, reason, run.gravity_held, scene.weight / scene.grip,
+                    run.forces / scene.grip, motion, run.motion_at if failed != "diverged"
+                    else None, words, cos, run.steps, run.seconds)

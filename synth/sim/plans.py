@@ -11,12 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from synth.errors import InputError
-from synth.sim.document import check_document
+from synth.sim.document import check_document, check_jaw_document
 from synth.sim.jaws import simulate_jaw_document
 from synth.sim.settings import SimSettings
 from synth.sim.simulate import labelled_document, simulate_file
 
-__all__ = ["PLAN_FORMATS", "simulate_plan"]
+__all__ = ["PLAN_FORMATS", "simulate_plan", "unsimulated"]
 
 #: The document formats :func:`simulate_plan` reads.
 PLAN_FORMATS = ("synth.grasps", "synth.gripper_grasps")
@@ -39,10 +39,10 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
     settings : SimSettings, optional
         The hand and the disturbances (default :class:`SimSettings`).
     part : Part, optional
-        For a gripper document, the part planned on (its document does not carry the part's
-        centre of mass and volume); None loads it from ``mesh_path`` with ``load``.
+        The part planned on, as the planner loaded it (None: loaded again from
+        ``mesh_path`` with ``load``, or with the loader options the document records).
     load : dict, optional
-        :func:`synth.load_part` keywords for that (the gripper planner's: ``units``).
+        :func:`synth.load_part` keywords for that.
     cache, progress
         As :func:`synth.sim.simulate_file` takes them.
 
@@ -55,8 +55,9 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
     ------
     InputError
         The document is of another format, a field the simulation needs is missing or bad
-        (the message names it), the mesh changed since it was planned, or MuJoCo cannot
-        load it.
+        (the message names it), or the mesh changed since it was planned. A grasp synth
+        cannot simulate (a decomposition or a MuJoCo load failing) gets an error label
+        instead (``sim.failed_at == "error"``).
 
     Examples
     --------
@@ -72,10 +73,49 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
     if fmt == "synth.gripper_grasps":
         if part is None:
             from synth.part import load_part
+            from synth.plan import load_options
 
-            part = load_part(mesh_path, **(load or {}))
-        return simulate_jaw_document(doc, part, mesh_path, settings, cache=cache,
-                                     progress=progress)
+            mesh = doc.get("mesh", {})
+            part = load_part(mesh_path, **(load or load_options(
+                {"units": mesh.get("units"), "body": mesh.get("body", "largest"),
+                 "sharp_angle": mesh.get("sharp_angle", 30.0)})))
+        return simulate_jaw_document(check_jaw_document(doc, str(mesh_path)), part, settings,
+                                     cache=cache, progress=progress)
     file = replace(check_document(doc, str(mesh_path)), mesh_path=Path(mesh_path))
-    return labelled_document(file, simulate_file(file, settings, cache=cache,
+    if load is not None:
+        file = replace(file, load=load)
+    return labelled_document(file, simulate_file(file, settings, part=part, cache=cache,
                                                  progress=progress))
+
+
+def unsimulated(doc: dict[str, Any], reason: str, settings: SimSettings | None = None
+                ) -> dict[str, Any]:
+    """A plan's document whose grasps synth could not simulate: each gets an error label
+    (``held`` null, ``failed_at`` ``"error"``, the ``reason``), so that the plan and its
+    grasps are kept, and the run's ``sim`` summary says why.
+
+    Parameters
+    ----------
+    doc : dict
+        A planner's document.
+    reason : str
+        What went wrong (synth's own failure, not the input's).
+    settings : SimSettings, optional
+        The settings the simulation was to use.
+
+    Returns
+    -------
+    dict
+        A copy of ``doc``.
+    """
+    import copy
+
+    from synth.sim.label import error_label
+
+    st = settings or SimSettings()
+    out = copy.deepcopy(doc)
+    for g in out.get("grasps", []):
+        g["sim"] = error_label(reason).to_dict()
+    out["sim"] = {"settings": st.to_dict(), "error": reason, "held": 0,
+                  "errors": len(out.get("grasps", [])), "seconds": 0.0}
+    return out

@@ -1,34 +1,34 @@
 """What is done to a simulated grasp, in order, and what is measured.
 
-1. **Squeeze** (no gravity): every servo's target moves ``stroke`` into the part over
-   ``CLOSE_S``, then the fingers hold for ``HOLD_S``. A grasp whose preload pushes the part
-   away (a poorly conditioned frictionless grasp on compliant fingers can be squeezed out)
-   fails here.
-2. **Gravity** (-z of the mesh file) is turned on over ``CLOSE_S`` and held ``HOLD_S``. The
-   state reached is the *held pose*, from which the pushes and the shake start.
-3. **Pushes**: a force along +x, -x, +y, -y, +z, -z of the part's frame at its centre of mass,
-   then a torque about each, one at a time, each from the held pose. The push grows as a
-   probe would apply it: a damped spring whose far end moves steadily away (the force rises
-   by ``cap / RAMP_S`` per second while the part stays), so that when the fingers give way the
-   force stops growing instead of overshooting by the part's inertia. It ends when the part
-   has moved past the threshold; the largest force (torque) applied until then is the largest
-   it held. ``cap`` is more than the fingers can balance together (every finger's grip force,
-   with friction, plus the weight; times the size for torques).
-4. **Shake**: from the held pose, the hand is shaken along x, then y, then z, two periods each,
-   with a peak acceleration of ``shake`` g: in the hand's frame this is gravity changing with
-   time, which is how it is applied (fingertip weights stay compensated). ``shake`` = 0
-   skips it.
+0. **Start**: no finger or pad may touch the part before it closes (each starts clear, see
+   :mod:`synth.sim.scene` and :mod:`synth.sim.jaws`); one that does is reported as
+   ``failed_at = "start"``, never simulated (its first contact would throw the part).
+1. **Close** (no gravity, the part held in place): the servos' targets move smoothly from
+   where the fingers start to the planned contact over ``CLOSE_S`` and hold ``SETTLE_S``.
+2. **Squeeze**: the targets move on to the squeeze over ``SQUEEZE_S`` and hold ``HOLD_S``. The
+   balanced hand then corrects each target by the difference between the force it wants and
+   the force its finger presses with (``CORRECTIONS`` times, ``SETTLE_S`` each): the contacts'
+   own softness sits in series with the servo, and the squeeze must be the grasp's own. Then
+   the part is let go and rests ``HOLD_S`` in the fingers alone: a squeeze that does not
+   balance pushes it out here. The state reached is the *held pose*.
+3. **Gravity**: from the held pose, the part's weight along +x, -x, +y, -y, +z, -z of the hand,
+   one at a time, each turned on over ``RAMP_S`` and held ``GRAVITY_S`` (the field's protocols:
+   GraspDataGen tugs with 1 g for 0.5 s, DexGraspBench pulls six directions with 1 g).
+4. **Shake**: from the held pose, gravity along the hand's shake direction (``Scene.
+   shake_gravity``: -z of the part's file for point fingers, the approach for a gripper),
+   then the hand shaken along its x, y and z, two periods each, with a peak acceleration of
+   ``shake`` g (in the hand's frame, gravity changing with time). ``shake`` = 0 skips it.
 
-The grasp *holds* when the part stays within the motion thresholds of
-:class:`~synth.sim.settings.SimSettings` through the squeeze, gravity and the shake.
+The grasp *holds* when the part stays within the motion thresholds of the scene through every
+stage. After a stage fails the later ones are not run (the six gravity directions are all run,
+so the label says which of them held).
 
 Divergence: after every ``CHECK_STEPS`` steps, and whenever the part seems to have moved, the
 state must be finite, MuJoCo must not have flagged a bad acceleration (it then resets the
-state, which would look like a held part), the part may not be moving faster than
-``SPEED_LIMIT`` sizes per second (a grasp that gives way lets the part go at a fraction of
-that), and no fingertip may have sunk into the part by more than ``PENETRATION_LIMIT`` of its
-radius (the contact solver is losing). Otherwise the run stops and reports the reason.
-MuJoCo's own warnings are not printed (they are read from its counters).
+state, which would look like a held part), the part may not move faster than ``SPEED_LIMIT``
+sizes per second, and no finger may sink into the part deeper than the scene's limit. Otherwise
+the run stops and reports the reason. MuJoCo's warnings are read from its counters, never
+printed nor logged to a file.
 """
 
 from __future__ import annotations
@@ -40,67 +40,75 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.sim.scene import GRAVITY, Scene
+from synth.sim.scene import GRAVITY, HAND_BITS, Scene, quiet_mujoco
 
-__all__ = ["SimRun", "run_protocol", "DIRECTIONS", "CLOSE_S", "HOLD_S", "RAMP_S",
-           "DETECT_S", "CHECK_STEPS", "PENETRATION_LIMIT", "SPEED_LIMIT"]
+__all__ = ["SimRun", "run_protocol", "settle_under", "DIRECTIONS", "CLOSE_S", "SETTLE_S", "SQUEEZE_S",
+           "HOLD_S", "CORRECTIONS", "RAMP_S", "GRAVITY_S", "CHECK_STEPS", "SPEED_LIMIT"]
 
-#: Time over which the fingers close and gravity is turned on, s.
+#: Time over which the fingers close onto the part, s.
 CLOSE_S: float = 0.05
-#: Time the fingers hold after each, s.
+#: Time the fingers rest after closing and after each squeeze correction, s.
+SETTLE_S: float = 0.05
+#: Time over which the squeeze is applied, s.
+SQUEEZE_S: float = 0.1
+#: Time the squeeze is held before the corrections, s.
 HOLD_S: float = 0.15
-#: A push reaches its cap after this long if the part does not move, s.
-RAMP_S: float = 0.5
-#: The probe's far end moves one motion threshold in this time, s.
-DETECT_S: float = 0.2
+#: Corrections of the balanced hand's targets towards its squeeze.
+CORRECTIONS: int = 2
+#: Time over which gravity is turned on, s.
+RAMP_S: float = 0.1
+#: Time each gravity direction is held, s.
+GRAVITY_S: float = 0.5
 #: Steps between divergence checks.
 CHECK_STEPS: int = 50
-#: Deepest allowed penetration of a fingertip into the part, as a fraction of its radius.
-PENETRATION_LIMIT: float = 0.5
 #: Fastest a part may move (its centre, or a point half its size from it), in sizes per second:
 #: falling freely for the whole protocol it would reach about 60.
 SPEED_LIMIT: float = 1000.0
-#: Names of the twelve pushes, in order: forces, then torques, along +x, -x, +y, -y, +z, -z.
-DIRECTIONS: tuple[str, ...] = tuple(f"{kind} {sign}{axis}" for kind in ("force", "torque")
-                                    for axis in "xyz" for sign in "+-")
+#: Names of the six gravity directions, in the hand's frame, in order.
+DIRECTIONS: tuple[str, ...] = ("+x", "-x", "+y", "-y", "+z", "-z")
+_UNIT = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 
 
 @dataclass(frozen=True)
 class SimRun:
-    """Raw measurements of one simulated grasp (SI units, the part's frame).
+    """Raw measurements of one simulated grasp (SI units, the world frame).
 
     Attributes
     ----------
     failed_at : str or None
-        ``"squeeze"``, ``"gravity"`` or ``"shake"`` where the part moved past the threshold;
-        None when it held through all three.
+        ``"start"``, ``"close"``, ``"squeeze"``, ``"gravity"`` or ``"shake"``: the first
+        stage in which the part moved past the threshold; None when it held through all.
     diverged : str or None
-        Why the simulation was stopped as diverged (NaN state, MuJoCo's bad acceleration,
-        deep penetration); None when it did not.
-    pushes : (12,) float
-        Largest force (N, first six) or torque (N m, last six) held, in the order of
-        ``DIRECTIONS``; 0 when the part was not held under gravity.
-    motions : (13, 6) float
-        Motion of the part when it first moved past the threshold: displacement of its
-        centre of mass (m) and rotation vector (rad), world frame. Rows 0-11 for the pushes,
-        row 12 for the squeeze, gravity or shake, whichever failed; NaN where none was
-        measured.
+        Why the simulation was stopped as diverged; None when it did not.
+    reason : str or None
+        For ``"start"``: which finger touches the part before closing.
+    gravity_held : (6,) bool
+        Held under its weight along each of ``DIRECTIONS`` (all False when the squeeze failed).
+    motion : (6,) float or None
+        Displacement of the centre of mass (m) and rotation vector (rad) when the part first
+        moved past the threshold, in the failing stage (the first failing gravity direction).
+    motion_at : str or None
+        The stage (``"gravity -z"`` for a gravity direction).
+    forces : (a,) float
+        Each actuator's force in the held pose, N (NaN where the squeeze was not reached).
     steps : int
-        Simulation steps taken.
     seconds : float
         Wall-clock time.
     """
 
     failed_at: str | None
     diverged: str | None
-    pushes: NDArray[np.float64] = field(repr=False)
-    motions: NDArray[np.float64] = field(repr=False)
+    reason: str | None
+    gravity_held: NDArray[np.bool_] = field(repr=False)
+    motion: NDArray[np.float64] | None = field(repr=False)
+    motion_at: str | None
+    forces: NDArray[np.float64] = field(repr=False)
     steps: int
     seconds: float
 
     @property
     def held(self) -> bool:
-        """Held through the squeeze, gravity and the shake, without diverging."""
+        """Held through every stage without diverging."""
         return self.failed_at is None and self.diverged is None
 
 
@@ -109,7 +117,7 @@ class _Diverged(Exception):
 
 
 class _Runner:
-    """One grasp's MuJoCo data and the measurements shared by the phases."""
+    """One grasp's MuJoCo data and the measurements shared by the stages."""
 
     def __init__(self, scene: Scene) -> None:
         import mujoco
@@ -118,14 +126,13 @@ class _Runner:
         self.scene = scene
         self.m = scene.model
         self.d = mujoco.MjData(self.m)
-        st = scene.settings
         self.dt = float(self.m.opt.timestep)
-        self.x_lim = st.translation_limit
-        self.th_lim = st.rotation_limit
-        self.pen_lim = PENETRATION_LIMIT * scene.tip_radius
+        self.x_lim = scene.translation_limit
+        self.th_lim = scene.rotation_limit
         self.steps = 0
         self.sig = mujoco.mjtState.mjSTATE_INTEGRATION
-        self.state = np.zeros(mujoco.mj_stateSize(self.m, self.sig))
+        self.hand_geoms = np.flatnonzero(np.asarray(self.m.geom_contype) == HAND_BITS)
+        self.hold = self.mj.mj_name2id(self.m, self.mj.mjtObj.mjOBJ_EQUALITY, "hold")
 
     # -- state -------------------------------------------------------------------------
     def pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -152,14 +159,24 @@ class _Runner:
         return False
 
     def save(self) -> NDArray[np.float64]:
-        out = np.zeros_like(self.state)
+        out = np.zeros(self.mj.mj_stateSize(self.m, self.sig))
         self.mj.mj_getState(self.m, self.d, out, self.sig)
         return out
 
     def restore(self, state: NDArray[np.float64]) -> None:
         self.mj.mj_setState(self.m, self.d, state, self.sig)
-        self.d.xfrc_applied[:] = 0.0
         self.mj.mj_forward(self.m, self.d)
+
+    def touching(self) -> list[int]:
+        """Geoms of the hand touching the part deeper than the scene's start tolerance."""
+        d = self.d
+        out = set()
+        for c in d.contact[: d.ncon]:
+            if c.dist < -self.scene.start_tolerance:
+                for g in (c.geom1, c.geom2):
+                    if g in self.hand_geoms:
+                        out.add(int(g))
+        return sorted(out)
 
     # -- stepping ------------------------------------------------------------------------
     def step(self) -> None:
@@ -170,159 +187,189 @@ class _Runner:
 
     def check(self) -> None:
         d = self.d
-        bad = d.warning[self.mj.mjtWarning.mjWARN_BADQACC].number
-        if bad:
+        if d.warning[self.mj.mjtWarning.mjWARN_BADQACC].number:
             raise _Diverged("MuJoCo found the accelerations unstable and reset the state")
         if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
             raise _Diverged("the state became NaN or infinite")
-        size = self.scene.settings.size
+        size = self.scene.size
         speed = max(float(np.linalg.norm(d.qvel[:3])),
                     float(np.linalg.norm(d.qvel[3:6])) * size / 2) / size
         if speed > SPEED_LIMIT:
             raise _Diverged(f"the part flew off at {speed:.3g} sizes per second")
         if d.ncon:
             deepest = -float(d.contact.dist[: d.ncon].min())
-            if deepest > self.pen_lim:
-                raise _Diverged(f"a fingertip sank {deepest / self.pen_lim * PENETRATION_LIMIT:.2f}"
-                                " of its radius into the part")
+            lim = self.scene.penetration_limit
+            if deepest > lim:
+                raise _Diverged(f"a finger sank {deepest * 1e3:.3g} mm into the part (limit "
+                                f"{lim * 1e3:.3g} mm)")
 
-    def gravity(self, g: NDArray[np.float64]) -> None:
-        self.m.opt.gravity[:] = g
-
-    # -- phases ----------------------------------------------------------------------------
-    def settle(self, ref: tuple[NDArray[np.float64], NDArray[np.float64]], ramp,
-               ) -> NDArray[np.float64] | None:
-        """Run ``CLOSE_S`` with ``ramp(fraction)`` applied, then ``HOLD_S``; the motion if the
-        part moved past the threshold."""
-        n_close = max(1, round(CLOSE_S / self.dt))
-        n_hold = max(1, round(HOLD_S / self.dt))
-        for i in range(n_close + n_hold):
-            ramp(min(1.0, (i + 1) / n_close))
+    def run(self, seconds: float, each, ref) -> NDArray[np.float64] | None:
+        """Step for ``seconds``, calling ``each(fraction of the time)`` before each step; the
+        motion from ``ref`` if the part moved past the threshold."""
+        n = max(1, round(seconds / self.dt))
+        for i in range(n):
+            each((i + 1) / n)
             self.step()
-            if i % 10 == 0 or i == n_close + n_hold - 1:
+            if i % 10 == 0 or i == n - 1:
                 mo = self.motion(ref)
                 if self.moved(mo):
                     return mo
         return None
 
-    def push(self, k: int, held: tuple[NDArray[np.float64], NDArray[np.float64]],
-             cap: float) -> tuple[float, NDArray[np.float64]]:
-        """Push ``DIRECTIONS[k]`` from the held pose; the largest load held and the motion."""
-        torque = k >= 6
-        axis, sign = (k % 6) // 2, (1.0 if k % 2 == 0 else -1.0)
-        lim = self.th_lim if torque else self.x_lim
-        rate = cap / RAMP_S
-        speed = lim / DETECT_S
-        spring = rate / speed
-        if torque:  # moment of inertia about the world axis
-            X = self.d.ximat[self.scene.part].reshape(3, 3)
-            inertia = float(X[axis] @ (self.scene.inertia * X[axis]))
-        else:
-            inertia = self.scene.mass
-        damp = 2.0 * math.sqrt(spring * inertia)
-        part = self.scene.part
-        xfrc = self.d.xfrc_applied[part]
-        slot = (3 if torque else 0) + axis
-        largest = 0.0
-        n = round((RAMP_S + 2 * DETECT_S) / self.dt)
-        for i in range(n):
-            mo = self.motion(held)
-            if self.moved(mo):
-                return largest, mo
-            x = sign * mo[slot]
-            if torque:
-                mat = np.zeros(9)
-                self.mj.mju_quat2Mat(mat, self.d.qpos[3:7])
-                rate_x = sign * (mat.reshape(3, 3) @ self.d.qvel[3:6])[axis]
-            else:
-                rate_x = sign * self.d.qvel[axis]
-            load = max(0.0, spring * (speed * i * self.dt - x) - damp * rate_x)
-            largest = max(largest, load)
-            xfrc[:] = 0.0
-            xfrc[slot] = sign * load
-            self.step()
-        return largest, self.motion(held)
+    def gravity(self, g: NDArray[np.float64]) -> None:
+        self.m.opt.gravity[:] = g
 
-    def shake(self, held: tuple[NDArray[np.float64], NDArray[np.float64]]
-              ) -> NDArray[np.float64] | None:
-        st = self.scene.settings
-        g0 = np.array([0.0, 0.0, -GRAVITY])
-        n = max(1, round(2.0 / st.shake_hz / self.dt))
-        for axis in range(3):
-            e = np.zeros(3)
-            e[axis] = st.shake * GRAVITY
-            for i in range(n):
-                self.gravity(g0 + e * math.sin(2 * math.pi * st.shake_hz * (i + 1) * self.dt))
-                self.step()
-                if i % 10 == 0 or i == n - 1:
-                    mo = self.motion(held)
-                    if self.moved(mo):
-                        return mo
-        return None
+    def let_go(self) -> None:
+        """Release the weld that held the part while the hand closed."""
+        self.d.eq_active[self.hold] = 0
+
+    def forces(self) -> NDArray[np.float64]:
+        """Each actuator's force magnitude, N."""
+        return np.abs(np.asarray(self.d.actuator_force, float)).copy()
 
 
-def run_protocol(scene: Scene, *, pushes: bool = True) -> SimRun:
-    """Squeeze, gravity, the twelve pushes and the shake on one grasp (see the module).
+def _ramp(r: _Runner, a: NDArray[np.float64], b: NDArray[np.float64]):
+    """Move the controls from ``a`` to ``b`` smoothly (zero speed at both ends)."""
+    def each(frac: float) -> None:
+        f = min(1.0, frac)
+        r.d.ctrl[:] = a + f * f * (3.0 - 2.0 * f) * (b - a)
+    return each
+
+
+def run_protocol(scene: Scene) -> SimRun:
+    """Start, close, squeeze, the six gravity directions and the shake (see the module).
 
     Parameters
     ----------
     scene : Scene
-        The compiled grasp (:func:`synth.sim.build_scene`); its model's gravity is changed
-        while this runs and restored after.
-    pushes : bool
-        Measure the twelve pushes (False: squeeze, gravity and shake only).
+        The compiled grasp; its model's gravity is changed while this runs and restored after.
 
     Returns
     -------
     SimRun
     """
-    import mujoco
-
     t0 = time.perf_counter()
     r = _Runner(scene)
     st = scene.settings
-    g = np.array([0.0, 0.0, -GRAVITY])
-    loads = np.zeros(12)
-    motions = np.full((13, 6), np.nan)
+    g0 = GRAVITY
+    held_dirs = np.zeros(6, bool)
+    forces = np.full(scene.actuators, np.nan)
     failed: str | None = None
     diverged: str | None = None
+    reason: str | None = None
+    motion: NDArray[np.float64] | None = None
+    motion_at: str | None = None
     saved_gravity = np.array(scene.model.opt.gravity)
-    saved_warning = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(lambda text: None)  # divergence is read from the counters
-    try:
-        r.mj.mj_forward(r.m, r.d)
-        start = r.pose()
-        r.gravity(np.zeros(3))
-
-        def close(frac: float) -> None:
-            r.d.ctrl[:] = frac * st.stroke
-
-        mo = r.settle(start, close)
-        if mo is None:
-            mo = r.settle(start, lambda frac: r.gravity(frac * g))
-            failed = None if mo is None else "gravity"
-        else:
-            failed = "squeeze"
-        if failed is None:
-            held = r.pose()
-            state = r.save()
-            if pushes:
-                mu = scene.contact.mu
-                cap_force = scene.fingers * st.grip * (1.0 + mu) + scene.weight
-                for k in range(12):
+    with quiet_mujoco():  # divergence is read from MuJoCo's counters
+        try:
+            failed, reason, motion = _grip(r)
+            motion_at = failed if motion is not None else None
+            if failed is None:
+                forces = r.forces()
+                held = r.pose()
+                state = r.save()
+                first: tuple[NDArray[np.float64], str] | None = None
+                for k, name in enumerate(DIRECTIONS):
                     r.restore(state)
-                    cap = cap_force * (st.size if k >= 6 else 1.0)
-                    loads[k], motions[k] = r.push(k, held, cap)
-            if st.shake > 0:
-                r.restore(state)
-                mo = r.shake(held)
-                if mo is not None:
-                    failed = "shake"
-        if failed is not None:
-            motions[12] = mo
-    except _Diverged as e:
-        diverged = str(e)
-    finally:
-        scene.model.opt.gravity[:] = saved_gravity
-        mujoco.set_mju_user_warning(saved_warning)
-    return SimRun(failed, diverged, loads, motions, r.steps, time.perf_counter() - t0)
+                    g = _UNIT[k] * g0
+                    mo = r.run(RAMP_S, lambda f, g=g: r.gravity(f * g), held)
+                    mo = mo if mo is not None else r.run(GRAVITY_S, lambda f: None, held)
+                    held_dirs[k] = mo is None
+                    if mo is not None and first is None:
+                        first = (mo, f"gravity {name}")
+                if first is not None:
+                    failed, (motion, motion_at) = "gravity", first
+                elif st.shake > 0:
+                    r.restore(state)
+                    down = np.asarray(scene.shake_gravity, float) * g0
+                    mo = r.run(RAMP_S, lambda f: r.gravity(f * down), held)
+                    if mo is None:
+                        mo = _shake(r, down, held)
+                    if mo is not None:
+                        failed, motion, motion_at = "shake", mo, "shake"
+        except _Diverged as e:
+            diverged = str(e)
+        finally:
+            scene.model.opt.gravity[:] = saved_gravity
+    return SimRun(failed, diverged, reason, held_dirs, motion, motion_at, forces, r.steps,
+                  time.perf_counter() - t0)
+
+
+def _grip(r: _Runner) -> tuple[str | None, str | None, NDArray[np.float64] | None]:
+    """Start, close and squeeze (no gravity): the failing stage, the reason and the motion,
+    all None when the part is held at rest."""
+    scene, st = r.scene, r.scene.settings
+    r.gravity(np.zeros(3))
+    r.d.ctrl[:] = scene.ctrl_open
+    r.mj.mj_forward(r.m, r.d)
+    start = r.pose()
+    touching = r.touching()
+    if touching:
+        names = [scene.model.geom(g).name or f"geom {g}" for g in touching]
+        deep = -float(r.d.contact.dist[: r.d.ncon].min()) / r.scene.scale
+        return "start", (f"{', '.join(names)} already inside the part by {deep:.3g} mesh "
+                         "units before closing"), None
+    mo = r.run(CLOSE_S, _ramp(r, scene.ctrl_open, scene.ctrl_touch), start)
+    mo = mo if mo is not None else r.run(SETTLE_S, lambda f: None, start)
+    if mo is not None:
+        return "close", None, mo
+    mo = r.run(SQUEEZE_S, _ramp(r, scene.ctrl_touch, scene.ctrl_squeeze), start)
+    mo = mo if mo is not None else r.run(HOLD_S, lambda f: None, start)
+    if mo is None and scene.preload is not None:
+        ctrl = scene.ctrl_squeeze.copy()
+        for _ in range(CORRECTIONS):
+            ctrl = ctrl + (scene.preload - r.forces()) / st.stiffness
+            r.d.ctrl[:] = ctrl
+            mo = r.run(SETTLE_S, lambda f: None, start)
+            if mo is not None:
+                break
+    if mo is None:
+        r.let_go()
+        mo = r.run(HOLD_S, lambda f: None, start)
+    return (None, None, None) if mo is None else ("squeeze", None, mo)
+
+
+def settle_under(scene: Scene, gravity: NDArray[np.float64], seconds: float
+                 ) -> NDArray[np.float64]:
+    """Grip the part as the protocol does, then hold it under its weight along ``gravity``
+    (world frame, normalised here) for ``seconds``: how far it has moved from the held pose
+    (displacement in m and rotation vector in rad), whatever the thresholds (a creeping
+    grasp shows here). NaN when it was not gripped.
+
+    Examples
+    --------
+    >>> settle_under(scene, [0, 0, -1], 5.0)  # doctest: +SKIP
+    array([ 1.2e-07, ...])
+    """
+    r = _Runner(scene)
+    with quiet_mujoco():
+        try:
+            if _grip(r)[0] is not None:
+                return np.full(6, np.nan)
+            held = r.pose()
+            g = np.asarray(gravity, float) / np.linalg.norm(gravity) * GRAVITY
+            r.x_lim = r.th_lim = np.inf
+            r.run(RAMP_S, lambda f: r.gravity(f * g), held)
+            r.run(seconds, lambda f: None, held)
+            return r.motion(held)
+        except _Diverged:
+            return np.full(6, np.nan)
+        finally:
+            scene.model.opt.gravity[:] = 0.0
+
+
+def _shake(r: _Runner, down: NDArray[np.float64],
+           held: tuple[NDArray[np.float64], NDArray[np.float64]]) -> NDArray[np.float64] | None:
+    st = r.scene.settings
+    period = 2.0 / st.shake_hz
+    for axis in range(3):
+        e = np.zeros(3)
+        e[axis] = st.shake * GRAVITY
+
+        def each(frac: float, e: NDArray[np.float64] = e) -> None:
+            r.gravity(down + e * math.sin(2 * math.pi * 2.0 * frac))
+
+        mo = r.run(period, each, held)
+        if mo is not None:
+            return mo
+    return None

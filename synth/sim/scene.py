@@ -1,100 +1,264 @@
-"""Build the MuJoCo model of one grasp: the part on a free joint, one finger per fingertip.
+"""Build the MuJoCo model of one point-finger grasp: the part on a free joint, one finger per
+fingertip, every finger starting clear of the part.
 
-Frame: the simulation's world is the mesh file's frame, moved so that the part's centre of
-mass is at the origin and scaled by ``size / length`` (see :mod:`synth.sim.settings`); axes
-keep their directions, so gravity is -z of the file and a push along +x in the simulation is
-a push along +x of the file.
+Frame: the simulation's world is the hand's frame. For point fingers it is the part's frame
+(the mesh file's axes), moved so that the part's centre of mass is at the origin and scaled by
+``size / length`` (see :mod:`synth.sim.settings`): gravity along -z of the world is gravity
+along -z of the file.
 
 * The part is one body with a free joint, its frame at the centre of mass, its mass and
-  inertia those of the file's closed bodies at the settings' density (given explicitly:
-  MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece.
-* Each finger is a sphere of the planned tip radius on a slide joint along its approach
-  (``-approach``, into the part), starting at the planned tip centre, driven by a position
-  servo of gain ``stiffness``, critically damped for the fingertip's mass, whose force is
-  limited to the grip force (``forcerange``). Its weight is compensated (``gravcomp``).
-  Fingers collide with the part only.
-* Contacts use the grasp's own model on both geoms of each pair (:class:`ContactModel`),
-  with a time constant of two steps, the stiffest MuJoCo allows. Friction is made as hard as
-  the normal force (``impratio`` = ``IMPRATIO``): with MuJoCo's default of 1 a frictional
-  grasp creeps under a steady load (measured: a 3-finger cube grasp at mu = 0.8 slid 2% of
-  its size within 1.5 s under its own weight; with 10 it holds).
+  inertia those of the part's closed bodies at the settings' density (given explicitly:
+  MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece
+  (:mod:`synth.sim.decompose`). A weld (the equality ``hold``) keeps it in place while the
+  hand closes and squeezes, as a part rests where it is while fingers close on it; the
+  protocol then lets go, and the part is held by the fingers alone.
+* Each finger is a sphere of the planned tip radius on a slide joint along its approach,
+  starting ``START_GAP`` tip radii back from its planned place along the approach (clear of
+  the part: the planner checked the finger's body there), driven by a position servo of gain
+  ``stiffness``, critically damped for the fingertip's mass, its force limited to the grip
+  force. Its weight is compensated. Fingers collide with the part only.
+* The controls (servo targets, metres along each slide) of the three stages the protocol
+  (:mod:`synth.sim.protocol`) goes through: ``open`` (where the fingers start), ``touch``
+  (the planned contact) and ``squeeze``, with the squeeze's target forces for the balanced
+  hand (:mod:`synth.scores.hold`).
+* Contacts use the grasp's own model on both geoms of each pair (:class:`ContactModel`), with
+  a time constant of two steps, elliptic cones, friction as hard as the normal force
+  (``impratio`` = ``IMPRATIO``) and the noslip solver (``SimSettings.noslip``): without it a
+  squeezed part creeps about 2 degrees a second under its own weight.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.errors import MeshError
+from synth.errors import SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.pieces import ConvexPieces
-from synth.sim.settings import SimSettings
+from synth.sim.decompose import ConvexPieces
+from synth.sim.settings import TRANSLATION_RTOL, SimSettings
 
-__all__ = ["Scene", "build_scene", "GRAVITY", "IMPRATIO"]
+__all__ = ["Scene", "build_scene", "new_spec", "add_part", "compile_spec", "quiet_mujoco",
+           "contact_params", "GRAVITY",
+           "IMPRATIO", "START_GAP", "START_RTOL", "PART_BITS", "HAND_BITS"]
 
 #: Standard gravity, m/s^2.
-GRAVITY: float = 9.81
+GRAVITY: float = 9.80665
 #: MuJoCo's ratio of frictional to normal constraint impedance (elliptic cones).
 IMPRATIO: float = 10.0
-
-_PART_BITS, _FINGER_BITS = 1, 2  # contype / conaffinity: fingers touch the part only
+#: How far back along its approach a fingertip starts, in tip radii.
+START_GAP: float = 0.5
+#: How deep a finger may touch the part where it starts, as a fraction of its size (tip
+#: radius, pad thickness): ten times the planner's penetration tolerance.
+START_RTOL: float = 0.01
+#: contype / conaffinity bits: the hand touches the part only.
+PART_BITS, HAND_BITS = 1, 2
 
 
 @dataclass(frozen=True)
 class Scene:
-    """A compiled MuJoCo model of one grasp and what it is made of.
+    """A compiled MuJoCo model of one grasp, its stages' controls and what it is made of.
 
     Attributes
     ----------
     model : mujoco.MjModel
     part : int
-        Body id of the part (its free joint's ``qpos`` are ``model.nq`` entries 0 to 6).
-    fingers : int
-        Number of fingers (actuators ``0 .. fingers - 1``).
+        Body id of the part (its free joint's ``qpos`` are entries 0 to 6).
+    actuators : int
+        Number of actuators (point fingers, or 1 for a gripper's coupled jaws).
     scale : float
         Simulation metres per mesh unit.
     origin : (3,) float
-        The mesh point at the simulation's origin (the part's centre of mass).
-    mass : float
-        The part's mass, kg.
-    weight : float
-        Its weight, N.
+        The mesh point at the centre of mass.
+    frame : (3, 3) float
+        The hand's axes in the mesh's frame (columns): a world vector ``v`` is ``frame @ v``
+        in the mesh's frame.
+    size : float
+        The part's bounding-box diagonal in the simulation, m.
+    mass, weight : float
+        kg and N.
     inertia : (3,) float
-        Its principal moments of inertia, kg m^2.
-    tip_radius : float
-        Fingertip radius, m.
+        Principal moments of inertia, kg m^2.
+    ctrl_open, ctrl_touch, ctrl_squeeze : (a,) float
+        Servo targets where the fingers start, at the planned contact, and squeezing.
+    preload : (a,) float or None
+        The balanced hand's target finger forces, N (None: the squeeze's targets are final).
+    grip : float
+        Force limit of each finger (point fingers) or of the jaws, N.
+    stroke : float
+        How far the hand may let the part move elastically, m (added to the translation
+        threshold).
+    penetration_limit : float
+        Deepest a finger may sink into the part before the solver is deemed lost, m.
+    start_tolerance : float
+        Deepest a finger may touch the part where it starts, m (a fingertip planned against a
+        side wall grazes it by the planner's penetration tolerance).
+    shake_gravity : (3,) float
+        Unit direction of gravity during the shake, world frame.
     settings : SimSettings
     contact : ContactModel
     """
 
     model: Any = field(repr=False)
     part: int
-    fingers: int
+    actuators: int
     scale: float
     origin: NDArray[np.float64] = field(repr=False)
+    frame: NDArray[np.float64] = field(repr=False)
+    size: float
     mass: float
     weight: float
     inertia: NDArray[np.float64] = field(repr=False)
-    tip_radius: float
+    ctrl_open: NDArray[np.float64] = field(repr=False)
+    ctrl_touch: NDArray[np.float64] = field(repr=False)
+    ctrl_squeeze: NDArray[np.float64] = field(repr=False)
+    preload: NDArray[np.float64] | None = field(repr=False)
+    grip: float
+    stroke: float
+    penetration_limit: float
+    start_tolerance: float
+    shake_gravity: NDArray[np.float64] = field(repr=False)
     settings: SimSettings = field(repr=False)
     contact: ContactModel = field(repr=False)
+
+    @property
+    def translation_limit(self) -> float:
+        """Displacement of the centre of mass past which the part has moved, m."""
+        return TRANSLATION_RTOL * self.size + self.stroke
+
+    @property
+    def rotation_limit(self) -> float:
+        """Rotation past which the part has moved, rad."""
+        return 2.0 * self.translation_limit / self.size
+
+
+def new_spec(settings: SimSettings) -> Any:
+    """An empty MuJoCo spec with the options every synth scene uses."""
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    o = spec.option
+    o.timestep = settings.dt
+    o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    o.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    o.impratio = IMPRATIO
+    o.iterations = settings.iterations
+    o.noslip_iterations = settings.noslip
+    o.gravity = [0.0, 0.0, 0.0]
+    return spec
+
+
+def contact_params(settings: SimSettings, contact: ContactModel) -> dict[str, Any]:
+    """The geom attributes of both sides of every finger-part contact."""
+    return {"condim": contact.condim, "friction": contact.friction,
+            "solref": [2.0 * settings.dt, 1.0]}
+
+
+def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64],
+             volume: float, scale: float, rotation: NDArray[np.float64] | None = None,
+             position: NDArray[np.float64] | None = None, density: float,
+             common: dict[str, Any]) -> Any:
+    """Add the part as a free body whose frame is its centre of mass, welded to the world by
+    the equality ``"hold"`` until the protocol lets go of it.
+
+    Parameters
+    ----------
+    spec : mujoco.MjSpec
+    pieces : ConvexPieces
+    center_mass : (3,) float
+        Mesh coordinates.
+    volume : float
+        The part's volume, mesh units cubed (0: the pieces' mass properties).
+    scale : float
+        Metres per mesh unit.
+    rotation : (3, 3) float, optional
+        World axes in the mesh's frame (columns); default the identity.
+    position : (3,) float, optional
+        Where the centre of mass is in the world, m (default the origin).
+    density : float
+        kg/m^3.
+    common : dict
+        Contact attributes (:func:`contact_params`).
+
+    Returns
+    -------
+    mujoco.MjsBody
+    """
+    import mujoco
+
+    R = np.eye(3) if rotation is None else np.asarray(rotation, float)
+    com = np.asarray(center_mass, float)
+    vol = volume if volume > 0 else pieces.volume
+    mass = density * vol * scale**3
+    d = pieces.center - com
+    inertia = pieces.inertia + pieces.volume * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    inertia = R.T @ inertia @ R * (vol / pieces.volume) * density * scale**5
+    moments, axes = np.linalg.eigh(inertia)
+    if np.linalg.det(axes) < 0:
+        axes[:, 0] *= -1
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(axes).ravel())
+    body = spec.worldbody.add_body(name="part", pos=list(np.zeros(3) if position is None
+                                                         else np.asarray(position, float)))
+    body.add_freejoint()
+    # held in place while the hand closes and squeezes; the protocol lets go of it after
+    hold = spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, name1="part", name2="world",
+                             objtype=mujoco.mjtObj.mjOBJ_BODY, name="hold")
+    hold.solref = common["solref"]
+    body.explicitinertial = True
+    body.mass = mass
+    body.ipos = [0.0, 0.0, 0.0]
+    body.iquat = quat.tolist()
+    size = float(np.linalg.norm(np.ptp(np.concatenate(pieces.pieces), axis=0))) * scale
+    body.inertia = np.maximum(moments, 1e-12 * mass * size**2).tolist()
+    for i, v in enumerate(pieces.pieces):
+        spec.add_mesh(name=f"piece{i}", uservert=(((v - com) @ R) * scale).ravel().tolist())
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"piece{i}",
+                      contype=PART_BITS, conaffinity=HAND_BITS, **common)
+    return body
+
+
+@contextmanager
+def quiet_mujoco() -> Iterator[None]:
+    """MuJoCo's warnings go nowhere while this lasts (by default it prints them and appends
+    them to ``MUJOCO_LOG.TXT`` in the current folder); synth reads them from MuJoCo's
+    counters instead."""
+    import mujoco
+
+    saved = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda text: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(saved)
+
+
+def compile_spec(spec: Any) -> Any:
+    """The compiled model; MuJoCo's refusal as :class:`~synth.errors.SimulationError`."""
+    try:
+        with quiet_mujoco():
+            return spec.compile()
+    except ValueError as e:
+        reason = " ".join(str(e).split())
+        raise SimulationError(f"MuJoCo cannot load the scene: {reason}") from e
 
 
 def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
                 approach: NDArray[np.float64], tip_radius: float, *, length: float,
                 center_mass: NDArray[np.float64], volume: float, settings: SimSettings,
-                contact: ContactModel, mesh_name: str = "<mesh>") -> Scene:
-    """Compile the model of one grasp of a part.
+                contact: ContactModel, preload: NDArray[np.float64] | None = None) -> Scene:
+    """Compile the model of one point-finger grasp of a part.
 
     Parameters
     ----------
     pieces : ConvexPieces
         The part's convex pieces (:func:`synth.sim.convex_pieces`).
     tip_centers : (f, 3) float
-        Fingertip centres, mesh coordinates.
+        Planned fingertip centres, mesh coordinates.
     approach : (f, 3) float
         Unit approach directions, away from the part.
     tip_radius : float
@@ -107,8 +271,9 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
         Volume of its closed bodies, mesh units cubed (0: use the pieces' mass properties).
     settings : SimSettings
     contact : ContactModel
-    mesh_name : str
-        The mesh file, for messages.
+    preload : (f,) float, optional
+        The balanced hand's squeeze, each finger's force in newtons, at most the grip force
+        (:func:`synth.sim.balanced_preload`); required for ``settings.hand == "balanced"``.
 
     Returns
     -------
@@ -116,67 +281,49 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
 
     Raises
     ------
-    MeshError
+    SimulationError
         MuJoCo cannot compile the pieces (its reason is in the message).
     """
     import mujoco
 
     s = settings.size / length
     com = np.asarray(center_mass, float)
-    spec = mujoco.MjSpec()
-    spec.option.timestep = settings.dt
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = IMPRATIO
-    spec.option.gravity = [0.0, 0.0, -GRAVITY]
-    solref = [2.0 * settings.dt, 1.0]
-    common = {"condim": contact.condim, "friction": contact.friction, "solref": solref}
-
-    part = spec.worldbody.add_body(name="part")
-    part.add_freejoint()
-    vol = volume if volume > 0 else pieces.volume
-    mass = settings.density * vol * s**3
-    # inertia of the pieces' closed bodies, moved to the file's centre of mass and scaled to
-    # its volume (the bodies may overlap; the file's volume is that of their union)
-    d = pieces.center - com
-    inertia = pieces.inertia + pieces.volume * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    inertia = inertia * (vol / pieces.volume) * settings.density * s**5
-    moments, axes = np.linalg.eigh(inertia)
-    if np.linalg.det(axes) < 0:
-        axes[:, 0] *= -1
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(axes).ravel())
-    part.explicitinertial = True
-    part.mass = mass
-    part.ipos = [0.0, 0.0, 0.0]
-    part.iquat = quat.tolist()
-    part.inertia = np.maximum(moments, 1e-12 * mass * settings.size**2).tolist()
-    for i, v in enumerate(pieces.pieces):
-        spec.add_mesh(name=f"piece{i}", uservert=((v - com) * s).ravel().tolist())
-        part.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"piece{i}",
-                      contype=_PART_BITS, conaffinity=_FINGER_BITS, **common)
-
+    spec = new_spec(settings)
+    common = contact_params(settings, contact)
+    add_part(spec, pieces, center_mass=com, volume=volume, scale=s,
+             density=settings.density, common=common)
     radius = tip_radius * s
+    gap = START_GAP * radius
     kv = 2.0 * np.sqrt(settings.stiffness * settings.finger_mass)
-    for j, (c, a) in enumerate(zip(np.asarray(tip_centers, float),
-                                   np.asarray(approach, float))):
-        body = spec.worldbody.add_body(name=f"finger{j}", pos=((c - com) * s).tolist())
+    C = np.asarray(tip_centers, float)
+    A = np.asarray(approach, float)
+    for j, (c, a) in enumerate(zip(C, A, strict=True)):
+        body = spec.worldbody.add_body(name=f"finger{j}", pos=((c - com) * s + gap * a).tolist())
         body.gravcomp = 1.0
-        body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(-a).tolist(),
-                       name=f"slide{j}")
-        body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[radius, 0.0, 0.0],
-                      mass=settings.finger_mass, contype=_FINGER_BITS,
-                      conaffinity=_PART_BITS, **common)
+        body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=(-a).tolist(), name=f"slide{j}")
+        body.add_geom(name=f"fingertip {j}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                      size=[radius, 0.0, 0.0],
+                      mass=settings.finger_mass, contype=HAND_BITS, conaffinity=PART_BITS,
+                      **common)
         act = spec.add_actuator(name=f"servo{j}", target=f"slide{j}",
                                 trntype=mujoco.mjtTrn.mjTRN_JOINT)
         act.set_to_position(kp=settings.stiffness, kv=kv)
         act.forcelimited = True
         act.forcerange = [-settings.grip, settings.grip]
-    try:
-        model = spec.compile()
-    except ValueError as e:
-        reason = " ".join(str(e).split())
-        raise MeshError(f"{mesh_name}: MuJoCo cannot load its convex pieces: {reason}") from e
-    return Scene(model, 1, len(tip_centers), s, com, float(model.body_mass[1]),
+    model = compile_spec(spec)
+    f = len(C)
+    touch = np.full(f, gap)
+    target: NDArray[np.float64] | None = None
+    if settings.hand == "saturated":
+        squeeze = touch + settings.stroke
+    else:
+        if preload is None or len(preload) != f:
+            raise SimulationError("the balanced hand needs the grasp's squeeze, one force per "
+                                  "finger")
+        target = np.clip(np.asarray(preload, float), 0.0, settings.grip)
+        squeeze = touch + target / settings.stiffness
+    return Scene(model, 1, f, s, com, np.eye(3), settings.size, float(model.body_mass[1]),
                  float(model.body_mass[1]) * GRAVITY, np.asarray(model.body_inertia[1]),
-                 radius, settings, contact)
+                 np.zeros(f), touch, squeeze, target, settings.grip, settings.stroke,
+                 0.5 * radius, START_RTOL * radius,
+                 np.array([0.0, 0.0, -1.0]), settings, contact)

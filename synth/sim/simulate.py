@@ -1,9 +1,13 @@
-"""Simulate every grasp of a grasp file and write the labels back into it.
+"""Simulate every grasp of a grasp file on the part that was planned, and label it.
 
-:func:`simulate_file` builds the part's convex pieces once, then for each grasp compiles its
-scene (:mod:`synth.sim.scene`), runs the protocol (:mod:`synth.sim.protocol`) and labels it
-(:mod:`synth.sim.label`). :func:`labelled_document` returns the grasp document with a ``sim``
-object added to each grasp and one describing the run at the top.
+:func:`simulate_file` loads the part again with the loader and options the plan used (or
+takes the :class:`~synth.part.Part` the planner just used), builds its convex pieces once, then
+for each grasp computes the hand's squeeze (:func:`balanced_preload`), compiles its scene
+(:mod:`synth.sim.scene`), runs the protocol (:mod:`synth.sim.protocol`) and labels it
+(:mod:`synth.sim.label`). A failure of synth's own (CoACD, a MuJoCo compile) gives the grasps
+it touches an error label with the reason; it never stops the run nor discards a plan.
+:func:`labelled_document` returns the grasp document with a ``sim`` object added to each grasp
+and one describing the run at the top.
 """
 
 from __future__ import annotations
@@ -15,16 +19,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from synth.errors import InputError
+import numpy as np
+from numpy.typing import NDArray
+
+from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.document import GraspFile
-from synth.sim.label import SimLabel, label_run, predicted_escape
-from synth.sim.pieces import ConvexPieces, convex_pieces
-from synth.sim.protocol import run_protocol
-from synth.sim.scene import build_scene
+from synth.sim.document import GraspFile, SimGrasp
+from synth.sim.label import SimLabel, error_label, label_run, predicted_escape
 from synth.sim.settings import SimSettings
 
-__all__ = ["SimReport", "simulate_file", "labelled_document", "check_mesh", "require_sim"]
+__all__ = ["SimReport", "simulate_file", "labelled_document", "check_mesh", "require_sim",
+           "load_planned_part", "balanced_preload"]
 
 
 @dataclass(frozen=True)
@@ -37,8 +42,10 @@ class SimReport:
         One per grasp, in the file's order.
     settings : SimSettings
     contact : ContactModel
-    pieces : ConvexPieces
-        The part as simulated.
+    pieces : ConvexPieces or None
+        The part as simulated (None when it could not be decomposed).
+    error : str or None
+        Why no grasp could be simulated (then every label is an error label).
     seconds : float
         Wall-clock time of the whole run, decomposition included.
     """
@@ -46,21 +53,21 @@ class SimReport:
     labels: tuple[SimLabel, ...]
     settings: SimSettings
     contact: ContactModel
-    pieces: ConvexPieces = field(repr=False)
+    pieces: Any = field(repr=False)
+    error: str | None
     seconds: float
 
     def to_dict(self) -> dict[str, Any]:
         """The top-level ``sim`` object of a labelled grasp file."""
-        p = self.pieces
+        p = {} if self.pieces is None else self.pieces.to_dict()
         return {
             "settings": self.settings.to_dict(),
             "contact": {"mu": self.contact.mu, "torsion": self.contact.torsion,
                         "condim": self.contact.condim, "cone": "elliptic"},
-            "pieces": len(p.pieces),
-            "bodies": p.bodies,
-            "decomposed": p.decomposed,
-            "decomposition_error": None if p.error != p.error else p.error,
-            "held": sum(lab.held for lab in self.labels),
+            **p,
+            "error": self.error,
+            "held": sum(lab.held is True for lab in self.labels),
+            "errors": sum(lab.failed_at == "error" for lab in self.labels),
             "seconds": self.seconds,
         }
 
@@ -103,19 +110,72 @@ def check_mesh(file: GraspFile) -> None:
                              f"{file.sha256[:12]}...)")
 
 
+def load_planned_part(file: GraspFile) -> Any:
+    """The part a grasp file was planned on: its mesh loaded with the plan's loader options.
+
+    Raises
+    ------
+    InputError
+        The mesh is missing or changed, or loads into a part of another size than the one
+        planned (other loader options than the file records).
+    """
+    from synth.part import load_part
+
+    check_mesh(file)
+    part = load_part(file.mesh_path, **file.load)
+    # the same file loaded the same way gives the same length; a hand-written file may give
+    # it in full precision where the mesh stores float32 coordinates
+    if abs(part.length - file.length) > 1e-6 * file.length + 4.0 * part.precision:
+        raise InputError(f"{file.path}: field mesh.length: the mesh {file.mesh_path} loads into "
+                         f"a part of size {part.length:.6g}, the grasps were planned on one of "
+                         f"{file.length:.6g} (a different mesh, or other --units / --body)")
+    return part
+
+
+def balanced_preload(g: SimGrasp, center_mass: NDArray[np.float64], length: float,
+                     mu: float, grip: float) -> NDArray[np.float64]:
+    """The balanced hand's squeeze of one grasp: each finger's force in newtons.
+
+    For a frictionless grasp with one contact per finger, the stiff hand's best preload
+    (:func:`synth.scores.hold.stiff_hold_batch`) scaled so that the fingers hold the heaviest
+    part they can in every orientation with no finger above ``grip``. Otherwise the most even
+    internal squeeze (:func:`synth.scores.hold.internal_squeeze`) at half the grip force, its
+    contacts' forces summed per finger; equal forces of half the grip when there is none.
+    """
+    from synth.scores.hold import finger_hold_batch, internal_squeeze
+
+    f = len(g.tip_centers)
+    owner = np.arange(len(g.points)) if g.contact_finger is None else g.contact_finger
+    hold = finger_hold_batch(g.points[None], g.normals[None], center_mass, length, mu,
+                             owner[None])
+    spw = float(hold.squeeze_per_weight[0])
+    if hold.model == "stiff" and np.isfinite(spw):
+        return grip * hold.preload[0] / spw
+    lam = internal_squeeze(g.points, g.normals, center_mass, length, mu)
+    if lam is None:
+        return np.full(f, 0.5 * grip)
+    per = np.zeros((f, 3))
+    np.add.at(per, owner, lam[:, None] * g.normals)
+    force = np.linalg.norm(per, axis=1)
+    return 0.5 * grip * force / max(float(force.max()), 1e-300)
+
+
 def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
-                  contact: ContactModel | None = None, cache: Any = True,
+                  contact: ContactModel | None = None, part: Any = None, cache: Any = True,
                   progress: Callable[[int, int], None] | None = None) -> SimReport:
     """Simulate every grasp of a checked grasp file.
 
     Parameters
     ----------
     file : GraspFile
-        From :func:`synth.sim.read_grasp_file` (its mesh must be where ``mesh.path`` says).
+        From :func:`synth.sim.read_grasp_file`.
     settings : SimSettings, optional
         The hand and the disturbances (default :class:`SimSettings`).
     contact : ContactModel, optional
         Default: the grasps' own, frictionless or with the file's ``params.mu``.
+    part : Part, optional
+        The part the grasps were planned on (default: loaded again from the file's mesh with
+        the recorded loader options, :func:`load_planned_part`).
     cache : pathlib.Path, True or None
         Where convex decompositions are cached (see :func:`synth.sim.convex_pieces`).
     progress : callable, optional
@@ -132,31 +192,44 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     >>> [lab.held for lab in report.labels]
     [True, True, True]
     """
+    from synth.sim.decompose import convex_pieces
+    from synth.sim.protocol import run_protocol
+    from synth.sim.scene import build_scene
+
     t0 = time.perf_counter()
     st = settings or SimSettings()
     model = contact or ContactModel(file.mu)
-    check_mesh(file)
-    labels: list[SimLabel] = []
     if not file.grasps:
         raise InputError(f"{file.path}: field grasps: no grasp to simulate")
-    pieces = convex_pieces(file.mesh_path, file.grasps[0].points, seed=st.seed, cache=cache)
+    part = part if part is not None else load_planned_part(file)
+    try:
+        pieces = convex_pieces(part, seed=st.seed, cache=cache)
+    except SimulationError as e:
+        labels = tuple(error_label(str(e)) for _ in file.grasps)
+        return SimReport(labels, st, model, None, str(e), time.perf_counter() - t0)
+    out: list[SimLabel] = []
     for i, g in enumerate(file.grasps):
-        scene = build_scene(pieces, g.tip_centers, g.approach, g.tip_radius,
-                            length=file.length, center_mass=file.center_mass,
-                            volume=file.volume, settings=st, contact=model,
-                            mesh_name=str(file.mesh_path))
-        escape = predicted_escape(g.points, g.normals, model.mu, file.center_mass,
-                                  file.length, model.torsion * file.length / st.size)
-        labels.append(label_run(run_protocol(scene), scene, escape))
+        try:
+            preload = None if st.hand == "saturated" else balanced_preload(
+                g, file.center_mass, file.length, model.mu, st.grip)
+            scene = build_scene(pieces, g.tip_centers, g.approach, g.tip_radius,
+                                length=file.length, center_mass=file.center_mass,
+                                volume=file.volume, settings=st, contact=model,
+                                preload=preload)
+            escape = predicted_escape(g.points, g.normals, model.mu, file.center_mass,
+                                      file.length)
+            out.append(label_run(run_protocol(scene), scene, escape))
+        except SimulationError as e:
+            out.append(error_label(str(e)))
         if progress is not None:
             progress(i + 1, len(file.grasps))
-    return SimReport(tuple(labels), st, model, pieces, time.perf_counter() - t0)
+    return SimReport(tuple(out), st, model, pieces, None, time.perf_counter() - t0)
 
 
 def labelled_document(file: GraspFile, report: SimReport) -> dict[str, Any]:
     """The grasp document with each grasp's ``sim`` label and the run's ``sim`` summary."""
     doc = copy.deepcopy(file.document)
-    for g, lab in zip(doc["grasps"], report.labels):
+    for g, lab in zip(doc["grasps"], report.labels, strict=True):
         g["sim"] = lab.to_dict()
     doc["sim"] = report.to_dict()
     return doc

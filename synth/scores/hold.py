@@ -1,0 +1,273 @@
+"""How hard must point fingers press to hold the part against its weight in any orientation?
+
+A form-closure grasp holds any load only if its fingers may press hard enough. This module
+gives the least finger force, per unit of the part's weight, that holds the part against
+gravity in *every* orientation, for the hand ``synth sim`` simulates: stiff fingers of equal
+stiffness that first press with a fixed *balanced squeeze* (internal forces, which the part
+feels as no net wrench), each limited to the grip force.
+
+The stiff hand, frictionless contacts
+-------------------------------------
+Let ``W`` (6 x k) be the frictionless wrench matrix of the k contacts with moments about the
+centre of mass, so that the weight ``m g d`` (``d`` a unit direction) loads the part with
+``w = m g (d, 0)``. With fingers of equal stiffness ``kappa`` along their normals, a small
+twist ``delta`` of the part changes the normal forces by ``-kappa W^T delta``; equilibrium
+``W dlam = -w`` gives ``delta = (W W^T)^-1 w / kappa`` and
+
+    dlam = -W^+ w = -m g A d,    A = (W^+)[:, :3]   (k x 3),
+
+whatever the stiffness and the unit of length (the response is the least-norm solution, which
+does not change when moments are taken about another point or in other units). The fingers
+start from a preload ``p`` in the null space of ``W`` (a squeeze that does not move the part),
+so in orientation ``d`` finger ``i`` presses with ``p_i - m g A_i . d``, which over every unit
+``d`` ranges over ``p_i -+ m g |A_i|``. The part is held in every orientation with no finger
+letting go and none above the grip force ``F`` exactly when
+
+    p_i >= m g |A_i|   and   p_i + m g |A_i| <= F   for every finger i.
+
+Per unit weight, the least ``F`` is the LP ``min F' s.t. p' = Z y, p' >= |A|, p' + |A| <= F'``
+(``Z`` a basis of the null space). For the usual 7 contacts the null space is one vector ``c >
+0`` and the answer is closed: ``t = max_i |A_i| / c_i``, ``F' = max_i (t c_i + |A_i|)``, the
+preload ``p' = t c`` (scaled by ``F / F'`` it is the squeeze that holds the largest weight with
+grip ``F``). This is exact for every orientation, not sampled.
+
+Other grasps
+------------
+With friction, or with a fingertip touching at several contacts (a groove, an inside corner),
+the response is not fixed by the stiffnesses alone; the measure is then the least squeeze of
+:func:`synth.scores.gravity.gravity_hold_batch` (each finger free to press with any force up
+to ``F``, a certified bound over every orientation), which can only be lower than a fixed
+preload's.
+
+The number ``F'`` is the grasp's *squeeze per weight*: a grip of ``F`` newtons per finger holds
+a part of weight ``m g`` in every orientation when ``F >= F' m g``; its *margin* is
+``F / (F' m g)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linprog
+
+from synth.errors import SolverError
+from synth.scores.cones import check_contacts_batch
+from synth.scores.quality import scaled_wrenches
+
+__all__ = ["FingerHold", "finger_hold_batch", "stiff_hold_batch", "internal_squeeze", "HOLD_MODELS"]
+
+#: The hand models a :class:`FingerHold` may describe.
+HOLD_MODELS = ("stiff", "any")
+#: Relative size of the smallest singular value of the scaled wrench matrix below which it is
+#: treated as rank deficient (the part has a free motion: no squeeze holds it).
+_RANK_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class FingerHold:
+    """Least finger force per weight of a batch of grasps (see the module).
+
+    Attributes
+    ----------
+    squeeze_per_weight : (B,) float
+        Least grip force per finger, over the part's weight, that holds it in every
+        orientation; ``inf`` where none does.
+    preload : (B, k) float
+        The balanced squeeze per weight, normal force of each contact (``stiff`` model;
+        zeros under ``any`` and where ``squeeze_per_weight`` is inf).
+    response : (B, k, 3) float
+        ``A``: per unit weight along ``d``, contact ``i``'s normal force changes by
+        ``-A_i . d`` (``stiff`` model; zeros under ``any``).
+    model : str
+        ``"stiff"`` (equal-stiffness fingers from a fixed balanced squeeze, exact) or
+        ``"any"`` (each finger free to press with any force, a certified LP bound).
+    """
+
+    squeeze_per_weight: NDArray[np.float64]
+    preload: NDArray[np.float64]
+    response: NDArray[np.float64]
+    model: str
+
+    def margin(self, grip: float, weight: float) -> NDArray[np.float64]:
+        """Grip force over the least force that holds a part of ``weight`` (same unit)."""
+        with np.errstate(divide="ignore"):
+            return float(grip) / (self.squeeze_per_weight * float(weight))
+
+
+def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
+                     length: float) -> FingerHold:
+    """The stiff hand's least force per weight of frictionless grasps (module notes).
+
+    Parameters
+    ----------
+    points, normals : (B, k, 3) float
+        Contacts and unit normals into the part, one finger per contact, k >= 7.
+    center_mass : (3,) float
+    length : float
+        The part's size (scales moments; no effect on the result).
+
+    Returns
+    -------
+    FingerHold
+        ``model`` ``"stiff"``.
+
+    Examples
+    --------
+    Seven fingers on the unit cube:
+
+    >>> from tests.cli_support import CUBE_FC  # doctest: +SKIP
+    >>> h = stiff_hold_batch([CUBE_FC["points"]], [CUBE_FC["normals"]], [0, 0, 0], 3 ** .5)
+    """
+    P, N = check_contacts_batch(points, normals)
+    B, k, _ = P.shape
+    spw = np.full(B, np.inf)
+    pre = np.zeros((B, k))
+    A = np.zeros((B, k, 3))
+    if B == 0 or k < 7:
+        return FingerHold(spw, pre, A, "stiff")
+    W = scaled_wrenches(P, N, np.asarray(center_mass, float), float(length))  # (B, 6, k)
+    rest = np.arange(B)
+    if k == 7:  # certified full rank: W^+ = W^T G^-1 and the null vector from G = W W^T
+        from synth.scores.gram import gram_inverse_factor, null_vector_m1
+
+        X, cert = gram_inverse_factor(W)
+        rows = np.flatnonzero(cert)
+        if len(rows):
+            Wc, Xc = W[rows], X[rows]
+            Ginv3 = np.einsum("bji,bjk->bik", Xc, Xc[:, :, :3])  # (G^-1)[:, :3]
+            A[rows] = np.einsum("bji,bjk->bik", Wc, Ginv3)
+            _closed_form(A[rows], null_vector_m1(Wc, Xc), rows, pre, spw)
+        rest = np.flatnonzero(~cert)
+    if len(rest):
+        U, s, Vt = np.linalg.svd(W[rest])
+        full = s[:, -1] > _RANK_RTOL * s[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pinv = np.einsum("bji,bj,bkj->bik", Vt[:, :6], 1.0 / s, U)  # (b, k, 6)
+        A[rest[full]] = pinv[full, :, :3]
+        Z = np.swapaxes(Vt[:, 6:], 1, 2)  # (b, k, k - 6) null-space basis
+        if k == 7:
+            _closed_form(A[rest[full]], Z[full, :, 0], rest[full], pre, spw)
+        else:
+            r = np.linalg.norm(A, axis=2)
+            for j in np.flatnonzero(full):
+                b = rest[j]
+                got = _stiff_lp(Z[j], r[b])
+                if got is not None:
+                    pre[b] = got
+                    spw[b] = float(np.max(got + r[b]))
+    A[~np.isfinite(spw)] = 0.0
+    return FingerHold(spw, pre, A, "stiff")
+
+
+def _closed_form(A: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[np.int64],
+                 pre: NDArray[np.float64], spw: NDArray[np.float64]) -> None:
+    """The seven-contact answer (module notes) for the grasps ``rows``, whose responses are
+    ``A`` (b, 7, 3) and null vectors ``c`` (b, 7), written into ``pre`` and ``spw``."""
+    r = np.linalg.norm(A, axis=2)
+    c = c * np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
+    ok = c.min(axis=1) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.max(r / c, axis=1)
+    p = t[:, None] * c
+    pre[rows[ok]] = p[ok]
+    spw[rows[ok]] = np.max(p[ok] + r[ok], axis=1)
+
+
+def _stiff_lp(Z: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The best preload ``Z y`` of one grasp: ``min F`` with ``Z y >= r``, ``Z y + r <= F``;
+    None when no preload keeps every finger pressing."""
+    k, n = Z.shape
+    cost = np.zeros(n + 1)
+    cost[-1] = 1.0
+    A_ub = np.block([[-Z, np.zeros((k, 1))], [Z, -np.ones((k, 1))]])
+    b_ub = np.concatenate([-r, -r])
+    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * (n + 1),
+                  method="highs")
+    if res.status == 2:  # infeasible: not form closure
+        return None
+    if res.status != 0:
+        raise SolverError(f"stiff-hand preload LP failed: {res.message}")
+    return np.maximum(Z @ res.x[:n], r)
+
+
+def internal_squeeze(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
+                     length: float, mu: float = 0.0, edges: int = 8
+                     ) -> NDArray[np.float64] | None:
+    """Normal forces of the most even squeeze that leaves the part at rest, for any grasp.
+
+    The LP ``max s`` over contact forces ``lam`` in the (linearised) friction cones with
+    ``W lam = 0`` (no net wrench), every normal force at least ``s`` and at most 1: with
+    ``mu = 0`` Trinkle's d* LP. Used as the squeeze of grasps the stiff model does not
+    cover (friction, several contacts per fingertip).
+
+    Parameters
+    ----------
+    points, normals : (k, 3) float
+    center_mass : (3,) float
+    length : float
+    mu : float
+    edges : int
+
+    Returns
+    -------
+    (k,) float or None
+        Normal forces, the largest 1; None when no squeeze presses every contact.
+    """
+    from synth.scores.cones import cone_wrenches_batch
+
+    P, N = check_contacts_batch(np.asarray(points, float)[None], np.asarray(normals, float)[None])
+    k = P.shape[1]
+    G = cone_wrenches_batch(P, N, float(mu), np.asarray(center_mass, float), int(edges))[0]
+    G[3:] /= float(length)
+    M = G.shape[1] // k
+    n = k * M
+    S = np.kron(np.eye(k), np.ones((1, M)))  # normal force of each contact
+    cost = np.zeros(n + 1)
+    cost[-1] = -1.0
+    A_ub = np.block([[-S, np.ones((k, 1))], [S, np.zeros((k, 1))]])
+    b_ub = np.concatenate([np.zeros(k), np.ones(k)])
+    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, A_eq=np.hstack([G, np.zeros((6, 1))]),
+                  b_eq=np.zeros(6), bounds=[(0.0, None)] * (n + 1), method="highs")
+    if res.status != 0:
+        raise SolverError(f"internal squeeze LP failed: {res.message}")
+    if res.x[-1] <= 1e-9:
+        return None
+    f = S @ res.x[:n]
+    return f / f.max()
+
+
+def finger_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
+                      length: float, mu: float = 0.0, finger: ArrayLike | None = None,
+                      edges: int = 8) -> FingerHold:
+    """Least finger force per weight that holds each grasp in every orientation.
+
+    Parameters
+    ----------
+    points, normals : (B, k, 3) float
+        Contacts and unit normals into the part.
+    center_mass : (3,) float
+    length : float
+    mu : float
+        Coulomb coefficient the grasps are planned with (0: frictionless).
+    finger : (B, k) int, optional
+        Fingertip of each contact (default one each).
+    edges : int
+        Friction cone edges (with ``mu > 0``).
+
+    Returns
+    -------
+    FingerHold
+        The ``stiff`` model for frictionless grasps with one contact per finger, else ``any``.
+    """
+    P, N = check_contacts_batch(points, normals)
+    B, k, _ = P.shape
+    own = finger is None or bool((np.asarray(finger) == np.arange(k)).all())
+    if mu == 0 and own:
+        return stiff_hold_batch(P, N, center_mass, length)
+    from synth.scores.gravity import gravity_hold_batch
+
+    h = gravity_hold_batch(P, N, mu, 0.0, center_mass, length, edges=edges)
+    return FingerHold(np.asarray(h.squeeze_per_weight, float), np.zeros((B, k)),
+                      np.zeros((B, k, 3)), "any")

@@ -127,7 +127,8 @@ def test_units_are_required_and_a_large_part_is_told_so(tmp_path, capsys):
     assert main(["plan", cube, "--units", "dm", "--gripper", "franka", "--no-files",
                  "--samples", "20"]) == 1
     assert "narrowest width found is 100 mm" in capsys.readouterr().out
-    assert main(["plan", cube, "--units", "cm", "--mass", "1", "--no-files"]) == 2
+    # a gripper-only option without --gripper (--mass now also serves point fingers' --grip)
+    assert main(["plan", cube, "--units", "cm", "--torsion", "0.1", "--no-files"]) == 2
     bad = tmp_path / "g.json"
     bad.write_text('{"format": "synth.gripper", "version": 1, "name": "x", "max_opening": 0}')
     assert main(["plan", cube, "--units", "cm", "--gripper", str(bad), "--no-files"]) == 2

@@ -7,8 +7,6 @@ Grasps", IROS 1992.
 
 from __future__ import annotations
 
-import importlib
-
 from synth import limits  # the documented input limits (no dependencies)
 from synth.errors import (
     CandidateError,
@@ -19,6 +17,7 @@ from synth.errors import (
     SolverError,
     SynthError,
 )
+from synth.lazy import lazy_attributes
 
 # Everything past the exception tree is imported on first use (PEP 562), so that a command
 # that needs no mesh (``synth score``, ``synth --help``) does not pay for trimesh and FCL.
@@ -45,13 +44,7 @@ _LAZY: dict[str, str] = {
 }
 
 
-def __getattr__(name: str) -> object:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'synth' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
+__getattr__ = lazy_attributes(__name__, _LAZY)
 
 
 def __dir__() -> list[str]:

@@ -8,9 +8,10 @@ gripper). The part is held when its centre stays within ``MOVE_RTOL`` of its siz
 fingers' elastic travel) and it turns less than that length over half its size.
 
 * The part: the mesh loaded by trimesh with its own vertex merging (so split OBJ seams are
-  welded), split into connected pieces; a closed convex piece is used as it is, any other is
-  decomposed by CoACD called here. Mass from the file's volume at ``DENSITY``, inertia of the
-  closed pieces.
+  welded), split into connected pieces; a closed convex piece is used as it is; of any other,
+  every triangle within ``NEAR_RTOL`` of the part's size of a finger becomes a prism
+  ``SLAB_RTOL`` deep into the part (one MuJoCo mesh per triangle). Mass from the file's volume
+  at ``DENSITY``, inertia of the closed pieces.
 * Point fingers: the part scaled to a 0.1 m diagonal; each finger a sphere of the planned
   radius on a slide joint along its approach, starting half a radius back, a position servo of
   ``STIFF`` N/m limited to ``GRIP`` N. They squeeze with the most even internal forces that
@@ -42,24 +43,38 @@ DT = 2e-4
 MOVE_RTOL = 0.02
 HOLD_S = 0.5
 G = 9.80665
+NEAR_RTOL = 0.04
+SLAB_RTOL = 0.004
 GRIPPERS = Path(__file__).resolve().parents[1] / "synth" / "fingers" / "grippers"
 
 
-def _pieces(mesh_path: Path) -> list[np.ndarray]:
+def _bodies(mesh_path: Path) -> tuple[list[np.ndarray], np.ndarray]:
+    """Vertices of the closed convex pieces, and the triangles (t, 3, 3) of the others."""
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
     loaded.merge_vertices()
-    out = []
+    convex, tris = [], []
     for body in loaded.split(only_watertight=False):
         if body.is_watertight and body.is_convex:
-            out.append(np.asarray(body.vertices))
-            continue
-        import coacd
+            convex.append(np.asarray(body.vertices))
+        else:
+            tris.append(np.asarray(body.triangles))
+    return convex, (np.concatenate(tris) if tris else np.zeros((0, 3, 3)))
 
-        coacd.set_log_level("error")
-        for v, _ in coacd.run_coacd(coacd.Mesh(np.asarray(body.vertices), np.asarray(body.faces))):
-            v = np.asarray(v, float)
-            if len(v) >= 4 and trimesh.convex.convex_hull(v).volume > 1e-6 * np.prod(np.ptp(v, 0)):
-                out.append(v)
+
+def _pieces(convex: list[np.ndarray], tris: np.ndarray, near: np.ndarray, reach: float,
+            depth: float) -> list[np.ndarray]:
+    """The convex pieces, and a prism per triangle that comes within ``reach`` of a point of
+    ``near``."""
+    out = list(convex)
+    for t in tris:
+        c = t.mean(axis=0)
+        if np.min(np.linalg.norm(near - c, axis=1)) > reach + np.max(np.linalg.norm(t - c, axis=1)):
+            continue
+        n = np.cross(t[1] - t[0], t[2] - t[0])
+        if np.linalg.norm(n) == 0:
+            continue
+        n /= np.linalg.norm(n)
+        out.append(np.vstack([t, t - depth * n]))
     return out
 
 
@@ -77,7 +92,8 @@ def _fmt(a) -> str:
     return " ".join(f"{x:.9g}" for x in np.ravel(a))
 
 
-def _part_xml(pieces, com, R, pos, scale, mass, inertia, condim, friction, solref) -> tuple[str, str]:
+def _part_xml(pieces, com, R, pos, scale, mass, inertia, condim, friction, solref
+              ) -> tuple[str, str]:
     assets, geoms = [], []
     for i, v in enumerate(pieces):
         assets.append(f'<mesh name="m{i}" vertex="{_fmt(((v - com) @ R) * scale)}"/>')
@@ -190,16 +206,18 @@ def simulate_points(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool
     mu = float(doc["params"]["mu"])
     condim = 1 if mu == 0 else 3
     solref = [2 * DT, 1.0]
-    pieces = _pieces(mesh_path)
+    convex, tris = _bodies(mesh_path)
     volume = float(mesh["volume"])
     mass = DENSITY * volume * s**3
     inertia = _closed_inertia(mesh_path, com) * DENSITY * s**5
-    assets, body = _part_xml(pieces, com, np.eye(3), np.zeros(3), s, mass, inertia, condim,
-                             [mu, 0, 0], solref)
     out = []
     for g in doc["grasps"]:
         P, N = np.asarray(g["points"], float), np.asarray(g["normals"], float)
         C = np.asarray(g["fingers"]["tip_centers"], float)
+        pieces = _pieces(convex, tris, C, NEAR_RTOL * length + 2 * float(g["fingers"]["tip_radius"]),
+                         SLAB_RTOL * length)
+        assets, body = _part_xml(pieces, com, np.eye(3), np.zeros(3), s, mass, inertia, condim,
+                                 [mu, 0, 0], solref)
         A = np.asarray(g["fingers"]["approach"], float)
         r = float(g["fingers"]["tip_radius"]) * s
         pre = (_preload(P, N, com) if mu == 0 else _friction_preload(P, N, com, mu)) * GRIP
@@ -237,20 +255,28 @@ def simulate_jaws(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool]:
     model = doc["model"]
     mass = model.get("mass") or DENSITY * volume * m_per**3
     mu, torsion = float(model["mu"]), float(model.get("torsion") or 0.0) * m_per
-    pieces = _pieces(mesh_path)
+    convex, tris = _bodies(mesh_path)
     inertia = _closed_inertia(mesh_path, com) * mass / volume * m_per**2
-    size = float(np.linalg.norm(loaded.extents)) * m_per
+    length = float(np.linalg.norm(loaded.extents))
+    size = length * m_per
     solref = [2 * DT, 1.0]
     out = []
     for g in doc["grasps"]:
         T = np.asarray(g["pose"], float)
         R, t = T[:3, :3], T[:3, 3]
-        assets, body = _part_xml(pieces, com, R, R.T @ (com - t) * m_per, m_per, mass, inertia, 4,
-                                 [mu, torsion, 0], solref)
         w = float(g["width"]) * m_per
         z = pad_z + float(np.interp(w, table[:, 0], table[:, 1]))
         th = 0.25 * min(pad_w, pad_h)
         gap = max(0.05 * w, 0.1 * th)
+        # points over both pads' faces, in the part's frame, to pick the triangles near them
+        ys = np.linspace(-pad_w / 2, pad_w / 2, 5)
+        zs = np.linspace(-pad_h / 2, pad_h / 2, 5)
+        grid = np.array([[sx * (w / 2 + gap * k / 2), sx * pad_y + y, z + zz] for sx in (1, -1)
+                         for k in range(3) for y in ys for zz in zs]) / m_per
+        near = grid @ R.T + t
+        pieces = _pieces(convex, tris, near, NEAR_RTOL * length + pad_w / m_per, SLAB_RTOL * length)
+        assets, body = _part_xml(pieces, com, R, R.T @ (com - t) * m_per, m_per, mass, inertia, 4,
+                                 [mu, torsion, 0], solref)
         pads = "".join(
             f'<body gravcomp="1"><joint name="s{j}" type="slide" axis="{-sg} 0 0"/>'
             f'<geom type="box" size="{th / 2} {pad_w / 2} {pad_h / 2}" '

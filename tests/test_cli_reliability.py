@@ -90,13 +90,13 @@ def test_plan_refuses_bad_options_before_any_work(box, tmp_path, capsys, extra, 
     (["score", "{c}", "--edges", "100000", "--mu", "0.5"],
      "--edges: expected an integer from 3 to 64"),
     (["score", "{c}", "--edges", "2"], "--edges"),
-    (["score", "{c}", "--top", "-3"], "--top: expected an integer >= 0"),
+    (["score", "{c}", "--top", "-3"], "--top: expected an integer from 0 to 1,000"),
     (["score", "{c}", "--mu", "inf"], "--mu"),
     (["score", "{c}", "--mu", "1e308"], "--mu: expected a number in [0, 100]"),
     (["score", "{c}", "--out", "{tmp}/scores.txt"],
      "--out: expected a file name ending in .json"),
     (["score", "{c}", "--json", "{tmp}/scores.json"],
-     "--json takes no file name: it prints the JSON, as plan --json and rank --json do; "
+     "--json takes no file name: it prints the JSON, as every command's --json does; "
      "write it to a file with --out"),
     (["rank", "{box}", "{c}", "--max-distance", "-1"],
      "--max-distance: expected a number in [0, 1e+15]"),
@@ -122,9 +122,9 @@ def test_zero_top_means_all_rows(tmp_path, capsys):
 
 @pytest.mark.parametrize("command, limits", [
     ("plan", ["7 to 64", "[0, 100]", "100 to 10,000,000", "in [0, 1]", "0 to 2**63 - 1",
-              "1 to 1000", "(0, 180)", "[0, 90)", ".json", ".png", ".glb", "run id"]),
+              "1 to 1,000", "(0, 180)", "[0, 90)", ".json", ".png", ".glb", "run id"]),
     ("rank", ["[0, 100]", "[0, 1e+15]", ".json"]),
-    ("score", ["3 to 64", "[0, 100]", "N >= 0", "0 for all", ".json"]),
+    ("score", ["3 to 64", "[0, 100]", "1 to 1,000, or 0 for all", ".json"]),
 ])
 def test_help_states_every_limit(capsys, command, limits):
     with pytest.raises(SystemExit) as stop:
@@ -414,11 +414,12 @@ def test_rank_reports_a_malformed_candidate_and_ranks_the_rest(box, tmp_path, ca
     assert len(errors) == 1 and "candidate 1 (nan)" in errors[0] and "finite" in errors[0]
     rows = json.loads(out.read_text())["candidates"]
     assert [(r["name"], r["status"], r["index"]) for r in rows] == [
-        ("good", "ok", 2), ("far", "error", 0), ("nan", "error", 1)]
+        ("good", "ok", 2), ("far", "misses the part", 0), ("nan", "malformed", 1)]
     assert rows[0]["d_star"] == pytest.approx(0.5) and rows[0]["closure"] == "form"
     for r in rows[1:]:
         assert r["d_star"] is None and r["closure"] is None and r["conditioning"] is None
-    table = stdout.splitlines()
+    *table, wrote = stdout.splitlines()
+    assert wrote == f"wrote {out}"
     assert "0.50000" in table[1]
     for line in table[2:]:
         assert "0.00000" not in line and "force" not in line

@@ -413,9 +413,9 @@ def test_numeric_options_are_checked_up_front(
     huge = "1" * 22
     cases = [
         (["top", str(reference), "box", "-k", huge],
-         "--top/-k: expected an integer from 1 to 10,000"),
-        (["top", str(reference), "box", "--top", "0"],
-         "--top/-k: expected an integer from 1 to 10,000"),
+         "--top/-k: expected an integer from 0 to 1,000"),
+        (["top", str(reference), "box", "--top", "-1"],
+         "--top/-k: expected an integer from 0 to 1,000"),
         (["top", str(reference), "box", "-k", "two"], "--top/-k: expected an integer"),
         (["build", str(mesh_dir), "--out", str(reference), "--workers", huge], "--workers"),
         (["build", str(mesh_dir), "--out", str(reference), "--seed", "-1"], "--seed"),
@@ -433,15 +433,21 @@ def test_numeric_options_are_checked_up_front(
         assert message in err and f"see 'synth db {argv[0]} --help'" in err
     assert reference.read_bytes() == data
     top_help = " ".join(_cli(["db", "top", "--help"], capsys)[1].split())
-    assert "number of grasps, 1 to 10,000" in top_help
+    assert "print the best N grasps, 1 to 1,000, or 0 for all" in top_help
     build_help = " ".join(_cli(["db", "build", "--help"], capsys)[1].split())
     for text in ("contacts per grasp, one fingertip each: 7 to 64 without friction, 3 to 64 "
-                 "with", "grasps to return, 1 to 1000", "budget of grasp evaluations, 100 to "
+                 "with", "keep the best N grasps, 1 to 1,000", "budget of grasp evaluations, 100 to "
                  "10,000,000", "worker processes, 0 to 1024",
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k
-        assert len(db.top("box", 10**22)) == db.mesh("box").n_grasps
+        n = db.mesh("box").n_grasps
+        assert len(db.top("box", 10**22)) == n
+    assert n > 1
+    code, out, _ = _cli(["db", "top", str(reference), "box", "--top", "0"], capsys)
+    assert code == 0 and f": {n} grasps" in out.splitlines()[0]  # 0: all, as rank and score
+    code, out, _ = _cli(["db", "top", str(reference), "box", "--top", "1"], capsys)
+    assert code == 0 and ": 1 grasps" in out.splitlines()[0]
 
 
 def test_a_reader_in_the_writers_process_leaves_the_writers_locks(tmp_path: Path) -> None:

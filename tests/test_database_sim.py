@@ -27,11 +27,6 @@ BUILD = ["--evals", "300", "--top", "2", "--seed", "3", "--workers", "0", "--qui
 SIM = ["--sim", "--sim-grip", "50", "--sim-shake", "0.5"]
 
 
-@pytest.fixture(autouse=True)
-def _cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-
-
 @pytest.fixture
 def meshes(tmp_path: Path) -> Path:
     folder = tmp_path / "meshes"

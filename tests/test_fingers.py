@@ -432,7 +432,7 @@ def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None
     tips followed interpolated normals and were refused as penetrating by about 1e-5 m). The
     depths are measured again with trimesh's signed distance."""
     from synth import PlanParams, load_part, plan_part
-    from synth.cli.rank import rank_candidates
+    from synth.cli.rank_contacts import rank_candidates
     from synth.fingers import default_fingers
     from synth.grasps.candidates import Candidate
 

@@ -48,7 +48,7 @@ def test_each_candidate_gets_one_status(part):
     r = _rank(part, [away, wide, deep, nan, pinch], {3: "candidate 3: field 'x' bad"})
     by = {row.index: row for row in r.rows}
     assert [row.index for row in r.rows] == [4, 0, 1, 2, 3]  # the ranked first
-    assert by[4].status == "ranked" and by[4].grasp.closure == "frictional form"
+    assert by[4].status == "ok" and by[4].grasp.closure == "frictional form"
     up = TCP[2] - load_gripper("franka").pad_center[1]  # the pad's centre, 0.05 mm above the TCP
     assert np.allclose(by[4].grasp.points, [[0.02, 0, up], [-0.02, 0, up]], atol=1e-12)
     assert by[4].grasp.width == pytest.approx(0.04, abs=1e-12)
@@ -56,7 +56,7 @@ def test_each_candidate_gets_one_status(part):
     assert by[1].status == "no contact" and "wider than the opening" in by[1].reason
     assert by[0].status == "misses the part"
     assert by[3].status == "malformed" and by[3].reason.endswith("field 'x' bad")
-    assert r.counts == {"ranked": 1, "collision": 1, "no contact": 1, "misses the part": 1,
+    assert r.counts == {"ok": 1, "collision": 1, "no contact": 1, "misses the part": 1,
                         "malformed": 1}
 
 
@@ -65,7 +65,7 @@ def test_a_pose_and_its_half_turn_are_the_same_jaw_grasp(part):
     T[:3, :3] = T[:3, :3] @ trimesh.transformations.rotation_matrix(0.3, [1, 0, 0])[:3, :3]
     r = _rank(part, [T, T @ half_turn()], mass=0.2)
     a, b = sorted(r.rows, key=lambda row: row.index)
-    assert a.status == b.status == "ranked" and b.same_as == 0 and a.same_as is None
+    assert a.status == b.status == "ok" and b.same_as == 0 and a.same_as is None
     assert np.array_equal(a.grasp.points, b.grasp.points[::-1])
     assert np.array_equal(a.grasp.pose @ half_turn(), b.grasp.pose)
     assert a.grasp.to_json()["measures"] == b.grasp.to_json()["measures"]
@@ -99,7 +99,7 @@ def test_the_command_ranks_a_graspgen_file_and_reports_a_malformed_pose(tmp_path
     assert main(["rank", str(mesh), str(tmp_path / "p.npz"), "--gripper", "franka", "--units",
                  "m", "--json", "--quiet"]) == 0
     row = json.loads(capsys.readouterr().out)["candidates"][0]
-    assert row["status"] == "ranked" and row["given_width"] == pytest.approx(0.045)
+    assert row["status"] == "ok" and row["given_width"] == pytest.approx(0.045)
     assert row["width"] == 2 * float(np.float32(0.02))  # the binary STL's float32 faces
     doc = {"object": {"file": "box.stl", "scale": 0.001},  # the mesh in mm, read as metres
            "grasps": {"transforms": [good.tolist(), bad.tolist()],
@@ -120,10 +120,13 @@ def test_the_command_ranks_a_graspgen_file_and_reports_a_malformed_pose(tmp_path
     assert len(lines) == 1 and "candidate 1" in lines[0] and "grasps.transforms[1]" in lines[0]
     assert "g.json" in lines[0]
     assert "poses: 2 poses from graspgen file" in err and "object scale 1" in err
+    # the mesh's unit, which the STL does not say, is the pose file's: no warning that it is not
+    assert "length unit unknown" not in err
+    assert f"wrote {tmp_path / 'r.json'}" in out
     res = json.loads((tmp_path / "r.json").read_text())
-    assert [c["status"] for c in res["candidates"]] == ["ranked", "malformed"]
+    assert [c["status"] for c in res["candidates"]] == ["ok", "malformed"]
     assert res["candidates"][0]["label"] == 1.0 and res["poses"]["format"] == "graspgen"
-    assert "ranked" in out.splitlines()[1]
+    assert out.splitlines()[1].split()[-1] == "ok"
 
 
 def test_a_pad_resting_on_its_rim_says_so_in_the_json():
@@ -136,7 +139,7 @@ def test_a_pad_resting_on_its_rim_says_so_in_the_json():
     T = np.eye(4)
     T[:3, 3] = -TCP
     row = _rank(part, [T]).rows[0]
-    assert row.status == "ranked"
+    assert row.status == "ok"
     contacts = row.grasp.to_json()["contacts"]
     assert [c["touch"] for c in contacts] == ["rim", "pad"]
     assert np.allclose(contacts[0]["normal"], [-np.cos(a), -np.sin(a), 0.0], atol=1e-9)

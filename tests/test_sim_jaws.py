@@ -53,12 +53,12 @@ def test_a_pinch_holds_its_weight_up_to_twice_mu_times_the_grip(tmp_path, units)
     franka = load_gripper("franka")
     critical = 2 * MU * franka.grip_force / 9.80665  # kg
     doc, part, _ = _pinch(tmp_path, 0.9 * critical, units)
-    light = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    light = simulate_jaw_document(doc, part, SimSettings(shake=0.0))
     lab = light["grasps"][0]["sim"]
     assert lab["held"] and all(lab["gravity_held"].values()), lab
     assert lab["forces"] == pytest.approx([1.0], abs=1e-3)  # the servo at the rated force
     doc, part, _ = _pinch(tmp_path, 1.1 * critical, units)
-    heavy = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    heavy = simulate_jaw_document(doc, part, SimSettings(shake=0.0))
     lab = heavy["grasps"][0]["sim"]
     assert not lab["held"] and lab["failed_at"] == "gravity"
     # across the pads the coupled fingers hold it; along them friction gives way
@@ -69,7 +69,7 @@ def test_a_pinch_holds_its_weight_up_to_twice_mu_times_the_grip(tmp_path, units)
 def test_pads_start_clear_of_the_part(tmp_path):
     doc, part, _ = _pinch(tmp_path, 0.1)
     doc["grasps"][0]["width"] = 0.03  # the pads would start inside the 40 mm box
-    out = simulate_jaw_document(doc, part, SimSettings(shake=0.0), cache=tmp_path / "c")
+    out = simulate_jaw_document(doc, part, SimSettings(shake=0.0))
     lab = out["grasps"][0]["sim"]
     assert lab["failed_at"] == "start" and "pad" in lab["reason"]
 

@@ -27,7 +27,7 @@ from synth.sim import (  # noqa: E402
     read_grasp_file,
     simulate_file,
 )
-from synth.sim.decompose import convex_pieces  # noqa: E402
+from synth.sim.shape import part_shape  # noqa: E402
 from synth.sim.protocol import settle_under  # noqa: E402
 from synth.sim.simulate import balanced_preload  # noqa: E402
 from tests.sim_support import (  # noqa: E402
@@ -56,7 +56,7 @@ def _file(tmp_path, points, normals, *, R=None, t=None, mu=0.0):
 
 def _label(tmp_path, points, normals, *, R=None, t=None, mu=0.0, contact=None, settings=None):
     f = _file(tmp_path, points, normals, R=R, t=t, mu=mu)
-    return f, simulate_file(f, settings, contact=contact, cache=tmp_path / "cache").labels[0]
+    return f, simulate_file(f, settings, contact=contact).labels[0]
 
 
 def _bounds(points, normals, center):
@@ -101,7 +101,7 @@ def test_seven_fingers_hold_below_the_stiff_bound_and_fall_above_the_lp_bound(tm
 
     def run(weight: float):
         st = SimSettings(density=_density(f, weight * grip), shake=0.0, grip=grip)
-        return simulate_file(f, st, cache=tmp_path / "cache").labels[0]
+        return simulate_file(f, st).labels[0]
 
     low = run(0.95 * linear.min())
     assert low.held and low.failed_at is None and low.gravity_held.all(), low
@@ -155,7 +155,7 @@ def test_a_squeezed_part_does_not_creep(tmp_path, noslip, creeps):
     weight = grip / (17 * float(hold.squeeze_per_weight[0]))
     st = SimSettings(density=_density(f, weight), noslip=noslip, grip=grip)
     part = load_planned_part(f)
-    scene = build_scene(convex_pieces(part, cache=None), g.tip_centers, g.approach,
+    scene = build_scene(part_shape(part), g.tip_centers, g.approach,
                         g.tip_radius, length=f.length, center_mass=f.center_mass,
                         volume=f.volume, settings=st, contact=ContactModel(0.8),
                         preload=balanced_preload(g, f.center_mass, f.length, 0.8, grip))
@@ -176,7 +176,7 @@ def test_a_finger_planned_inside_the_part_is_refused_at_the_start(tmp_path):
     from dataclasses import replace
 
     f = replace(f, grasps=(replace(g, tip_centers=deep),))
-    lab = simulate_file(f, cache=tmp_path / "cache").labels[0]
+    lab = simulate_file(f).labels[0]
     assert not lab.held and lab.failed_at == "start" and "fingertip 0" in lab.reason
 
 

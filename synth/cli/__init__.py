@@ -32,7 +32,7 @@ from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 from synth import __version__
-from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError
+from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError, shown
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
            "EXIT_PIPE"]
@@ -84,7 +84,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = None
     try:
-        args = parser.parse_args(argv)
+        args = _parse(parser, argv)
+        if getattr(args, "json", False):  # stdout holds the JSON alone (synth.cli.vocabulary)
+            args.quiet = True
         run: Runner | None = getattr(args, "run", None)
         if run is None:
             parser.print_help()
@@ -108,6 +110,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
         return _internal(e)
+
+
+def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:
+    """Parse the command line; a file name after ``--json`` (which takes none) is pointed to
+    ``--out``, the option that writes the JSON to a file."""
+    words = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return parser.parse_args(words)
+    except InputError as e:
+        at = [i for i, w in enumerate(words[:-1]) if w == "--json"]
+        extra = str(e).partition("unrecognized arguments: ")[2].split(" (see ")[0].split()
+        if at and str(words[at[-1] + 1]) in extra:
+            raise OptionError("--json takes no file name: it prints the JSON, as every "
+                              "command's --json does; write it to a file with --out "
+                              f"{shown(str(words[at[-1] + 1]), 60)}") from None
+        raise
 
 
 def _prog(args: argparse.Namespace | None) -> str:

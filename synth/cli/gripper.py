@@ -10,26 +10,25 @@ from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
+from synth.cli.options import check_weight_options
+from synth.cli.vocabulary import check_top
+from synth.limits import MAX_LENGTH
 from synth.errors import OptionError
 
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
            "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
 
 _ONLY_GRIPPER = ("gravity", "torsion", "samples")
+#: Most surface points a gripper plan may draw (``--samples``).
+MAX_SAMPLES = 1_000_000
 
 
 def add_hold_options(g: argparse._ArgumentGroup) -> None:
-    """How the pads hold the part: ``--torsion``, ``--mass``, ``--density``, ``--gravity``
-    (``synth plan --gripper`` and ``synth rank --gripper``; checked by
-    :func:`gripper_params`)."""
+    """How the pads hold the part: ``--torsion``, ``--gravity`` (``synth plan --gripper`` and
+    ``synth rank --gripper``; checked by :func:`gripper_params`)."""
     g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
-                   help="torsional friction of the pads, a length in the mesh's units "
-                   "(default 5 mm, MuJoCo's default torsional coefficient)")
-    g.add_argument("--mass", type=float, default=None, metavar="KG",
-                   help="the part's mass in kg: the grasps then say the least squeeze in "
-                   "newtons and the margin to the gripper's rated force")
-    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
-                   help="or its density, times the closed bodies' volume")
+                   help="torsional friction of the pads, a length in the mesh's units, in [0, "
+                   f"{MAX_LENGTH:g}] (default 5 mm, MuJoCo's default torsional coefficient)")
     g.add_argument("--gravity", default=None, metavar="X,Y,Z",
                    help="hold against gravity in this direction of the part's frame only "
                    "(default: in every orientation)")
@@ -37,8 +36,8 @@ def add_hold_options(g: argparse._ArgumentGroup) -> None:
 
 def add_gripper_options(p: argparse.ArgumentParser) -> None:
     """Options of the gripper route of ``synth plan``."""
-    from synth.fingers.gripper import BUILTIN_GRIPPERS
-    from synth.plan.gripper import APPROACHES, GripperParams
+    from synth.fingers.builtin import BUILTIN_GRIPPERS
+    from synth.plan.gripper_params import APPROACHES, GripperParams
 
     d = GripperParams()
     g = p.add_argument_group("gripper (parallel-jaw grasps as gripper poses)")
@@ -49,7 +48,7 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
     add_hold_options(g)
     g.add_argument("--samples", type=int, default=None, metavar="N",
                    help=f"surface points drawn, each an antipodal pair tried at {APPROACHES} "
-                   f"approach angles (default {d.samples})")
+                   f"approach angles, 1 to {MAX_SAMPLES:,} (default {d.samples})")
 
 
 def refuse_point_options(args: argparse.Namespace) -> None:
@@ -139,21 +138,18 @@ def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
 def gripper_params(args: argparse.Namespace) -> Any:
     """The :class:`synth.plan.gripper.GripperParams` of checked gripper options (``synth
     plan --gripper`` and ``synth db build --gripper``)."""
-    from synth.limits import MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP
-    from synth.plan.gripper import GRIPPER_RANK_BY, GripperParams
+    from synth.limits import MAX_MU, MAX_SEED
+    from synth.plan.gripper_params import GRIPPER_RANK_BY, GripperParams
 
     mu = 0.5 if args.mu is None else args.mu
     real("--mu", mu, 0, MAX_MU, open_lo=True)
-    integer("--top", args.top, 1, MAX_TOP)
+    check_top(args.top, listing=False)
     integer("--seed", args.seed, 0, MAX_SEED, "2**63 - 1")
     real("--table", args.table, -MAX_LENGTH, MAX_LENGTH)
     real("--torsion", args.torsion, 0, MAX_LENGTH)
-    real("--mass", args.mass, 0, math.inf, open_lo=True, open_hi=True, unit=" kg")
-    real("--density", args.density, 0, math.inf, open_lo=True, open_hi=True, unit=" kg/m^3")
-    if args.mass is not None and args.density is not None:
-        raise OptionError("give --mass or --density, not both")
+    check_weight_options(args)
     samples = GripperParams().samples if args.samples is None else args.samples
-    integer("--samples", samples, 1, 1_000_000)
+    integer("--samples", samples, 1, MAX_SAMPLES)
     rank_by = args.rank_by or "margin"
     if rank_by not in GRIPPER_RANK_BY:
         raise OptionError(f"--rank-by {rank_by}: gripper grasps rank by "
@@ -193,7 +189,7 @@ def run_gripper(args: argparse.Namespace) -> int:
         paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png"),
                  output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb"))
     part = load_part_from_args(args)
-    report_part(part, args.quiet or args.json)
+    report_part(part, args.quiet)
     plan = plan_gripper(part, params)
     doc = plan.to_json()
     # where the mesh is (relative to the JSON's folder) and how it was loaded, so that any
@@ -203,7 +199,7 @@ def run_gripper(args: argparse.Namespace) -> int:
     if settings is not None and plan.grasps:
         from synth.cli.plan import simulate_planned
 
-        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):

@@ -17,15 +17,17 @@ import math
 from typing import Any
 
 from synth.cli.checks import integer, real
+from synth.cli.vocabulary import add_top, check_top
 from synth.errors import OptionError
 from synth.limits import (AUTO_MAX_FINGERS, DEFAULT_SURFACE, MAX_CONTACTS, MAX_EDGES, MAX_EVALS,
-                          MAX_FINGERS, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES,
+                          MAX_FINGERS, MAX_LENGTH, MAX_MU, MAX_SEED, MIN_EDGES,
                           MIN_EVALS, SURFACES)
 from synth.plan.params import RANK_BY, PlanParams
 
 __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_planning_options",
+           "add_friction_options", "add_grip", "add_table", "add_weight_options",
            "check_part_options", "check_finger_options", "check_planning_options",
-           "planning_params", "finger_overrides"]
+           "check_weight_options", "planning_params", "finger_overrides"]
 
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
@@ -99,14 +101,8 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
                    f"'auto' finds the fewest fingers, 2 to {AUTO_MAX_FINGERS}, that hold the "
                    "part, each count with the whole budget (default: one fingertip per "
                    "contact, see --contacts)")
-    s.add_argument("--mu", type=float, default=d.mu, metavar="MU",
-                   help=f"Coulomb friction coefficient, in [0, {MAX_MU:g}] (default 0: "
-                   "frictionless form closure)")
-    s.add_argument("--edges", type=int, default=d.edges, metavar="N",
-                   help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} "
-                   f"(default {d.edges})")
-    s.add_argument("--top", type=int, default=d.top, metavar="N",
-                   help=f"grasps to return, 1 to {MAX_TOP} (default {d.top})")
+    add_friction_options(s, "0: frictionless form closure; 0.5 with --gripper")
+    add_top(s, "grasps", d.top, listing=False)
     s.add_argument("--time", type=float, default=time, metavar="SECONDS",
                    help=f"wall-clock cap in seconds, positive (default {time:g}; the search "
                    "usually ends sooner)")
@@ -122,10 +118,7 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
                    help="the physical floor: return no grasp whose fingers must each press with "
                    "more than this many times the part's weight to hold it in every "
                    f"orientation, positive (default {d.max_squeeze:g}; 0: no floor)")
-    s.add_argument("--grip", type=float, default=None, metavar="N",
-                   help="force limit of each point finger, N: with --mass or --density each "
-                   "grasp reports its margin, the grip over the least squeeze that holds the "
-                   "part")
+    add_grip(s, "grasp")
     s.add_argument("--min-d-star", type=float, default=d.min_d_star, metavar="D",
                    help="return no grasp with a lower d*; in [0, 1], the range of d* "
                    "(default 0)")
@@ -137,11 +130,58 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
     s.add_argument("--regions", action="store_true",
                    help="compute each grasp's contact regions and placement tolerance (up to "
                    "0.1 s per grasp; on with --rank-by tolerance or --min-tolerance)")
-    s.add_argument("--table", type=float, default=None, metavar="Z",
-                   help="a support plane z = Z under the part that fingers must not cross; "
-                   f"|Z| at most {MAX_LENGTH:g}")
+    add_table(s)
     add_part_options(p)
     add_finger_options(p)
+    add_weight_options(p)
+
+
+def add_friction_options(g: argparse.ArgumentParser | Any, default: str,
+                         what: str = "") -> None:
+    """``--mu`` (its default in words: ``default``; ``what``: more words on whom it applies
+    to) and ``--edges``, in every command that scores grasps."""
+    g.add_argument("--mu", type=float, default=None, metavar="MU",
+                   help=f"Coulomb friction coefficient{what}, in [0, {MAX_MU:g}] (default "
+                   f"{default})")
+    g.add_argument("--edges", type=int, default=PlanParams().edges, metavar="N",
+                   help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} "
+                   f"(default {PlanParams().edges})")
+
+
+def add_grip(g: argparse.ArgumentParser | Any, what: str) -> None:
+    """``--grip``: the force limit of each point finger (``what``: grasp or candidate)."""
+    g.add_argument("--grip", type=float, default=None, metavar="N",
+                   help="force limit of each point finger in newtons, positive: with --mass "
+                   f"or --density each {what} reports its margin, the grip over the least "
+                   "squeeze that holds the part")
+
+
+def add_table(g: argparse.ArgumentParser | Any) -> None:
+    """``--table``: a support plane the hand may not cross."""
+    g.add_argument("--table", type=float, default=None, metavar="Z",
+                   help="a support plane z = Z in the part's frame and units that the fingers "
+                   f"or the gripper may not cross, |Z| at most {MAX_LENGTH:g}")
+
+
+def add_weight_options(p: argparse.ArgumentParser) -> None:
+    """The part's weight: ``--mass`` or ``--density`` (checked by
+    :func:`check_weight_options`)."""
+    g = p.add_argument_group("the part's weight (least squeeze in newtons, margins)")
+    g.add_argument("--mass", type=float, default=None, metavar="KG",
+                   help="the part's mass in kg, positive: each grasp then says its least "
+                   "squeeze in newtons and its margin, the grip (--grip, or a gripper's rated "
+                   "force) over that squeeze")
+    g.add_argument("--density", type=float, default=None, metavar="KG/M3",
+                   help="or its density in kg/m^3, positive, times the closed bodies' volume "
+                   "(the mesh's unit must be known)")
+
+
+def check_weight_options(args: argparse.Namespace) -> None:
+    """``--mass`` and ``--density``: positive, not both."""
+    real("--mass", args.mass, 0, math.inf, open_lo=True, open_hi=True, unit=" kg")
+    real("--density", args.density, 0, math.inf, open_lo=True, open_hi=True, unit=" kg/m^3")
+    if args.mass is not None and args.density is not None:
+        raise OptionError("give --mass or --density, not both")
 
 
 def check_part_options(args: argparse.Namespace) -> None:
@@ -177,7 +217,7 @@ def check_planning_options(args: argparse.Namespace) -> None:
     _fingers(args.fingers)
     real("--mu", args.mu, 0, MAX_MU)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
-    integer("--top", args.top, 1, MAX_TOP)
+    check_top(args.top, listing=False)
     real("--time", args.time, 0, math.inf, open_lo=True, open_hi=True, unit=" seconds")
     integer("--evals", args.evals, MIN_EVALS, MAX_EVALS)
     real("--min-d-star", args.min_d_star, 0, 1)
@@ -188,6 +228,7 @@ def check_planning_options(args: argparse.Namespace) -> None:
     real("--table", args.table, -MAX_LENGTH, MAX_LENGTH)
     check_part_options(args)
     check_finger_options(args)
+    check_weight_options(args)
 
 
 def planning_params(args: argparse.Namespace) -> dict[str, Any]:

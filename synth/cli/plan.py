@@ -10,6 +10,7 @@ from pathlib import Path
 
 from synth.cli.checks import output_path
 from synth.cli.options import add_planning_options, check_planning_options, planning_params
+from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
 
 __all__ = ["add_parser", "run", "format_plan_table", "load_part_from_args", "report_part"]
 
@@ -22,9 +23,13 @@ def load_part_from_args(args: argparse.Namespace):
     return load_part(args.mesh, **load_options(vars(args)))
 
 
-def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
+def report_part(part, quiet: bool, unit_known: bool = False) -> None:  # type: ignore[no-untyped-def]
     """Say on stderr what loading did: one line per dropped body (always, ``--quiet`` too),
-    and unless quiet one line per repair, the bodies held as one part, and each warning."""
+    and unless quiet one line per repair, the bodies held as one part, and each warning.
+    ``unit_known``: the mesh's unit, which its file does not say, is known from elsewhere (a
+    pose file's object scale), so its warning is not said."""
+    from synth.part.load import UNIT_UNKNOWN
+
     for line in part.dropped:
         print(f"synth: {line}", file=sys.stderr)
     if quiet:
@@ -40,7 +45,8 @@ def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
               "of their surface lies against or inside another body and is never touched",
               file=sys.stderr)
     for w in part.warnings:
-        print(f"warning: {w}", file=sys.stderr)
+        if not (unit_known and w.startswith(UNIT_UNKNOWN)):
+            print(f"warning: {w}", file=sys.stderr)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -52,23 +58,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "(Trinkle 1992), check fingers for collisions with FCL, print a ranked table and "
         "write JSON, PNG and GLB files.",
         epilog="The JSON, PNG and GLB of one run carry the same run id (JSON 'run_id', the "
-        "PNG's title, the GLB scene's extras). Exit status: 0 grasps found; 1 none found (the "
-        "message names the motion left free) or a file could not be written; 2 bad input (the "
-        "line says what is wrong); 3 internal error (a bug in synth).",
+        "PNG's title, the GLB scene's extras). " + exit_epilog(
+            "grasps found", "none found (the message names the motion left free), or a file "
+            "could not be written"),
     )
-    p.add_argument("mesh", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
+    p.add_argument("mesh", metavar="MESH", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
     from synth.plan.params import PlanParams
 
     from synth.cli.gripper import add_gripper_options
-    from synth.plan.gripper import GRIPPER_RANK_BY
+    from synth.plan.gripper_params import GRIPPER_RANK_BY
 
     add_planning_options(p, time=PlanParams().time, rank_by_extra=GRIPPER_RANK_BY)
     add_gripper_options(p)
     p.set_defaults(mu=None, rank_by=None)  # their defaults differ with --gripper
     o = p.add_argument_group("output")
-    o.add_argument("--out", default=None, metavar="JSON",
-                   help="grasp file, ending in .json (default: MESHNAME.grasps.json in the "
-                   "current folder)")
+    add_out(o, "the grasps", "MESHNAME.grasps.json in the current folder")
     o.add_argument("--png", default=None, metavar="PNG",
                    help="picture, ending in .png (default: the --out name with .png, else "
                    "MESHNAME.grasps.png)")
@@ -76,10 +80,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    help="3-D scene, ending in .glb (default: the --out name with .glb, else "
                    "MESHNAME.grasps.glb)")
     o.add_argument("--no-files", action="store_true", help="write no files, only print")
-    o.add_argument("--json", action="store_true", help="print the JSON document, not a table")
-    o.add_argument("--quiet", action="store_true",
-                   help="print only the table and the result line: no progress bar, no loading "
-                   "notes (dropped objects are still said), no list of files written")
+    add_json(o, "the grasps")
+    add_quiet(o)
     from synth.cli.sim import add_sim_options
 
     add_sim_options(p, switch=True)
@@ -169,8 +171,8 @@ def run(args: argparse.Namespace) -> int:
     params = PlanParams(**{k: v for k, v in given.items() if k not in LOAD_KEYS})
     paths = None if args.no_files else _output_paths(args)
     part = load_part_from_args(args)
-    report_part(part, args.quiet or args.json)
-    bar = LineProgress(enabled=not (args.quiet or args.json))
+    report_part(part, args.quiet)
+    bar = LineProgress(enabled=not (args.quiet))
     try:
         plan = plan_part(part, params, progress=bar)
     finally:
@@ -179,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     doc["mesh"] = {**doc["mesh"], "path": stored_mesh_path(
         part.source, None if paths is None else paths[0])}  # relative to the JSON's folder
     if settings is not None and plan.grasps:
-        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet or args.json)
+        doc = simulate_planned(doc, args.mesh, part, settings, args.quiet)
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):  # all three, or none

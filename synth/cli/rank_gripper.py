@@ -18,15 +18,15 @@ _ONLY_GRIPPER = ("gripper", "gravity", "torsion", "table")
 def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:
     """The gripper options of ``synth rank``."""
     from synth.cli.gripper import add_hold_options
-    from synth.fingers.gripper import BUILTIN_GRIPPERS
+    from synth.cli.options import add_table
+    from synth.fingers.builtin import BUILTIN_GRIPPERS
 
     g = p.add_argument_group("gripper (CANDIDATES are gripper poses)")
     g.add_argument("--gripper", default=None, metavar="NAME|FILE",
                    help=f"rank gripper poses of a parallel-jaw gripper: "
                    f"{', '.join(BUILTIN_GRIPPERS)} or a JSON description")
     add_hold_options(g)
-    g.add_argument("--table", type=float, default=None, metavar="Z",
-                   help="a support plane z = Z in the part's frame that the hand may not cross")
+    add_table(g)
 
 
 def refuse_rank_gripper_options(args: argparse.Namespace) -> None:
@@ -71,11 +71,14 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     are ranked) or none could be read."""
     import trimesh
 
-    from synth.cli.checks import integer, output_path
-    from synth.cli.gripper import gripper_params
+    from synth.cli.checks import output_path
+    from synth.cli.gripper import gripper_params, refuse_point_options
+    from synth.cli.rank import counts_line
+    from synth.cli.vocabulary import check_top
     from synth.cli.plan import load_part_from_args, report_part
     from synth.cli.options import check_part_options
     from synth.files import write_atomic
+    from synth.filetype import POSES, require
     from synth.fingers.gripper import load_gripper
     from synth.formats import read_gripper_poses
     from synth.plan.gripper_rank import rank_gripper_poses
@@ -83,7 +86,8 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     if args.regions or args.min_tolerance or args.max_distance is not None:
         raise OptionError("--regions, --min-tolerance and --max-distance apply to contact "
                           "sets, not to gripper poses")
-    integer("--top", args.top, 0)
+    check_top(args.top, listing=True)
+    refuse_point_options(args)
     check_part_options(args)
     args.seed, args.samples = 0, None
     top = args.top
@@ -92,19 +96,21 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     args.top = top
     load_gripper(args.gripper)  # a bad description is refused before any file is read
     out = None if args.out is None else output_path("--out", args.out, ".json")
+    require(args.candidates, POSES)  # a mesh, a database: named as such
     poses = read_gripper_poses(args.candidates)
     if len(poses.errors) == len(poses.poses):
         more = f" (and {len(poses.errors) - 1} more malformed)" if len(poses.errors) > 1 else ""
         first = poses.errors[0][1] if poses.errors else f"{args.candidates}: no poses"
         raise InputError(f"no candidate could be used: {first}{more}")
     part = load_part_from_args(args)
-    report_part(part, args.quiet or args.json)
     metres = None if part.units is None else float(
         trimesh.units.unit_conversion(part.units, "meters"))
     where = poses.to_part(metres, part.units)
+    # a mesh of unknown unit takes the pose file's object scale, which the next line says
+    report_part(part, args.quiet, unit_known=poses.object_scale is not None)
     if not args.quiet:
         print(f"poses: {where.applied}", file=sys.stderr)
-    shown_n = 20 if args.top is None else args.top
+    shown_n = args.top
     ranking = rank_gripper_poses(part, where.poses, where.metres_per_unit, params,
                                  dict(poses.errors), poses.names, poses.labels,
                                  None if shown_n == 0 else shown_n, where.widths)
@@ -138,10 +144,8 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
         print(format_table(shown, 1000.0 * where.metres_per_unit))
     for _, message in poses.errors:
         print(f"synth: error: {message}", file=sys.stderr)
+    if out is not None and not args.quiet:
+        print(f"wrote {out}")
     if not args.quiet:
-        c = ranking.counts
-        more = (f"; showing the best {len(shown)} (--top 0 for all)"
-                if len(shown) < len(rows) and not args.json else "")
-        print(f"{len(rows)} candidates: " + ", ".join(f"{v} {k}" for k, v in c.items())
-              + f"{more}", file=sys.stderr)
+        print(counts_line(len(rows), ranking.counts, len(shown)), file=sys.stderr)
     return 2 if poses.errors else 0

@@ -11,60 +11,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from synth.cli.checks import integer, output_path, real
-from synth.errors import InputError, OptionError, shown
+from synth.cli.options import add_friction_options
+from synth.cli.vocabulary import (DEFAULT_ROWS, add_json, add_out, add_quiet, add_top,
+                                  check_top, exit_epilog)
+from synth.errors import InputError
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
 
-__all__ = ["add_parser", "run", "score_table", "explain", "Scores", "format_table"]
+__all__ = ["add_parser", "run"]
 
-#: Rows printed (and explained) when ``--top`` is not given.
-DEFAULT_TOP = 20
-
-
-@dataclass(frozen=True)
-class Scores:
-    """Scores of every candidate of a :class:`synth.grasps.CandidateTable`, in file order.
-
-    Attributes
-    ----------
-    names : tuple of str
-    contacts : (B,) int
-    mu : (B,) float
-        Friction coefficient used (the candidate's own, else the default).
-    d_star : (B,) float
-    closure : (B,) str
-        ``"form"``, ``"frictional form"`` or ``"force"``; ``""`` for malformed candidates.
-    rank : (B,) int
-    valid : (B,) bool
-        False for malformed candidates (see ``errors``).
-    errors : tuple of (int, str)
-    """
-
-    names: tuple[str, ...]
-    contacts: NDArray[np.int64]
-    mu: NDArray[np.float64]
-    d_star: NDArray[np.float64]
-    closure: NDArray[np.str_]
-    rank: NDArray[np.int64]
-    valid: NDArray[np.bool_]
-    errors: tuple[tuple[int, str], ...]
-
-    def order(self) -> NDArray[np.int64]:
-        """Valid candidates best first: closure before non-closure, then by d* as the table
-        prints it (:func:`synth.plan.ranking.shown_d_star`), then by position in the file."""
-        from synth.plan.ranking import shown_d_star
-
-        idx = np.flatnonzero(self.valid)
-        is_closure = self.closure[idx] != "force"
-        printed = np.array([shown_d_star(d) for d in self.d_star[idx].tolist()])
-        return idx[np.lexsort((idx, -printed, ~is_closure))]
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -73,21 +31,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "score",
         help="rank candidate contact sets (JSON or NPZ) by Trinkle's d*",
         description="Score candidate contact sets by Trinkle's form-closure measure d* and "
-        "print them ranked. FILE is JSON (a list of {points, normals[, name, mu]}, or an "
+        "print them ranked. CANDIDATES is JSON (a list of {points, normals[, name, mu]}, or an "
         "object with a 'candidates' or 'grasps' list) or NPZ (arrays points, normals of "
         "shape (B, k, 3), optional names (B,) and mu). Normals point into the part.",
-        epilog="A malformed candidate is reported on its own line and the others are still "
-        "scored; the exit status is then 2. When no candidate can be scored, one line says "
-        "why and nothing is written. Ranking: closure grasps first, then by d*.",
+        epilog="Ranking: closure grasps first, then by d*. " + exit_epilog(
+            "every candidate scored", None, "a malformed candidate, reported on its own line "
+            "while the others are still scored; or no candidate could be scored, the line "
+            "saying why, and nothing is written"),
     )
-    p.add_argument("file", help="candidate file (.json or .npz)")
-    p.add_argument(
-        "--mu",
-        type=float,
-        default=0.0,
-        help=f"Coulomb friction coefficient for candidates that do not give one, in [0, "
-        f"{MAX_MU:g}] (default 0: frictionless form closure)",
-    )
+    p.add_argument("file", metavar="CANDIDATES", help="candidate file (.json or .npz)")
+    add_friction_options(p, "0: frictionless form closure", " of the candidates that give "
+                         "none")
     p.add_argument(
         "--torsion", type=float, default=0.0, metavar="GAMMA",
         help=f"torsional friction of soft contacts, a length in the candidates' unit, in [0, "
@@ -95,148 +49,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "moment about its normal, MuJoCo's condim-4 cone (linearised), and two contacts can "
         "close",
     )
-    p.add_argument(
-        "--edges", type=int, default=8,
-        help=f"edges of each linearised friction cone, {MIN_EDGES} to {MAX_EDGES} (default 8)",
-    )
-    p.add_argument("--top", type=int, default=None, metavar="N",
-                   help=f"rows to print and explain, N >= 0 (default {DEFAULT_TOP}; 0 for all)")
-    p.add_argument("--out", default=None, metavar="JSON",
-                   help="write every candidate's score as JSON to this file, ending in .json "
-                   "(as plan --out and rank --out); the table is printed too")
-    p.add_argument("--json", nargs="?", const=True, default=False, metavar="",
-                   help="print every candidate's score as JSON instead of the table (as plan "
-                   "--json and rank --json); --out writes it to a file")
+    add_top(p, "candidates", DEFAULT_ROWS, listing=True, note="each failing one is printed "
+            "with the motion it leaves free; --out and --json hold every one")
+    o = p.add_argument_group("output")
+    add_out(o, "every candidate's score")
+    add_json(o, "every candidate's score")
+    add_quiet(o)
     p.set_defaults(run=run)
-
-
-def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Wrench matrices (b, m, k) of contacts (b, k, d), moments about each centroid."""
-    R = P - P.mean(axis=1, keepdims=True)
-    if P.shape[2] == 3:
-        tau = np.cross(R, N)
-    else:
-        tau = (R[..., 0] * N[..., 1] - R[..., 1] * N[..., 0])[..., None]
-    return np.concatenate([N, tau], axis=2).swapaxes(1, 2)
-
-
-def score_table(table: Any, mu: float = 0.0, edges: int = 8, torsion: float = 0.0) -> Scores:
-    """Score every valid candidate of a :class:`synth.grasps.CandidateTable`.
-
-    Parameters
-    ----------
-    table : CandidateTable
-    mu : float
-        Friction coefficient of candidates that give none.
-    edges : int
-        Edges of each linearised friction cone.
-    torsion : float
-        Torsional coefficient of soft contacts (0: point contacts); planar candidates are
-        refused with it.
-
-    Returns
-    -------
-    Scores
-    """
-    from synth.grasps import min_contacts
-    from synth.scores import form_closure_batch, frictional_form_closure
-    from synth.scores.friction_batch import frictional_form_closure_batch
-
-    B = len(table)
-    d = np.zeros(B)
-    closure = np.full(B, "", dtype="<U15")
-    rank = np.zeros(B, np.int64)
-    k_all = np.zeros(B, np.int64)
-    mu_used = np.where(np.isnan(table.mu), mu, table.mu)
-    valid = np.zeros(B, bool)
-    errors = dict(table.errors)
-    for g in table.groups:
-        b, k, dim = g.points.shape
-        k_all[g.index] = k
-        for m_val in np.unique(mu_used[g.index]):
-            sel = mu_used[g.index] == m_val
-            idx = g.index[sel]
-            need = 2 if torsion > 0 and dim == 3 else min_contacts(dim, m_val)
-            if k < need or (torsion > 0 and dim == 2):
-                kind = "with friction" if m_val > 0 else "without friction (use --mu for friction)"
-                space = "in space" if dim == 3 else "in the plane"
-                for i in idx.tolist():
-                    name = f" ({table.names[i]})" if not table.names[i].startswith("#") else ""
-                    errors[i] = (f"{table.source}: candidate {i}{name}: " + (
-                        "--torsion needs contacts in space, got planar ones" if dim == 2
-                        and torsion > 0 else f"{k} contacts, but at least {need} are needed "
-                        f"{space} {kind}"))
-                continue
-            P, N = g.points[sel], g.normals[sel]
-            if torsion > 0:
-                res = frictional_form_closure_batch(P, N, float(m_val), edges=edges,
-                                                    torsion=torsion)
-                d[idx], rank[idx] = res.d_star, res.rank
-                closure[idx] = np.where(res.closure, "frictional form", "force")
-            elif m_val == 0:
-                res = form_closure_batch(_wrenches(P, N))
-                d[idx], rank[idx] = res.d_star, res.rank
-                closure[idx] = np.where(res.closure, "form", "force")
-            elif dim == 3:
-                res = frictional_form_closure_batch(P, N, float(m_val), edges=edges)
-                d[idx], rank[idx] = res.d_star, res.rank
-                closure[idx] = np.where(res.closure, "frictional form", "force")
-            else:  # planar with friction: small problems, one LP each
-                for j, i in enumerate(idx.tolist()):
-                    r = frictional_form_closure(P[j], N[j], float(m_val), edges=edges)
-                    d[i], rank[i], closure[i] = r.d_star, r.rank, r.closure
-            valid[idx] = True
-    return Scores(tuple(table.names), k_all, mu_used, d, closure, rank, valid,
-                  tuple(sorted(errors.items())))
-
-
-def explain(table: Any, scores: Scores, rows: NDArray[np.int64], edges: int = 8,
-            torsion: float = 0.0) -> dict[int, tuple[str | None, list[int] | None]]:
-    """For the failing candidates among ``rows``: the motion left free, in words, and the
-    contacts that can still be squeezed without bound (Trinkle's strong force closure, with
-    friction where the candidate has it)."""
-    from synth.scores import form_closure, squeezable_contacts
-    from synth.scores.friction import frictional_form_closure, frictional_squeezable
-
-    where = {}
-    for g in table.groups:
-        for j, i in enumerate(g.index.tolist()):
-            where[i] = (g, j)
-    out: dict[int, tuple[str | None, list[int] | None]] = {}
-    for i in rows.tolist():
-        if scores.closure[i] != "force":
-            continue
-        g, j = where[i]
-        P, N = g.points[j], g.normals[j]
-        m = float(scores.mu[i])
-        if m == 0 and torsion == 0:
-            W = _wrenches(P[None], N[None])[0]
-            words = form_closure(W).escape_words
-            squeeze = squeezable_contacts(W)
-        else:
-            words = frictional_form_closure(P, N, m, edges=edges, torsion=torsion).escape_words
-            squeeze = frictional_squeezable(P, N, m, edges=edges, torsion=torsion).squeezable
-        out[i] = (words, np.flatnonzero(squeeze).tolist())
-    return out
-
-
-def format_table(scores: Scores, rows: NDArray[np.int64],
-                 why: dict[int, tuple[str | None, list[int] | None]]) -> str:
-    """A plain-text table of the given rows, in the given order."""
-    name_w = max([len("name")] + [len(scores.names[i]) for i in rows.tolist()])
-    lines = [f"{'#':>4}  {'name':<{name_w}}  {'k':>3}  {'mu':>5}  {'d*':>8}  {'closure':<15}  "
-             f"{'rank':>4}  why not"]
-    for n, i in enumerate(rows.tolist(), 1):
-        words, squeeze = why.get(i, (None, None))
-        note = words or ""
-        if squeeze:
-            note += f" (contacts {','.join(map(str, squeeze))} can still be squeezed)"
-        lines.append(
-            f"{n:>4}  {scores.names[i]:<{name_w}}  {scores.contacts[i]:>3}  {scores.mu[i]:>5.2f}  "
-            f"{scores.d_star[i]:>8.5f}  {scores.closure[i]:<15}  {scores.rank[i]:>4}  "
-            f"{note}".rstrip()
-        )
-    return "\n".join(lines)
 
 
 def _json_or_null(value: Any) -> str:
@@ -246,15 +65,16 @@ def _json_or_null(value: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``synth score``."""
+    import numpy as np
+
+    from synth.cli.score_table import explain, format_table, score_table
     from synth.grasps import read_candidate_table
 
+    args.mu = 0.0 if args.mu is None else args.mu
     real("--mu", args.mu, 0, MAX_MU)
     real("--torsion", args.torsion, 0, MAX_LENGTH)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
-    integer("--top", args.top, 0)
-    if args.json is not True and args.json is not False:  # the old form, --json PATH
-        raise OptionError(f"--json takes no file name: it prints the JSON, as plan --json and "
-                          f"rank --json do; write it to a file with --out {shown(args.json, 60)}")
+    check_top(args.top, listing=True)
     if args.out is not None:
         output_path("--out", args.out, ".json")
     table = read_candidate_table(args.file)
@@ -263,8 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if not len(order):
         more = f" (and {len(scores.errors) - 1} more malformed)" if len(scores.errors) > 1 else ""
         raise InputError(f"no candidate could be scored: {scores.errors[0][1]}{more}")
-    top = DEFAULT_TOP if args.top is None else args.top
-    rows_shown = order if top == 0 else order[:top]
+    rows_shown = order if args.top == 0 else order[:args.top]
     why = explain(table, scores, rows_shown, args.edges, args.torsion)
     if args.json or args.out is not None:
         rank_of = np.zeros(len(scores.names), np.int64)
@@ -291,10 +110,13 @@ def run(args: argparse.Namespace) -> int:
         print(format_table(scores, rows_shown, why))
     for _, message in scores.errors:
         print(f"synth: error: {message}", file=sys.stderr)
-    n_closure = int((scores.closure[order] != "force").sum())
-    more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
-            if len(rows_shown) < len(order) and not args.json else "")
-    print(f"{len(order)} candidates scored, {n_closure} with closure"
-          f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
-          file=sys.stderr)
+    if args.out is not None and not args.quiet:
+        print(f"wrote {args.out}")
+    if not args.quiet:
+        n_closure = int((scores.closure[order] != "force").sum())
+        more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
+                if len(rows_shown) < len(order) else "")
+        print(f"{len(order)} candidates scored, {n_closure} with closure"
+              f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
+              file=sys.stderr)
     return 2 if scores.errors else 0

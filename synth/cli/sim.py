@@ -7,7 +7,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from synth.cli.checks import integer, output_path, real
+from synth.cli.checks import output_path, real
+from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
 
 __all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args",
            "summary"]
@@ -52,23 +53,18 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
     g.add_argument("--sim-shake", type=float, default=d.shake, metavar="G",
                    help=f"peak acceleration of the shake along x, y and z, in g, "
                    f"{rng('shake')} (default {d.shake:g}; 0: no shake)")
-    g.add_argument("--sim-seed", type=int, default=d.seed, metavar="SEED",
-                   help="seed of the convex decomposition of non-convex bodies, 0 to "
-                   f"2**63 - 1 (default {d.seed})")
 
 
 def settings_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     """:class:`synth.sim.SimSettings` from the ``--sim-...`` options, each checked against its
     range."""
-    from synth.limits import MAX_SEED
     from synth.sim.settings import RANGES, SimSettings
 
     values = {name: getattr(args, f"sim_{name}") for name in
               ("grip", "stiffness", "size", "density", "shake")}
     for name, value in values.items():
         real(f"--{PREFIX}{name}", value, *RANGES[name], unit=" g" if name == "shake" else "")
-    integer(f"--{PREFIX}seed", args.sim_seed, 0, MAX_SEED, "2**63 - 1")
-    return SimSettings(hand=args.sim_hand, seed=args.sim_seed, **values)
+    return SimSettings(hand=args.sim_hand, **values)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -85,13 +81,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "it, then the part's weight pulls along +-x, +-y, +-z of the hand in turn, then the "
         "hand is shaken. Point fingers press with the grasp's balanced squeeze, each "
         "limited to --sim-grip; a gripper's pads close, coupled, with its rated force. Each "
-        "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco, "
-        "coacd).",
-        epilog="Exit status: 0 every grasp simulated (held or not; one synth could not "
-        "simulate is labelled 'error' with the reason); 1 the file could not be written; 2 "
-        "bad input (the line says what is wrong, also when mujoco is not installed); 3 "
-        "internal error (a bug in synth). Non-convex bodies are decomposed with CoACD, cached "
-        "in $SYNTH_CACHE_DIR (default ~/.cache/synth).",
+        "grasp gets a 'sim' label in the JSON. Needs pip install 'synth[sim]' (mujoco). See "
+        "docs/simulation.md.",
+        epilog=exit_epilog(
+            "every grasp simulated (held or not; one synth could not simulate is labelled "
+            "'error' with the reason)", "the file could not be written",
+            "also when mujoco is not installed"),
     )
     p.add_argument("grasps", metavar="GRASPS.json",
                    help="grasp file written by synth plan (point fingers or --gripper)")
@@ -103,13 +98,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    "(default: the grasps' own)")
     add_sim_options(p)
     o = p.add_argument_group("output")
-    o.add_argument("--out", default=None, metavar="JSON",
-                   help="write the labelled grasp file here, ending in .json (default: "
-                   "update GRASPS.json in place)")
-    o.add_argument("--no-files", action="store_true", help="write no file, only print")
-    o.add_argument("--json", action="store_true",
-                   help="print the labelled JSON document, not a table")
-    o.add_argument("--quiet", action="store_true", help="no progress bar, no file list")
+    add_out(o, "the labelled grasp file", "GRASPS.json, updated in place")
+    o.add_argument("--no-files", action="store_true", help="write no files, only print")
+    add_json(o, "the labelled grasp file")
+    add_quiet(o)
     p.set_defaults(run=run)
 
 
@@ -145,12 +137,9 @@ def summary(doc: dict) -> str:
     jaws = doc.get("format") == "synth.gripper_grasps"
     hand = s.get("hand") if jaws else (f"{st['hand']} point fingers, grip {st['grip']:g} N "
                                        f"each, part scaled to {st['size']:g} m")
-    pieces = s.get("pieces")
-    dec = "" if not s.get("decomposed") else (
-        f"; {s['decomposed']} bod{'y' if s['decomposed'] == 1 else 'ies'} decomposed into "
-        f"{pieces} convex pieces with the others"
-        + (f" (volume error {s['decomposition_error']:.1%})"
-           if s.get("decomposition_error") is not None else ""))
+    n_f = s.get("faceted_bodies") or 0
+    dec = "" if not n_f else (f"; {n_f} non-convex bod{'y' if n_f == 1 else 'ies'} collided as "
+                              "its facets near the hand")
     errors = f", {s['errors']} not simulated ({s['error'] or 'see each label'})" \
         if s.get("errors") else ""
     return (f"{s['held']} of {n} grasps held{errors} ({hand}; weight along +-x, +-y, +-z, "
@@ -164,11 +153,14 @@ def run(args: argparse.Namespace) -> int:
     from synth.cli.progress import LineProgress
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
-    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document, read_json
+    from synth.filetype import GRASPS, MESH, read_json, require
+    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document
 
     real("--mu", args.mu, 0, MAX_MU)
     settings = settings_from_args(args)
-    doc = read_json(args.grasps, "a grasp file written by synth plan --out")
+    doc = read_json(args.grasps, GRASPS)
+    if args.mesh is not None:
+        require(args.mesh, MESH)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
         return _run_jaws(args, check_jaw_document(doc, str(args.grasps)), settings, out)
@@ -180,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
 
     part = load_planned_part(file)
     contact = None if args.mu is None else ContactModel(args.mu)
-    bar = LineProgress(enabled=not (args.quiet or args.json))
+    bar = LineProgress(enabled=not args.quiet)
     try:
         report = simulate_file(file, settings, contact=contact, part=part,
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
@@ -230,7 +222,7 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
         how = f"{off[worst]:.3g} {mesh['units']}" if np.isfinite(off[worst]) else "far"
         raise InputError(f"{path}: not the mesh these grasps were planned on (contact "
                          f"{worst % 2} of grasp {worst // 2 + 1} lies {how} off its surface)")
-    bar = LineProgress(enabled=not (args.quiet or args.json))
+    bar = LineProgress(enabled=not args.quiet)
     try:
         labelled = simulate_jaw_document(doc, part, settings, mu=args.mu,
                                          progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))

@@ -49,6 +49,9 @@ def _read_header(path: str, fd: int) -> bytes:
     except OSError as e:
         raise DatabaseError(f"{path}: cannot read grasp database: {e.strerror or e}") from e
     if head and not head.startswith(_SQLITE_MAGIC):
+        from synth.filetype import DATABASE, require
+
+        require(path, DATABASE)  # a mesh, a grasp file: named as such
         raise DatabaseFileError(f"{path}: not a synth grasp database (not an SQLite file)")
     return head
 

@@ -36,8 +36,9 @@ from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
 from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
 from synth.errors import InputError
+from synth.filetype import MESH_FORMATS
 from synth.plan import LOAD_KEYS
-from synth.plan.params import PlanParams
+from synth.plan.params import BUILD_TIME, PlanParams
 
 __all__ = [
     "MESH_EXTENSIONS",
@@ -53,7 +54,8 @@ __all__ = [
     "build_database",
 ]
 
-MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
+#: Mesh files a folder is searched for (:data:`synth.filetype.MESH_FORMATS`).
+MESH_EXTENSIONS = MESH_FORMATS
 #: A build's planner parameters when none are given: every field of
 #: :class:`synth.plan.PlanParams` (the same search effort as ``synth plan``) and the mesh
 #: options of :data:`synth.plan.LOAD_KEYS` (``sharp_angle`` in degrees), except the
@@ -62,7 +64,7 @@ MESH_EXTENSIONS = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
 #: simulates (``synth db build --sim``) has one parameter more, ``sim``: the
 #: :class:`synth.sim.SimSettings` fields every grasp found is simulated with (by the worker;
 #: the planner never sees it).
-DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": 600.0, "units": None,
+DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": BUILD_TIME, "units": None,
                                   "body": "largest", "sharp_angle": 30.0}
 #: What a parameter was before it existed, for databases built then: before ``surface``, grasps
 #: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`); before

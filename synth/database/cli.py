@@ -15,12 +15,14 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
-from synth.database.build import DEFAULT_PARAMS, MESH_EXTENSIONS, BuildTerminated
-from synth.errors import shown
 from synth.cli.options import (add_planning_options, check_part_options,
                                check_planning_options, planning_params)
+from synth.cli.vocabulary import add_json, add_quiet, exit_epilog, top_help
+from synth.limits import MAX_TOP
+from synth.errors import shown
+from synth.filetype import MESH_FORMATS
 from synth.database.store import GRIPPER_TOP_ORDERS, TOP_ORDERS
-from synth.plan.params import PlanParams
+from synth.plan.params import BUILD_TIME, PlanParams
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -51,7 +53,10 @@ finishes the database. One build at a time writes a database: another build of t
 
 planner hook: set SYNTH_DB_PLANNER=module:function (or --planner) to plan with any function
 plan_mesh_file(path, params) -> dict returning synth's grasp document.
-"""
+
+""" + exit_epilog("built (meshes that failed are recorded with the reason: see synth db "
+                  "info)", "the database is busy (another build writes it) or cannot be "
+                  "written") + "; 130 interrupted; 143 stopped by SIGTERM"
 
 
 def _int_in(low: int, high: int) -> Callable[[str], int]:
@@ -93,13 +98,15 @@ def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str]
 # the planning options are plan's (synth.cli.options), checked before the database opens.
 _WORKERS = (0, 1024)
 _TIMEOUT = (0.0, 1e6)
-_K = (1, 10_000)
+_K = (0, MAX_TOP)
 
 
 def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``db`` command (and its subcommands) to an argparse ``subparsers`` object."""
     db = subparsers.add_parser(
-        "db", help="build and query offline grasp databases", description=_DESCRIPTION
+        "db", help="build and query offline grasp databases", description=_DESCRIPTION,
+        epilog="Each subcommand's --help lists its exit statuses. " + exit_epilog(
+            "done", "the system refused (a busy database, a file that cannot be written)"),
     )
     sub = db.add_subparsers(dest="db_command", metavar="{build,info,top,export}")
     sub.required = True
@@ -114,22 +121,23 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     b.add_argument("sources", nargs="+", metavar="MESH_DIR_OR_LIST",
                    help="folders (searched recursively for mesh files: "
-                   f"{', '.join('.' + e for e in MESH_EXTENSIONS)}; symbolic links to files and "
+                   f"{', '.join('.' + e for e in MESH_FORMATS)}; symbolic links to files and "
                    "folders are followed, and a folder met again through a link, as in a link "
                    "cycle, is searched once), mesh files, or text files listing mesh paths")
-    b.add_argument("--out", required=True,
-                   help="database file (created or resumed; one build at a time writes it)")
+    b.add_argument("--out", required=True, metavar="DB",
+                   help="the database file, created or resumed (one build at a time writes it)")
     from synth.plan.gripper import GRIPPER_RANK_BY
 
-    add_planning_options(b, time=DEFAULT_PARAMS["time"], rank_by_extra=GRIPPER_RANK_BY)
-    b.add_argument("--workers", type=_int_in(*_WORKERS), default=None,
+    add_planning_options(b, time=BUILD_TIME, rank_by_extra=GRIPPER_RANK_BY)
+    b.add_argument("--workers", type=_int_in(*_WORKERS), default=None, metavar="N",
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
     b.add_argument("--engine", choices=("local", "dask"), default="local",
                    help="local worker processes or a Dask cluster (default local)")
-    b.add_argument("--scheduler", default=None,
+    b.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address (engine dask; default: a local Dask cluster)")
-    b.add_argument("--planner", default=None, help="planner 'module:function'")
+    b.add_argument("--planner", default=None, metavar="MODULE:FUNCTION",
+                   help="plan with this function instead of synth's (see 'planner hook')")
     from synth.cli.gripper import add_gripper_options
 
     add_gripper_options(b)  # --gripper: gripper grasps, stored in the table gripper_grasps
@@ -139,20 +147,27 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    metavar="SECONDS",
                    help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, before it is "
                    "stopped and recorded as failed with kind 'timeout' (local engine)")
-    b.add_argument("--quiet", action="store_true", help="no progress bar nor summary")
+    add_quiet(b)
     from synth.cli.sim import add_sim_options
 
     add_sim_options(b, switch=True)  # --sim: each mesh's grasps simulated on the worker
 
-    i = sub.add_parser("info", help="counts, failures and parameters of a database", description="Counts, failures and parameters of a database.")
-    i.add_argument("database", help="database file")
-    i.add_argument("--json", action="store_true", help="print a JSON object")
+    reading = exit_epilog("done", "the database is busy or cannot be read",
+                          "also a file that is not a synth grasp database")
+    i = sub.add_parser("info", help="counts, failures and parameters of a database",
+                       description="Counts, failures and parameters of a database.",
+                       epilog=reading)
+    i.add_argument("database", metavar="DB", help="database file")
+    add_json(i, "the counts, failures and parameters", out=False)
 
-    t = sub.add_parser("top", help="best grasps of one mesh", description="Best grasps of one mesh.")
-    t.add_argument("database", help="database file")
+    t = sub.add_parser("top", help="best grasps of one mesh", description="Best grasps of one "
+                       "mesh.", epilog=exit_epilog(
+                           "done", "the database is busy or cannot be read", "also a file "
+                           "that is not a synth grasp database, or a mesh it does not hold"))
+    t.add_argument("database", metavar="DB", help="database file")
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
     t.add_argument("--top", "-k", type=_int_in(*_K), default=5, metavar="N",
-                   help=f"number of grasps, {_K[0]} to {_K[1]:,} (default 5)")
+                   help=top_help("grasps", 5, listing=True) + "; -k is its old spelling")
     t.add_argument("--rank-by", choices=tuple(dict.fromkeys(TOP_ORDERS + GRIPPER_TOP_ORDERS)),
                    default="rank",
                    help="order of the grasps (default rank: the database's own, its build's "
@@ -161,22 +176,26 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "tolerance, which needs a database built with --regions: by that measure, "
                    "largest first. Gripper grasps: margin (least squeeze per weight first), "
                    "d_star, mu_min (smallest first) or epsilon (largest first)")
-    t.add_argument("--json", action="store_true", help="print the grasps as JSON")
+    add_json(t, "the grasps", out=False)
 
     e = sub.add_parser(
         "export", help="export a database to HDF5, NPZ or JSON, or to ACRONYM, GraspGen or "
         "isaac_grasp files", description="Export a database to HDF5, NPZ or JSON (one file, "
         "synth's columns), or its gripper grasps to the layouts of ACRONYM (HDF5), GraspGen "
-        "(JSON) or isaac_grasp (YAML): one file per mesh in the folder --out, poses in metres.")
-    e.add_argument("database", help="database file")
+        "(JSON) or isaac_grasp (YAML): one file per mesh in the folder --out, poses in metres.",
+        epilog=exit_epilog("exported", "the database is busy or cannot be read, or a file "
+                           "could not be written", "also a file that is not a synth grasp "
+                           "database"))
+    e.add_argument("database", metavar="DB", help="database file")
     e.add_argument("--format", choices=("h5", "npz", "json", "acronym", "graspgen", "isaac"),
                    default=None, help="default: from the extension of --out (h5, npz, json)")
-    e.add_argument("--out", required=True,
-                   help="output file (.h5, .npz or .json), or a folder for acronym, graspgen "
-                   "and isaac")
+    e.add_argument("--out", required=True, metavar="FILE|FOLDER",
+                   help="the file to write (.h5, .npz or .json), whole or not at all; or a "
+                   "folder for acronym, graspgen and isaac")
     e.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of meshes whose unit the database does not know (acronym, "
                    "graspgen, isaac: their poses are in metres)")
+    add_quiet(e)
     return db  # type: ignore[no-any-return]
 
 
@@ -195,7 +214,7 @@ def _build(args: argparse.Namespace) -> int:
     else:  # gripper grasps (synth plan --gripper): the gripper planner's own parameters
         from synth.cli.gripper import gripper_params, refuse_finger_options
 
-        refuse_finger_options(args, DEFAULT_PARAMS["time"])
+        refuse_finger_options(args, BUILD_TIME)
         check_part_options(args)
         params = {"units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
                   **asdict(gripper_params(args))}
@@ -260,7 +279,7 @@ def _top(args: argparse.Namespace) -> int:
 
     with GraspDatabase(args.database) as db:
         mesh = db.mesh(args.mesh)
-        grasps = db.top(args.mesh, args.top, args.rank_by)
+        grasps = db.top(args.mesh, args.top or sys.maxsize, args.rank_by)  # 0: all
     if args.json:
         print(json.dumps({"mesh": mesh.path, "status": mesh.status, "error_kind":
                           mesh.error_kind, "error": mesh.error,
@@ -301,8 +320,9 @@ def _export(args: argparse.Namespace) -> int:
         from synth.database.export_objects import export_objects
 
         paths = export_objects(args.database, args.out, args.format, args.units)
-        print(f"exported {args.database} to {len(paths)} {args.format} files in {args.out} "
-              "(poses in metres)", file=sys.stderr)
+        if not args.quiet:
+            print(f"wrote {len(paths)} {args.format} files in {args.out} from {args.database} "
+                  "(poses in metres)")
         return 0
     if args.units is not None:
         from synth.errors import OptionError
@@ -310,7 +330,8 @@ def _export(args: argparse.Namespace) -> int:
         raise OptionError("--units applies to --format acronym, graspgen and isaac (h5, npz "
                           "and json keep each mesh's own unit)")
     fmt = export_database(args.database, args.out, args.format)
-    print(f"exported {args.database} to {args.out} ({fmt})", file=sys.stderr)
+    if not args.quiet:
+        print(f"wrote {args.out} ({fmt}) from {args.database}")
     return 0
 
 
@@ -322,6 +343,8 @@ def run_db(args: argparse.Namespace) -> int:
     :func:`synth.cli.main`, which prints them as one ``synth: error: ...`` line and exits 2 for
     bad input, 1 otherwise.
     """
+    from synth.database.build import BuildTerminated
+
     commands = {"build": _build, "info": _info, "top": _top, "export": _export}
     try:
         return commands[args.db_command](args)

@@ -7,15 +7,32 @@ and :class:`FingerPlacement` is the finger geometry reported with an accepted gr
 
 from __future__ import annotations
 
-from synth.fingers.collide import (
-    FingerCheck,
-    FingerChecker,
-    check_fingers,
-    checker_for,
-    finger_placement,
-    tip_sinks,
-)
-from synth.fingers.model import FingerPlacement, Fingers, default_fingers, tip_centers
+from typing import TYPE_CHECKING
+
+from synth.lazy import lazy_attributes
+
+if TYPE_CHECKING:  # what the lazy names are, for type checkers
+    from synth.fingers.collide import (
+        FingerCheck,
+        FingerChecker,
+        check_fingers,
+        checker_for,
+        finger_placement,
+        tip_sinks,
+    )
+    from synth.fingers.model import FingerPlacement, Fingers, default_fingers, tip_centers
+
+# Imported on first use (PEP 562): FCL and numpy load only when a finger is checked, so that
+# the light modules of this package (:mod:`synth.fingers.builtin`) cost nothing.
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(["FingerCheck", "FingerChecker", "check_fingers", "checker_for",
+                     "finger_placement", "tip_sinks"], "synth.fingers.collide"),
+    **dict.fromkeys(["FingerPlacement", "Fingers", "default_fingers", "tip_centers"],
+                    "synth.fingers.model"),
+}
+
+
+__getattr__ = lazy_attributes(__name__, _LAZY)
 
 __all__ = [
     "Fingers",

@@ -47,16 +47,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.errors import InputError, shown
+from synth.fingers.builtin import BUILTIN_GRIPPERS, GRIPPER_FOLDER
 
 __all__ = ["BUILTIN_GRIPPERS", "Gripper", "GripperShape", "load_gripper", "half_turn"]
 
-_DATA = Path(__file__).with_name("grippers")
-#: Built-in grippers by name (``synth plan --gripper NAME``), and their description files.
-BUILTIN_GRIPPERS: dict[str, str] = {
-    "franka": "franka.json",
-    "robotiq_2f85": "robotiq_2f85.json",
-    "robotiq_2f140": "robotiq_2f140.json",
-}
 _BOX_FACES = np.array([[0, 1, 2], [1, 3, 2], [4, 6, 5], [5, 6, 7], [0, 4, 1], [1, 4, 5],
                        [2, 3, 6], [3, 7, 6], [0, 2, 4], [2, 6, 4], [1, 5, 3], [3, 5, 7]])
 
@@ -271,7 +265,7 @@ def load_gripper(spec: str | Path) -> Gripper:
     0.08
     """
     key = str(spec)
-    path = _DATA / BUILTIN_GRIPPERS[key] if key in BUILTIN_GRIPPERS else Path(key)
+    path = GRIPPER_FOLDER / BUILTIN_GRIPPERS[key] if key in BUILTIN_GRIPPERS else Path(key)
     where = str(path)
     if not path.is_file():
         raise InputError(f"--gripper: {key!r} is neither a built-in gripper "

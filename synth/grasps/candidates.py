@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.errors import CandidateError, InputError, shown
+from synth.filetype import CANDIDATES, require
 from synth.limits import MAX_COORDINATE, MAX_MU
 from synth.scores.wrench import check_contacts
 from synth.tolerances import NORMAL_NORM_TOL
@@ -299,6 +300,7 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p}: no such file")
+    require(p, CANDIDATES)  # a mesh, a database: named as such
     if p.suffix.lower() == ".npz":
         return _read_npz(p)
     with _collector_paused():

@@ -29,6 +29,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import MeshError
+from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
@@ -40,7 +41,10 @@ from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_
 __all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "length_unit", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
-SUPPORTED_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off", "glb", "gltf", "3mf")
+SUPPORTED_FORMATS: tuple[str, ...] = MESH_FORMATS
+
+#: How the warning of a mesh whose length unit is unknown begins (``Part.warnings``).
+UNIT_UNKNOWN = "length unit unknown"
 
 #: Abbreviations accepted for ``units`` (trimesh wants full names such as "millimeters").
 UNIT_ALIASES: dict[str, str] = {
@@ -60,6 +64,7 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         raise _fail(name, "no such file")
     if not path.is_file():
         raise _fail(name, "not a file")
+    require(path, MESH)  # a grasp file or a database is named as such
     ext = path.suffix.lower().lstrip(".")
     if ext not in SUPPORTED_FORMATS:
         raise _fail(name, f"unsupported format {ext!r}; expected one of {SUPPORTED_FORMATS}")
@@ -379,7 +384,7 @@ def load_part(
                             "ft or a trimesh unit name such as 'millimeters'")
         unit = known
     else:
-        warnings.append("length unit unknown: the file does not say it; give it with --units "
+        warnings.append(f"{UNIT_UNKNOWN}: the file does not say it; give it with --units "
                         "(Python: units=), e.g. mm, cm, m or in")
     soup = path is not None and Path(path).suffix.lower() == ".stl"
     pieces, precision, length = _pieces(raw, name, repairs, soup)

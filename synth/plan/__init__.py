@@ -2,28 +2,30 @@
 
 from __future__ import annotations
 
-import importlib
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from synth.lazy import lazy_attributes
 from synth.plan.params import PlanParams
-from synth.plan.result import FORMAT, FORMAT_VERSION, Plan, PlannedGrasp
 
-# The search and the renderers pull in trimesh, FCL and matplotlib; they are imported on
-# first use (PEP 562), so that reading parameters or results does not pay for them.
-_LAZY = {"export_glb": "synth.plan.render", "render_png": "synth.plan.render",
+if TYPE_CHECKING:  # what the lazy names are, for type checkers
+    from synth.plan.gripper import plan_gripper_file
+    from synth.plan.render import export_glb, render_png
+    from synth.plan.result import FORMAT, FORMAT_VERSION, Plan, PlannedGrasp
+    from synth.plan.search import Progress, plan_part
+
+# The search and the renderers pull in trimesh, FCL and matplotlib, the results numpy; they
+# are imported on first use (PEP 562), so that reading parameters (the command line's
+# ``--help``) does not pay for them.
+_LAZY = {**dict.fromkeys(["FORMAT", "FORMAT_VERSION", "Plan", "PlannedGrasp"],
+                         "synth.plan.result"),
+         "export_glb": "synth.plan.render", "render_png": "synth.plan.render",
          "Progress": "synth.plan.search", "plan_part": "synth.plan.search",
          "plan_gripper_file": "synth.plan.gripper"}
 
 
-def __getattr__(name: str) -> object:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'synth.plan' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_attributes(__name__, _LAZY)
 
 __all__ = [
     "FORMAT",

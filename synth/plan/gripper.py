@@ -48,6 +48,7 @@ from synth.fingers.gripper import Gripper, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GripperChecker
 from synth.fingers.jaws import (EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws,
                                  pad_touch)
+from synth.plan.gripper_params import APPROACHES, GRIPPER_RANK_BY, GripperParams
 from synth.plan.gripper_refine import Scored, refine
 from synth.plan.result import describe_part, new_run_id
 from synth.scores.cones import cone_name
@@ -60,8 +61,6 @@ __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "G
            "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M",
            "grasp_results", "loaded_with", "rank_order", "part_mass", "unit_scale"]
 
-#: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
-APPROACHES: int = 4
 #: Contact pairs of two returned grasps are at least this fraction of the part's size apart.
 DISTINCT_RTOL: float = 0.05
 #: Pre-grasp distance along the approach, metres (as MoveIt's pick pipelines default to).
@@ -80,51 +79,6 @@ REFINE_TOP: int = 10
 FIT_SHARE: float = 0.5
 #: ... or this many draws of ``samples`` points were made.
 MAX_DRAWS: int = 8
-#: Orders gripper grasps can be ranked by.
-GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
-
-
-@dataclass(frozen=True)
-class GripperParams:
-    """What a gripper plan searches for.
-
-    Attributes
-    ----------
-    gripper : str
-        Built-in name or description file.
-    mu : float
-        Friction coefficient of the pads (> 0).
-    torsion : float or None
-        Torsional coefficient gamma in the part's unit (default ``TORSION_M`` metres).
-    mass : float or None
-        Part mass in kg; or ``density`` (kg/m^3) times the closed bodies' volume.
-    density : float or None
-    gravity : (3,) tuple or None
-        A gravity direction in the part's frame; None: every orientation.
-    top : int
-    samples : int
-        Surface points drawn (each a candidate pair, times ``APPROACHES`` poses).
-    seed : int
-    rank_by : str
-        One of ``GRIPPER_RANK_BY``.
-    table : float or None
-        Support plane z = table in the part's frame.
-    edges : int
-        Cone edges of the linearised contacts.
-    """
-
-    gripper: str = "franka"
-    mu: float = 0.5
-    torsion: float | None = None
-    mass: float | None = None
-    density: float | None = None
-    gravity: tuple[float, float, float] | None = None
-    top: int = 10
-    samples: int = 500
-    seed: int = 0
-    rank_by: str = "margin"
-    table: float | None = None
-    edges: int = 8
 
 
 @dataclass(frozen=True)

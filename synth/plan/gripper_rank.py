@@ -16,11 +16,11 @@ For every pose (already in the part's frame and unit, :mod:`synth.formats`):
    through numba's simplex kernel when it is installed and the batch repays loading it
    (:func:`synth.scores.simplex.compiled_for`; the same optima as numpy's to about 1e-12).
 
-Each candidate gets one status: ``ranked`` (scored; closure or not), ``collision``,
+Each candidate gets one status: ``ok`` (scored; closure or not), ``collision``,
 ``no contact`` (the part lies between the jaws but they make no trustworthy two-pad contact:
 wider than the opening, or a pad touching with its rim where it cannot rest: in two places,
 buried in a slope, or on an edge or vertex at no single normal), ``misses the part`` (a pad's
-prism meets no part of the mesh) or ``malformed``. The ranked ones are ordered as the planner
+prism meets no part of the mesh) or ``malformed``. The ``ok`` ones are ordered as the planner
 orders its grasps (``rank_by``), grasps without closure last.
 """
 
@@ -46,7 +46,7 @@ from synth.scores.gravity import gravity_hold_batch
 __all__ = ["POSE_STATUSES", "RankedPose", "PoseRanking", "rank_gripper_poses"]
 
 #: Every status a candidate pose can get.
-POSE_STATUSES: tuple[str, ...] = ("ranked", "collision", "no contact", "misses the part",
+POSE_STATUSES: tuple[str, ...] = ("ok", "collision", "no contact", "misses the part",
                                   "malformed")
 
 
@@ -62,9 +62,9 @@ class RankedPose:
     status : str
         One of ``POSE_STATUSES``.
     reason : str or None
-        Why a candidate that is not ranked is not.
+        Why a candidate that is not ``ok`` is not.
     grasp : GripperGrasp or None
-        For ``ranked``: the pose moved along its x axis so both pads touch, the contacts (its
+        For ``ok``: the pose moved along its x axis so both pads touch, the contacts (its
         +x pad's first) and the measures; ``closure`` says whether it closes.
     same_as : int or None
         The first candidate that is the same jaw grasp (equal, or its half-turn).
@@ -209,7 +209,7 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
                                    same, lab, given(i)))
         else:
             g = grasp_of[u]
-            ranked.append((position[u], RankedPose(i, names[i], "ranked", None,
+            ranked.append((position[u], RankedPose(i, names[i], "ok", None,
                                                    _turn_back(g) if turned[k] else g, same,
                                                    lab, given(i))))
     for i, why in bad.items():

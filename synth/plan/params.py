@@ -8,10 +8,9 @@ and so that every number reaching the linear programs is one they can solve mean
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass
 from typing import Any
-
-import numpy as np
 
 from synth.errors import InputError, shown
 from synth.limits import (
@@ -30,7 +29,8 @@ from synth.limits import (
     SURFACES,
 )
 
-__all__ = ["PlanParams", "RANK_BY", "MAX_SQUEEZE", "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS",
+__all__ = ["PlanParams", "RANK_BY", "MAX_SQUEEZE", "BUILD_TIME", "MAX_FINGERS",
+           "AUTO_MAX_FINGERS", "MAX_CONTACTS",
            "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED",
            "MAX_LENGTH"]
 
@@ -41,17 +41,25 @@ RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon", "tolerance", "m
 #: the part's weight to hold it in every orientation (:mod:`synth.scores.hold`) is not
 #: returned. Chosen by measurement (``scripts/bench_sim.py``; the README's "What holds").
 MAX_SQUEEZE: float = 2.5
+#: The wall-clock cap of each mesh's plan in a database build (``synth db build --time``):
+#: far above a normal plan's, so that the evaluation budget (not the machine's speed) decides
+#: the result.
+BUILD_TIME: float = 600.0
 
 
 def _integer(value: object) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+    """A Python or numpy integer, not a bool (numpy registers its integers as
+    ``numbers.Integral``; this module does not import numpy, so that the command line's
+    ``--help`` need not load it)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def _real(value: object) -> bool:
-    """A finite int or float (not a bool, not a string)."""
+    """A finite int or float, Python's or numpy's (not a bool, not a string)."""
     if _integer(value):
         return True
-    return isinstance(value, (float, np.floating)) and math.isfinite(value)
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
+            and math.isfinite(value))  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)

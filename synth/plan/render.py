@@ -23,9 +23,10 @@ _COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
                      [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
 
 
-def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool = True
+def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool = True
                ) -> Path:
-    """Draw the part and up to ``panels`` of the best grasps, one panel each.
+    """Draw up to ``panels`` of the best grasps, one row each, from the two or three sides
+    that show their contacts (:mod:`synth.plan.picture`).
 
     Parameters
     ----------
@@ -33,6 +34,7 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool
     plan : Plan
     path : str or Path
     panels : int
+        Grasps drawn, best first.
     atomic : bool
         Write whole or not at all (:mod:`synth.files`); False for a caller that already
         writes into a temporary file of its own, as ``synth plan`` does for its three files.
@@ -41,72 +43,13 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 4, atomic: bool
     -------
     Path
     """
-    import matplotlib
+    from synth.plan.picture import GraspPicture, draw_grasps
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    grasps = plan.grasps[:panels]
-    n = max(1, len(grasps))
-    cols = min(n, 2)
-    rows = int(np.ceil(n / cols))
-    fig = plt.figure(figsize=(5.5 * cols, 5.0 * rows), dpi=110)
-    mesh = part.mesh
-    light = np.array([0.4, 0.3, 0.85]) / np.linalg.norm([0.4, 0.3, 0.85])
-    shade = 0.45 + 0.5 * np.clip(mesh.face_normals @ light, 0, 1)
-    face_rgb = np.clip(shade[:, None] * np.array([[0.75, 0.78, 0.82]]), 0, 1)
-    L = part.length
-    for p in range(n):
-        ax = fig.add_subplot(rows, cols, p + 1, projection="3d")
-        ax.add_collection3d(Poly3DCollection(mesh.triangles, facecolors=face_rgb,
-                                             edgecolors="none", alpha=0.55))
-        if grasps:
-            g = grasps[p]
-            f = g.fingers
-            tips = np.asarray(f["tip_centers"])
-            app = np.asarray(f["approach"])
-            for i, (pt, nm) in enumerate(zip(g.points, g.normals)):
-                col = _COLOURS[i % len(_COLOURS)]
-                ax.scatter(*pt, color=col, s=22, depthshade=False)
-                ax.quiver(*pt, *(nm * 0.12 * L), color=col, linewidth=1.5,
-                          arrow_length_ratio=0.3)
-            if g.contact_regions is not None:
-                for i, poly in enumerate(g.contact_regions.polygons):
-                    col = _COLOURS[i % len(_COLOURS)]
-                    if len(poly) >= 3:
-                        ax.add_collection3d(Poly3DCollection([poly], facecolors=[col],
-                                                             edgecolors=[col], linewidths=2,
-                                                             alpha=0.85))
-                    elif len(poly) == 2:
-                        ax.plot(*np.asarray(poly).T, color=col, linewidth=4)
-            for i, (c, a) in enumerate(zip(tips, app)):
-                col = _COLOURS[i % len(_COLOURS)]
-                end = c + a * f["body_length"]
-                ax.plot(*np.stack([c, end]).T, color=col, linewidth=3, alpha=0.8)
-                ax.scatter(*c, color=col, s=60, alpha=0.5, depthshade=False)
-            tol = "" if g.contact_regions is None else (
-                f", tolerance {g.contact_regions.tolerance:.3g}"
-                + ("" if g.contact_regions.certified else " (sampled)"))
-            ax.set_title(f"#{p + 1}  d* = {g.d_star:.4f}  {g.closure} closure\n"
-                         f"conditioning {g.conditioning:.3f}, epsilon {g.epsilon:.4f}{tol}",
-                         fontsize=9)
-        else:
-            ax.set_title(_wrap(plan.message), fontsize=8)
-        lo, hi = mesh.bounds
-        mid, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.35
-        ax.set_xlim(mid[0] - half, mid[0] + half)
-        ax.set_ylim(mid[1] - half, mid[1] + half)
-        ax.set_zlim(mid[2] - half, mid[2] + half)
-        ax.set_box_aspect((1, 1, 1))
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
-        ax.set_zlabel("z")
-        ax.tick_params(labelsize=6)
+    rows = [GraspPicture(_finger_hand(g, 1e-3 * part.length), f"#{i}  " + _measures(g),
+                         _finger_ends(g)) for i, g in enumerate(plan.grasps[:panels], 1)]
     surface = plan.params.get("surface")
-    fig.suptitle(run_title(plan.mesh, plan.run_id)
-                 + (f"   normals: {surface}" if surface else ""), fontsize=11)
-    fig.tight_layout()
+    fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id)
+                      + (f"   normals: {surface}" if surface else ""), plan.message)
     return save_png(fig, path, plan.mesh, plan.run_id, atomic)
 
 
@@ -149,6 +92,53 @@ def scene_extras(mesh: dict, run_id: str, params: dict, **more: object) -> dict:
     return {"run_id": run_id, "mesh_sha256": mesh.get("sha256"), "params": params, **more}
 
 
+def _measures(g) -> str:  # type: ignore[no-untyped-def]
+    """The measures of a point-finger grasp, as the table prints them."""
+    r = g.contact_regions
+    tol = "" if r is None else (f", tolerance {r.tolerance:.3g}"
+                                + ("" if r.certified else " (sampled)"))
+    margin = "" if g.margin is None else f", margin {g.margin:.2f}"
+    return (f"d* {g.d_star:.5f} ({g.closure} closure), conditioning {g.conditioning:.4f}, "
+            f"epsilon {g.epsilon:.5f}, N/weight {g.squeeze_per_weight:.3f}{margin}{tol}")
+
+
+def _finger_ends(g) -> np.ndarray:  # type: ignore[no-untyped-def]
+    """The points a view of a point-finger grasp must show: the fingers' ends, a tip radius
+    beyond them."""
+    f = g.fingers
+    tips, app = np.asarray(f["tip_centers"]), np.asarray(f["approach"])
+    return tips + app * (float(f["body_length"]) + float(f["tip_radius"]))
+
+
+def _finger_hand(g, lift: float):  # type: ignore[no-untyped-def]
+    """A point-finger grasp's hand: each finger's tip sphere and body, its contact regions
+    (when computed) as patches ``lift`` off the surface, in its contacts' colours."""
+    from synth.plan.picture import Hand
+
+    f = g.fingers
+    tips, app = np.asarray(f["tip_centers"]), np.asarray(f["approach"])
+    which = np.asarray(f.get("contact_finger", range(len(g.points))), int)
+    tris, cols = [], []
+    for i, (c, a) in enumerate(zip(tips, app, strict=True)):
+        tip = trimesh.creation.icosphere(subdivisions=2, radius=float(f["tip_radius"]))
+        tip.apply_translation(c)
+        body = trimesh.creation.cylinder(radius=float(f["body_radius"]), sections=16,
+                                         segment=[c, c + a * float(f["body_length"])])
+        for m in (tip, body):
+            tris.append(np.asarray(m.triangles))
+            cols.append(np.tile(_COLOURS[i % len(_COLOURS)], (len(m.faces), 1)))
+    if g.contact_regions is not None:
+        for i, (poly, n) in enumerate(zip(g.contact_regions.polygons, g.normals, strict=True)):
+            if len(poly) < 3:  # a segment or a point: its contact's dot shows it
+                continue
+            patch = _patch(np.asarray(poly) - lift * n, 0.0)
+            if patch is not None:
+                tris.append(np.asarray(patch.triangles))
+                cols.append(np.tile(_COLOURS[which[i] % len(_COLOURS)], (len(patch.faces), 1)))
+    return Hand(np.concatenate(tris), np.concatenate(cols), np.asarray(g.points),
+                np.asarray(g.normals), _COLOURS[which % len(_COLOURS)])
+
+
 def _patch(poly: np.ndarray, width: float) -> trimesh.Trimesh | None:
     """A region as a mesh: a convex polygon as a two-sided fan of triangles, a segment as a
     thin cylinder, a single point as nothing."""
@@ -159,12 +149,6 @@ def _patch(poly: np.ndarray, width: float) -> trimesh.Trimesh | None:
     if len(poly) == 2 and np.linalg.norm(poly[1] - poly[0]) > 0:
         return trimesh.creation.cylinder(radius=width, segment=poly)
     return None
-
-
-def _wrap(text: str, width: int = 70) -> str:
-    import textwrap
-
-    return "\n".join(textwrap.wrap(text, width))
 
 
 def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool = True

@@ -54,45 +54,46 @@ def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -
     return Path(path)
 
 
-def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 4) -> Path:
-    """Draw the part with up to ``panels`` of the best posed grippers, one panel each."""
-    import matplotlib
+def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 3) -> Path:
+    """Draw up to ``panels`` of the best posed grippers, one row each, from the two or three
+    sides that show their contacts (:mod:`synth.plan.picture`); widths in millimetres, as
+    the table gives them."""
+    from synth.plan.picture import GraspPicture, Hand, draw_grasps
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    n = max(1, min(panels, len(plan.grasps)))
-    cols = min(n, 2)
-    rows = int(np.ceil(n / cols))
-    fig = plt.figure(figsize=(5.5 * cols, 5.0 * rows), dpi=110)
-    mesh = part.mesh
-    for p in range(n):
-        ax = fig.add_subplot(rows, cols, p + 1, projection="3d")
-        ax.add_collection3d(Poly3DCollection(mesh.triangles, facecolors=[0.75, 0.78, 0.82],
-                                             edgecolors="none", alpha=0.6))
-        pts = [np.asarray(mesh.vertices)]
-        if plan.grasps:
-            g = plan.grasps[p]
-            for m in posed_gripper(plan, p):
-                ax.add_collection3d(Poly3DCollection(m.triangles, facecolors=[0.3, 0.45, 0.8],
-                                                     edgecolors="none", alpha=0.35))
-                pts.append(np.asarray(m.vertices))
-            ax.scatter(*g.points.T, color="crimson", s=30, depthshade=False)
-            margin = "" if g.margin is None else f", margin {g.margin:.2f}"
-            ax.set_title(f"#{p + 1}  width {g.width:.4g}{margin}\nsqueeze/weight "
-                         f"{g.squeeze_per_weight:.3f}, mu_min {g.mu_min:.2g}", fontsize=9)
-        else:
-            ax.set_title(plan.message[:90], fontsize=8)
-        allp = np.vstack(pts)
-        lo, hi = allp.min(0), allp.max(0)
-        mid, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.1
-        ax.set_xlim(mid[0] - half, mid[0] + half)
-        ax.set_ylim(mid[1] - half, mid[1] + half)
-        ax.set_zlim(mid[2] - half, mid[2] + half)
-        ax.set_box_aspect((1, 1, 1))
-        ax.tick_params(labelsize=6)
-    fig.suptitle(run_title(plan.mesh, plan.run_id, f": {plan.gripper.title} grasps"),
-                 fontsize=11)
-    fig.tight_layout()
+    mm = 1000.0 / plan.gripper.unit_scale  # part units -> millimetres
+    rows = []
+    for i, g in enumerate(plan.grasps[:panels], 1):
+        shapes = posed_gripper(plan, i - 1)
+        tris = np.concatenate([np.asarray(m.triangles) for m in shapes])
+        hand = Hand(tris, np.tile(_HAND_RGB, (len(tris), 1)), np.asarray(g.points),
+                    np.asarray(g.normals), _PAD_RGB, opacity=0.55)
+        margin = "-" if g.margin is None else f"{g.margin:.2f}"
+        rows.append(GraspPicture(hand, f"#{i}  width {g.width * mm:.1f} mm, margin {margin}, "
+                                 f"N/weight {g.squeeze_per_weight:.3f}, mu_min "
+                                 f"{g.mu_min:.2g}, d* {g.d_star:.3f}",
+                                 _fingers(shapes, plan.gripper), _side_views(g),
+                                 face_on=False))
+    fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id,
+                                            f": {plan.gripper.title} grasps"), plan.message)
     return save_png(fig, path, plan.mesh, plan.run_id, atomic=False)
+
+
+#: Colours of the gripper and of its two contacts (the +x pad's first).
+_HAND_RGB = np.array([0.36, 0.50, 0.82])
+_PAD_RGB = np.array([[0.85, 0.33, 0.10], [0.93, 0.69, 0.13]])
+
+
+def _fingers(shapes: list[trimesh.Trimesh], gripper: Any) -> np.ndarray:
+    """The points a view of a gripper grasp must show besides the part: its fingers (the
+    palm may run off the picture)."""
+    return np.vstack([m.vertices for m in shapes[len(gripper.palm):]])
+
+
+def _side_views(g: Any) -> np.ndarray:
+    """How much each view direction shows the jaws from the side: across the approach
+    (the palm then hides nothing), the pads' faces edge-on."""
+    from synth.plan.picture import VIEW_DIRECTIONS
+
+    x, y, z = g.pose[:3, 0], g.pose[:3, 1], g.pose[:3, 2]
+    d = VIEW_DIRECTIONS
+    return 1.0 - np.abs(d @ z) + 0.5 * np.abs(d @ y) - 0.25 * np.abs(d @ x)

@@ -1,13 +1,14 @@
 """Physics as the judge: each grasp of a grasp file simulated in MuJoCo and labelled.
 
-The data path: a grasp file (:mod:`~synth.sim.document`) names its mesh, whose bodies become
-convex pieces (:mod:`~synth.sim.pieces`, CoACD for the non-convex ones); each grasp becomes a
+The data path: a grasp file (:mod:`~synth.sim.document`) names its mesh and how it was
+loaded; the planned part's bodies become its collision shape (:mod:`~synth.sim.shape`: exact
+convex pieces, and the facets of non-convex bodies near the hand); each grasp becomes a
 MuJoCo scene (:mod:`~synth.sim.scene`) of the part and force-limited point fingers with the
 grasp's contact model (:mod:`~synth.sim.contact`) and a hand (:mod:`~synth.sim.settings`);
 the protocol (:mod:`~synth.sim.protocol`) squeezes, adds gravity, pushes and shakes; the label
 (:mod:`~synth.sim.label`) says whether it held, how much, and how it moved;
 :mod:`~synth.sim.plans` does all that to a plan's document. Needs the
-optional extra ``synth[sim]`` (mujoco, coacd).
+optional extra ``synth[sim]`` (mujoco).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ _WHERE = {
     "simulate_jaw_document": "jaws",
     "Escape": "label", "SimLabel": "label", "label_run": "label", "predicted_escape": "label",
     "error_label": "label",
-    "ConvexPieces": "decompose", "cache_dir": "decompose", "convex_pieces": "decompose",
+    "PartShape": "shape", "part_shape": "shape",
     "PLAN_FORMATS": "plans", "simulate_plan": "plans", "unsimulated": "plans",
     "DIRECTIONS": "protocol", "SimRun": "protocol", "run_protocol": "protocol",
     "Scene": "scene", "build_scene": "scene",

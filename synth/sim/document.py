@@ -9,7 +9,6 @@ not checked, and are written back untouched.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -20,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.errors import InputError, shown
+from synth.filetype import read_json
 
 __all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "read_json", "check_document",
            "check_jaw_document", "JAW_FORMAT"]
@@ -364,39 +364,3 @@ def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:
         The file is missing, not JSON, or a field is bad.
     """
     return check_document(read_json(path), str(path))
-
-
-def read_json(path: str | os.PathLike[str], what: str = "a JSON file") -> Any:
-    """The JSON document of a file.
-
-    Parameters
-    ----------
-    path : path
-    what : str
-        What the file should be, for the message when it is a mesh file instead.
-
-    Raises
-    ------
-    InputError
-        The file is missing, cannot be read, is a mesh file, or is not JSON (the message
-        names it).
-    """
-    from synth.part.load import SUPPORTED_FORMATS
-
-    name = str(path)
-    ext = Path(name).suffix.lower().lstrip(".")
-    if ext in SUPPORTED_FORMATS:
-        raise InputError(f"{name}: a mesh file (.{ext}), not {what}; plan it first "
-                         f"(synth plan {name} --out GRASPS.json)")
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{name}: no such file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{name}: not a text file, so not {what}") from None
-    except OSError as e:
-        raise InputError(f"{name}: cannot be read ({e.strerror or e})") from e
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{name}: not JSON ({e.msg} at line {e.lineno})") from None

@@ -30,17 +30,19 @@ from numpy.typing import NDArray
 
 from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.decompose import ConvexPieces
+from synth.sim.shape import PartShape
 from synth.sim.scene import (
     GRAVITY,
     HAND_BITS,
     PART_BITS,
+    REACH_RTOL,
     START_RTOL,
     Scene,
     add_part,
     compile_spec,
     contact_params,
     new_spec,
+    penetration_limit,
 )
 from synth.sim.settings import SimSettings
 
@@ -73,14 +75,26 @@ def jaw_mass(doc: dict[str, Any], part: Any, metres: float, settings: SimSetting
     return float(density) * volume * metres**3
 
 
-def build_jaw_scene(pieces: ConvexPieces, part: Any, pose: NDArray[np.float64], width: float,
+def _between_pads(R: NDArray[np.float64], t: NDArray[np.float64], half: NDArray[np.float64],
+                  reach: float):  # type: ignore[no-untyped-def]
+    """A facet selector for :meth:`PartShape.near`: triangles (mesh frame) whose bounding box
+    in the hand's frame meets the box ``[-half, half]`` grown by ``reach``."""
+    def inside(tri: NDArray[np.float64]) -> NDArray[np.bool_]:
+        h = (tri - t) @ R  # into the hand's frame
+        lo, hi = h.min(axis=1), h.max(axis=1)
+        return np.all((hi >= -half - reach) & (lo <= half + reach), axis=1)
+    return inside
+
+
+def build_jaw_scene(shape: PartShape, part: Any, pose: NDArray[np.float64], width: float,
                     gripper: Any, metres: float, mass: float, settings: SimSettings,
                     contact: ContactModel) -> Scene:
     """Compile the model of one gripper grasp.
 
     Parameters
     ----------
-    pieces : ConvexPieces
+    shape : PartShape
+        The part's collision shape (:func:`synth.sim.part_shape`).
     part : Part
         The part planned on (centre of mass, volume, size).
     pose : (4, 4) float
@@ -109,15 +123,19 @@ def build_jaw_scene(pieces: ConvexPieces, part: Any, pose: NDArray[np.float64], 
     spec = new_spec(settings)
     common = contact_params(settings, contact)
     volume = float(part.volume) if part.volume > 0 else 0.0
-    density = mass / ((volume if volume > 0 else pieces.volume) * metres**3)
-    add_part(spec, pieces, center_mass=com, volume=volume, scale=metres, rotation=R,
-             position=R.T @ (com - t) * metres, density=density, common=common)
     w = float(width) * metres
     pad_w, pad_h = (float(x) for x in gripper.pad_size)
     yc, zc = (float(x) for x in gripper.pad_center)
     zc += float(gripper.rise(min(w, gripper.max_opening)))
     thick = PAD_THICKNESS * min(pad_w, pad_h)
     gap = max(JAW_GAP * w, 0.1 * thick)
+    # the facets the pads can reach: the box they sweep, in mesh units, grown as for fingers
+    half = np.array([0.5 * w + gap + thick, abs(yc) + 0.5 * pad_w, 0.5 * pad_h]) / metres
+    centre = np.array([0.0, 0.0, zc / metres])
+    pieces = shape.near(_between_pads(R, t + R @ centre, half, REACH_RTOL * part.length))
+    density = mass / ((volume if volume > 0 else shape.volume) * metres**3)
+    add_part(spec, shape, pieces, center_mass=com, volume=volume, scale=metres, rotation=R,
+             position=R.T @ (com - t) * metres, density=density, common=common)
     half = [0.5 * thick, 0.5 * pad_w, 0.5 * pad_h]
     kv = 2.0 * np.sqrt(settings.stiffness * settings.finger_mass)
     for j, sign in enumerate((1.0, -1.0)):
@@ -145,13 +163,13 @@ def build_jaw_scene(pieces: ConvexPieces, part: Any, pose: NDArray[np.float64], 
     # tendon length is the sum of both slides: touching at 2 gap, closed at 2 gap + w
     return Scene(model, 1, 1, metres, com, R, float(part.length) * metres, mass, mass * GRAVITY,
                  np.asarray(model.body_inertia[1]), np.zeros(1), np.array([2.0 * gap]),
-                 np.array([2.0 * gap + w]), None, grip, 0.0, 0.5 * thick, START_RTOL * thick,
+                 np.array([2.0 * gap + w]), None, grip, 0.0,
+                 penetration_limit(shape, metres, thick), START_RTOL * thick,
                  np.array([0.0, 0.0, 1.0]), settings, contact)
 
 
 def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings | None = None,
-                          mu: float | None = None, cache: Any = True,
-                          progress: Any = None) -> dict[str, Any]:
+                          mu: float | None = None, progress: Any = None) -> dict[str, Any]:
     """Simulate every grasp of a gripper plan's document; the document with ``sim`` labels.
 
     Parameters
@@ -165,8 +183,6 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     mu : float, optional
         Simulate with this friction coefficient instead of the plan's ``model.mu`` (the
         document keeps its own; the run's ``contact`` says what was simulated).
-    cache : pathlib.Path, True or None
-        Where convex decompositions are cached.
     progress : callable, optional
         Called with (grasps done, grasps) after each grasp.
 
@@ -179,8 +195,8 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
 
     from synth.fingers.gripper import load_gripper
     from synth.formats.arrays import unit_metres
-    from synth.sim.decompose import convex_pieces
     from synth.sim.label import SimLabel, error_label, label_run
+    from synth.sim.shape import part_shape
     from synth.sim.protocol import run_protocol
     from synth.sim.simulate import SimReport
 
@@ -197,25 +213,17 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     contact = ContactModel(float(model["mu"]) if mu is None else mu, torsion)
     mass = jaw_mass(doc, part, metres, st)
     labels: list[SimLabel] = []
-    pieces = None
-    error = None
-    try:
-        pieces = convex_pieces(part, seed=st.seed, cache=cache)
-    except SimulationError as e:
-        error = str(e)
+    shape = part_shape(part)
     for i, g in enumerate(doc["grasps"]):
-        if pieces is None:
-            labels.append(error_label(error or ""))
-        else:
-            try:
-                scene = build_jaw_scene(pieces, part, np.asarray(g["pose"], float),
-                                        float(g["width"]), gripper, metres, mass, st, contact)
-                labels.append(label_run(run_protocol(scene), scene, None))
-            except SimulationError as e:
-                labels.append(error_label(str(e)))
+        try:
+            scene = build_jaw_scene(shape, part, np.asarray(g["pose"], float),
+                                    float(g["width"]), gripper, metres, mass, st, contact)
+            labels.append(label_run(run_protocol(scene), scene, None))
+        except SimulationError as e:
+            labels.append(error_label(str(e)))
         if progress is not None:
             progress(i + 1, len(doc["grasps"]))
-    report = SimReport(tuple(labels), st, contact, pieces, error, time.perf_counter() - t0)
+    report = SimReport(tuple(labels), st, contact, shape, None, time.perf_counter() - t0)
     out = copy.deepcopy(doc)
     for g, lab in zip(out["grasps"], labels, strict=True):
         g["sim"] = lab.to_dict()

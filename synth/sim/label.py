@@ -6,7 +6,7 @@ file's axes, and compared with the escape twist synth predicts for a grasp that 
 closure: ``escape_cos`` is the cosine between the two (1: the part moved exactly as predicted;
 taken in absolute value when the predicted motion is free in both senses).
 
-A label that could not be made (synth's own failure: a decomposition, a MuJoCo load) is an
+A label that could not be made (synth's own failure: a MuJoCo load) is an
 *error* label (:func:`error_label`): ``held`` is null and ``error`` says why. Every label
 names the simulation that made it (``simulator``, :data:`synth.sim.settings.SIMULATOR`).
 """

@@ -24,7 +24,7 @@ PLAN_FORMATS = ("synth.grasps", "synth.gripper_grasps")
 
 def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
                   settings: SimSettings | None = None, *, part: Any = None,
-                  load: dict[str, Any] | None = None, cache: Any = True,
+                  load: dict[str, Any] | None = None,
                   progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """A plan's document with every grasp simulated and labelled (``sim``).
 
@@ -43,8 +43,8 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
         ``mesh_path`` with ``load``, or with the loader options the document records).
     load : dict, optional
         :func:`synth.load_part` keywords for that.
-    cache, progress
-        As :func:`synth.sim.simulate_file` takes them.
+    progress
+        As :func:`synth.sim.simulate_file` takes it.
 
     Returns
     -------
@@ -56,7 +56,7 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
     InputError
         The document is of another format, a field the simulation needs is missing or bad
         (the message names it), or the mesh changed since it was planned. A grasp synth
-        cannot simulate (a decomposition or a MuJoCo load failing) gets an error label
+        cannot simulate (a MuJoCo load failing) gets an error label
         instead (``sim.failed_at == "error"``).
 
     Examples
@@ -80,11 +80,11 @@ def simulate_plan(doc: dict[str, Any], mesh_path: str | os.PathLike[str],
                 {"units": mesh.get("units"), "body": mesh.get("body", "largest"),
                  "sharp_angle": mesh.get("sharp_angle", 30.0)})))
         return simulate_jaw_document(check_jaw_document(doc, str(mesh_path)), part, settings,
-                                     cache=cache, progress=progress)
+                                     progress=progress)
     file = replace(check_document(doc, str(mesh_path)), mesh_path=Path(mesh_path))
     if load is not None:
         file = replace(file, load=load)
-    return labelled_document(file, simulate_file(file, settings, part=part, cache=cache,
+    return labelled_document(file, simulate_file(file, settings, part=part,
                                                  progress=progress))
 
 

@@ -8,8 +8,8 @@ along -z of the file.
 
 * The part is one body with a free joint, its frame at the centre of mass, its mass and
   inertia those of the part's closed bodies at the settings' density (given explicitly:
-  MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece
-  (:mod:`synth.sim.decompose`). A weld (the equality ``hold``) keeps it in place while the
+  MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece and per
+  facet slab near the fingers (:mod:`synth.sim.shape`). A weld (the equality ``hold``) keeps it in place while the
   hand closes and squeezes, as a part rests where it is while fingers close on it; the
   protocol then lets go, and the part is held by the fingers alone.
 * Each finger is a sphere of the planned tip radius on a slide joint along its approach,
@@ -39,12 +39,12 @@ from numpy.typing import NDArray
 
 from synth.errors import SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.decompose import ConvexPieces
+from synth.sim.shape import PartShape, within
 from synth.sim.settings import TRANSLATION_RTOL, SimSettings
 
 __all__ = ["Scene", "build_scene", "new_spec", "add_part", "compile_spec", "quiet_mujoco",
            "contact_params", "GRAVITY",
-           "IMPRATIO", "START_GAP", "START_RTOL", "PART_BITS", "HAND_BITS"]
+           "IMPRATIO", "START_GAP", "START_RTOL", "REACH_RTOL", "penetration_limit", "PART_BITS", "HAND_BITS"]
 
 #: Standard gravity, m/s^2.
 GRAVITY: float = 9.80665
@@ -158,7 +158,8 @@ def contact_params(settings: SimSettings, contact: ContactModel) -> dict[str, An
             "solref": [2.0 * settings.dt, 1.0]}
 
 
-def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64],
+def add_part(spec: Any, shape: PartShape, pieces: list[NDArray[np.float64]], *,
+             center_mass: NDArray[np.float64],
              volume: float, scale: float, rotation: NDArray[np.float64] | None = None,
              position: NDArray[np.float64] | None = None, density: float,
              common: dict[str, Any]) -> Any:
@@ -168,7 +169,10 @@ def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64
     Parameters
     ----------
     spec : mujoco.MjSpec
-    pieces : ConvexPieces
+    shape : PartShape
+        The part's mass properties.
+    pieces : list of (m, 3) float
+        The convex pieces to collide (:meth:`PartShape.near`).
     center_mass : (3,) float
         Mesh coordinates.
     volume : float
@@ -192,11 +196,11 @@ def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64
 
     R = np.eye(3) if rotation is None else np.asarray(rotation, float)
     com = np.asarray(center_mass, float)
-    vol = volume if volume > 0 else pieces.volume
+    vol = volume if volume > 0 else shape.volume
     mass = density * vol * scale**3
-    d = pieces.center - com
-    inertia = pieces.inertia + pieces.volume * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    inertia = R.T @ inertia @ R * (vol / pieces.volume) * density * scale**5
+    d = shape.center - com
+    inertia = shape.inertia + shape.volume * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    inertia = R.T @ inertia @ R * (vol / shape.volume) * density * scale**5
     moments, axes = np.linalg.eigh(inertia)
     if np.linalg.det(axes) < 0:
         axes[:, 0] *= -1
@@ -213,9 +217,9 @@ def add_part(spec: Any, pieces: ConvexPieces, *, center_mass: NDArray[np.float64
     body.mass = mass
     body.ipos = [0.0, 0.0, 0.0]
     body.iquat = quat.tolist()
-    size = float(np.linalg.norm(np.ptp(np.concatenate(pieces.pieces), axis=0))) * scale
+    size = vol ** (1.0 / 3.0) * scale
     body.inertia = np.maximum(moments, 1e-12 * mass * size**2).tolist()
-    for i, v in enumerate(pieces.pieces):
+    for i, v in enumerate(pieces):
         spec.add_mesh(name=f"piece{i}", uservert=(((v - com) @ R) * scale).ravel().tolist())
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"piece{i}",
                       contype=PART_BITS, conaffinity=HAND_BITS, **common)
@@ -237,6 +241,16 @@ def quiet_mujoco() -> Iterator[None]:
         mujoco.set_mju_user_warning(saved)
 
 
+def penetration_limit(shape: PartShape, scale: float, size: float) -> float:
+    """How deep a finger of ``size`` (a tip radius, a pad's thickness; m) may sink before the
+    simulation is stopped as diverged: half its size, and half the facets' slabs when the
+    part has some (deeper, a finger would push through a slab)."""
+    limit = 0.5 * size
+    if len(shape.triangles):
+        limit = min(limit, 0.5 * shape.slab * scale)
+    return limit
+
+
 def compile_spec(spec: Any) -> Any:
     """The compiled model; MuJoCo's refusal as :class:`~synth.errors.SimulationError`."""
     try:
@@ -247,7 +261,12 @@ def compile_spec(spec: Any) -> Any:
         raise SimulationError(f"MuJoCo cannot load the scene: {reason}") from e
 
 
-def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
+#: How far the part may move before the protocol calls it moved, with room to spare, as a
+#: fraction of its size: facets farther than this from a finger are left out of its scene.
+REACH_RTOL: float = 0.03
+
+
+def build_scene(shape: PartShape, tip_centers: NDArray[np.float64],
                 approach: NDArray[np.float64], tip_radius: float, *, length: float,
                 center_mass: NDArray[np.float64], volume: float, settings: SimSettings,
                 contact: ContactModel, preload: NDArray[np.float64] | None = None) -> Scene:
@@ -255,8 +274,8 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
 
     Parameters
     ----------
-    pieces : ConvexPieces
-        The part's convex pieces (:func:`synth.sim.convex_pieces`).
+    shape : PartShape
+        The part's collision shape (:func:`synth.sim.part_shape`).
     tip_centers : (f, 3) float
         Planned fingertip centres, mesh coordinates.
     approach : (f, 3) float
@@ -290,13 +309,15 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
     com = np.asarray(center_mass, float)
     spec = new_spec(settings)
     common = contact_params(settings, contact)
-    add_part(spec, pieces, center_mass=com, volume=volume, scale=s,
+    C = np.asarray(tip_centers, float)
+    A = np.asarray(approach, float)
+    reach = (1.0 + START_GAP) * tip_radius + REACH_RTOL * length
+    pieces = shape.near(within(C, reach))
+    add_part(spec, shape, pieces, center_mass=com, volume=volume, scale=s,
              density=settings.density, common=common)
     radius = tip_radius * s
     gap = START_GAP * radius
     kv = 2.0 * np.sqrt(settings.stiffness * settings.finger_mass)
-    C = np.asarray(tip_centers, float)
-    A = np.asarray(approach, float)
     for j, (c, a) in enumerate(zip(C, A, strict=True)):
         body = spec.worldbody.add_body(name=f"finger{j}", pos=((c - com) * s + gap * a).tolist())
         body.gravcomp = 1.0
@@ -325,5 +346,5 @@ def build_scene(pieces: ConvexPieces, tip_centers: NDArray[np.float64],
     return Scene(model, 1, f, s, com, np.eye(3), settings.size, float(model.body_mass[1]),
                  float(model.body_mass[1]) * GRAVITY, np.asarray(model.body_inertia[1]),
                  np.zeros(f), touch, squeeze, target, settings.grip, settings.stroke,
-                 0.5 * radius, START_RTOL * radius,
+                 penetration_limit(shape, s, radius), START_RTOL * radius,
                  np.array([0.0, 0.0, -1.0]), settings, contact)

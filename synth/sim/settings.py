@@ -35,7 +35,6 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from synth.errors import InputError, shown
-from synth.limits import MAX_SEED
 
 __all__ = ["SimSettings", "SIMULATOR", "HANDS", "TRANSLATION_RTOL", "MAX_TIMESTEP", "RANGES"]
 
@@ -93,8 +92,8 @@ class SimSettings:
     noslip : int
         Iterations of MuJoCo's noslip solver (default 10): without it soft friction lets a
         squeezed part creep under a steady load.
-    seed : int
-        Seed of the convex decomposition (CoACD); the simulation itself is deterministic.
+
+    The simulation is deterministic: the same settings give the same labels.
     """
 
     hand: str = "balanced"
@@ -108,7 +107,6 @@ class SimSettings:
     timestep: float | None = None
     iterations: int = 100
     noslip: int = 10
-    seed: int = 0
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -119,7 +117,7 @@ class SimSettings:
                     not (math.isfinite(v) and lo <= v <= hi):
                 raise InputError(f"{name}: expected a number from {lo:g} to {hi:g}, got "
                                  f"{shown(v)}")
-        for name, (lo, hi) in {**COUNTS, "seed": (0, MAX_SEED)}.items():
+        for name, (lo, hi) in COUNTS.items():
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
                 raise InputError(f"{name}: expected an integer from {lo} to {hi:,}, got "

@@ -1,10 +1,11 @@
 """Simulate every grasp of a grasp file on the part that was planned, and label it.
 
 :func:`simulate_file` loads the part again with the loader and options the plan used (or
-takes the :class:`~synth.part.Part` the planner just used), builds its convex pieces once, then
-for each grasp computes the hand's squeeze (:func:`balanced_preload`), compiles its scene
+takes the :class:`~synth.part.Part` the planner just used), builds its collision shape once
+(:mod:`synth.sim.shape`), then for each grasp computes the hand's squeeze
+(:func:`balanced_preload`), compiles its scene
 (:mod:`synth.sim.scene`), runs the protocol (:mod:`synth.sim.protocol`) and labels it
-(:mod:`synth.sim.label`). A failure of synth's own (CoACD, a MuJoCo compile) gives the grasps
+(:mod:`synth.sim.label`). A failure of synth's own (a MuJoCo compile) gives the grasps
 it touches an error label with the reason; it never stops the run nor discards a plan.
 :func:`labelled_document` returns the grasp document with a ``sim`` object added to each grasp
 and one describing the run at the top.
@@ -42,24 +43,24 @@ class SimReport:
         One per grasp, in the file's order.
     settings : SimSettings
     contact : ContactModel
-    pieces : ConvexPieces or None
-        The part as simulated (None when it could not be decomposed).
+    shape : PartShape or None
+        The part as simulated.
     error : str or None
         Why no grasp could be simulated (then every label is an error label).
     seconds : float
-        Wall-clock time of the whole run, decomposition included.
+        Wall-clock time of the whole run.
     """
 
     labels: tuple[SimLabel, ...]
     settings: SimSettings
     contact: ContactModel
-    pieces: Any = field(repr=False)
+    shape: Any = field(repr=False)
     error: str | None
     seconds: float
 
     def to_dict(self) -> dict[str, Any]:
         """The top-level ``sim`` object of a labelled grasp file."""
-        p = {} if self.pieces is None else self.pieces.to_dict()
+        p = {} if self.shape is None else self.shape.to_dict()
         return {
             "settings": self.settings.to_dict(),
             "contact": {"mu": self.contact.mu, "torsion": self.contact.torsion,
@@ -73,7 +74,7 @@ class SimReport:
 
 
 def require_sim() -> None:
-    """Refuse to simulate without the optional packages (mujoco, coacd).
+    """Refuse to simulate without the optional package (mujoco).
 
     Raises
     ------
@@ -82,12 +83,11 @@ def require_sim() -> None:
     """
     import importlib
 
-    for name in ("mujoco", "coacd"):
-        try:
-            importlib.import_module(name)
-        except ImportError:
-            raise InputError(f"simulation needs the packages mujoco and coacd, and {name} is "
-                             "not installed: pip install 'synth[sim]'") from None
+    try:
+        importlib.import_module("mujoco")
+    except ImportError:
+        raise InputError("simulation needs the package mujoco, which is not installed: pip "
+                         "install 'synth[sim]'") from None
 
 
 def check_mesh(file: GraspFile) -> None:
@@ -161,7 +161,7 @@ def balanced_preload(g: SimGrasp, center_mass: NDArray[np.float64], length: floa
 
 
 def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
-                  contact: ContactModel | None = None, part: Any = None, cache: Any = True,
+                  contact: ContactModel | None = None, part: Any = None,
                   progress: Callable[[int, int], None] | None = None) -> SimReport:
     """Simulate every grasp of a checked grasp file.
 
@@ -176,8 +176,6 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     part : Part, optional
         The part the grasps were planned on (default: loaded again from the file's mesh with
         the recorded loader options, :func:`load_planned_part`).
-    cache : pathlib.Path, True or None
-        Where convex decompositions are cached (see :func:`synth.sim.convex_pieces`).
     progress : callable, optional
         Called with (grasps done, grasps) after each grasp.
 
@@ -192,9 +190,9 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     >>> [lab.held for lab in report.labels]
     [True, True, True]
     """
-    from synth.sim.decompose import convex_pieces
     from synth.sim.protocol import run_protocol
     from synth.sim.scene import build_scene
+    from synth.sim.shape import part_shape
 
     t0 = time.perf_counter()
     st = settings or SimSettings()
@@ -202,17 +200,13 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     if not file.grasps:
         raise InputError(f"{file.path}: field grasps: no grasp to simulate")
     part = part if part is not None else load_planned_part(file)
-    try:
-        pieces = convex_pieces(part, seed=st.seed, cache=cache)
-    except SimulationError as e:
-        labels = tuple(error_label(str(e)) for _ in file.grasps)
-        return SimReport(labels, st, model, None, str(e), time.perf_counter() - t0)
+    shape = part_shape(part)
     out: list[SimLabel] = []
     for i, g in enumerate(file.grasps):
         try:
             preload = None if st.hand == "saturated" else balanced_preload(
                 g, file.center_mass, file.length, model.mu, st.grip)
-            scene = build_scene(pieces, g.tip_centers, g.approach, g.tip_radius,
+            scene = build_scene(shape, g.tip_centers, g.approach, g.tip_radius,
                                 length=file.length, center_mass=file.center_mass,
                                 volume=file.volume, settings=st, contact=model,
                                 preload=preload)
@@ -223,7 +217,7 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
             out.append(error_label(str(e)))
         if progress is not None:
             progress(i + 1, len(file.grasps))
-    return SimReport(tuple(out), st, model, pieces, None, time.perf_counter() - t0)
+    return SimReport(tuple(out), st, model, shape, None, time.perf_counter() - t0)
 
 
 def labelled_document(file: GraspFile, report: SimReport) -> dict[str, Any]:

@@ -21,8 +21,8 @@ from synth.cli.vocabulary import add_json, add_quiet, exit_epilog, top_help
 from synth.limits import MAX_TOP
 from synth.errors import shown
 from synth.filetype import MESH_FORMATS
-from synth.database.store import GRIPPER_TOP_ORDERS, TOP_ORDERS
-from synth.plan.params import BUILD_TIME, PlanParams
+from synth.plan.gripper_params import GRIPPER_RANK_BY
+from synth.plan.params import BUILD_TIME, RANK_BY, PlanParams
 
 __all__ = ["add_db_parser", "run_db"]
 
@@ -126,8 +126,6 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "cycle, is searched once), mesh files, or text files listing mesh paths")
     b.add_argument("--out", required=True, metavar="DB",
                    help="the database file, created or resumed (one build at a time writes it)")
-    from synth.plan.gripper import GRIPPER_RANK_BY
-
     add_planning_options(b, time=BUILD_TIME, rank_by_extra=GRIPPER_RANK_BY)
     b.add_argument("--workers", type=_int_in(*_WORKERS), default=None, metavar="N",
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
@@ -168,7 +166,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
     t.add_argument("--top", "-k", type=_int_in(*_K), default=5, metavar="N",
                    help=top_help("grasps", 5, listing=True) + "; -k is its old spelling")
-    t.add_argument("--rank-by", choices=tuple(dict.fromkeys(TOP_ORDERS + GRIPPER_TOP_ORDERS)),
+    t.add_argument("--rank-by", choices=tuple(dict.fromkeys(("rank",) + RANK_BY
+                                                            + GRIPPER_RANK_BY)),
                    default="rank",
                    help="order of the grasps (default rank: the database's own, its build's "
                    "--rank-by). Point-finger grasps: d_star, by d* as printed, 5 decimals, then "

@@ -127,8 +127,9 @@ def test_units_are_required_and_a_large_part_is_told_so(tmp_path, capsys):
     assert main(["plan", cube, "--units", "dm", "--gripper", "franka", "--no-files",
                  "--samples", "20"]) == 1
     assert "narrowest width found is 100 mm" in capsys.readouterr().out
-    # a gripper-only option without --gripper (--mass now also serves point fingers' --grip)
+    # the pads' torsion means nothing to point fingers (their --mass and --density do)
     assert main(["plan", cube, "--units", "cm", "--torsion", "0.1", "--no-files"]) == 2
+    assert "--torsion applies to gripper grasps" in capsys.readouterr().err
     bad = tmp_path / "g.json"
     bad.write_text('{"format": "synth.gripper", "version": 1, "name": "x", "max_opening": 0}')
     assert main(["plan", cube, "--units", "cm", "--gripper", str(bad), "--no-files"]) == 2

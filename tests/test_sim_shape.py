@@ -38,7 +38,8 @@ def test_a_non_convex_body_is_its_facets_near_the_hand(mesh, units):
     assert s.faceted == 1 and len(s.pieces) == 0 and len(s.triangles) == len(part.mesh.faces)
     assert s.slab == pytest.approx(SLAB_RTOL * part.length)
     assert s.volume == pytest.approx(part.volume)
-    everything = s.near(lambda tri: np.ones(len(tri), bool))
+    everything, depths = s.near(lambda tri: np.ones(len(tri), bool))
+    assert len(depths) == len(everything) and np.all((depths > 0) & (depths <= s.slab))
     # convex patches: fewer slabs than facets, every facet in one, each slab a solid
     assert len(everything) < len(part.mesh.faces) and all(_solid(v) for v in everything)
     # each slab's outer face is the mesh's: its corners are the mesh's vertices, and the
@@ -55,7 +56,7 @@ def test_a_non_convex_body_is_its_facets_near_the_hand(mesh, units):
     assert trimesh.proximity.signed_distance(part.mesh, mids).min() >= -1e-6 * part.length
     # near a point, only the facets within reach
     c = part.mesh.vertices[0]
-    few = s.near(within(c[None], 0.05 * part.length))
+    few, _ = s.near(within(c[None], 0.05 * part.length))
     assert 0 < len(few) < len(everything)
 
 

@@ -5,8 +5,9 @@ the physical floor (its fingers need at most ``PlanParams.max_squeeze`` times th
 weight to hold it in every orientation, :mod:`synth.scores.hold`; checked here for
 frictionless grasps of one contact per fingertip, and for every grasp when it is chosen),
 is conditioned at least ``PlanParams.min_conditioning``, and its fingertips do not overlap;
-d* - 1 when closure, the floor or conditioning fails (so better candidates still rank
-higher); -2 when two fingertips overlap. All of it under the surface model ``PlanParams.surface``
+``floor / squeeze - 1`` (in (-1, 0)) for a closure grasp above the floor, so that a climber
+moves towards grasps that hold; d* - 1 when closure or conditioning fails (so better
+candidates still rank higher); -2 when two fingertips overlap. All of it under the surface model ``PlanParams.surface``
 (:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must hold with the
 mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every
 candidate scored counts as one evaluation of the budget.
@@ -114,6 +115,10 @@ class Scorer:
     timed_out : bool
         True once the deadline was found passed; grasps left unscored then have d* 0 and the
         lowest fitness.
+    above_floor : int
+        Closure grasps scored that need more squeeze than the physical floor.
+    least_above : float
+        The least squeeze per weight among those (inf when none).
     """
 
     def __init__(self, part: Any, params: PlanParams, fingers: Fingers,
@@ -123,6 +128,8 @@ class Scorer:
         self.params = params
         self.r = float(fingers.tip_radius)
         self.evaluations = 0
+        self.above_floor = 0
+        self.least_above = math.inf
         self.deadline = np.inf if deadline is None else float(deadline)
         self.timed_out = False
         # LP columns per grasp, a frictional column weighted 4x (its LP is far more degenerate)
@@ -164,10 +171,11 @@ class Scorer:
         return d, fit
 
     def _closure(self, P: NDArray[np.float64], N: NDArray[np.float64], own: bool = True
-                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-        """d* and whether each grasp is (frictional) form closure with the normals ``N``,
-        within the physical floor (frictionless, ``own``: one contact per fingertip) and
-        conditioned at least ``min_conditioning``."""
+                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+        """d*, whether each grasp is (frictional) form closure with the normals ``N``, within
+        the physical floor (frictionless, ``own``: one contact per fingertip) and conditioned
+        at least ``min_conditioning``, and for a closure grasp the floor over its least
+        squeeze (1 where it passes or is not checked; 0 for a grasp that is not closure)."""
         prm = self.params
         # the numpy simplex always: a plan must not depend on whether numba is installed, nor
         # stall in the kernel's first compile (about 10 s) under a time cap
@@ -178,24 +186,31 @@ class Scorer:
             res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges,
                                                 compiled=False)
         d, ok = res.d_star, res.closure.copy()
+        ratio = ok.astype(float)
         if ok.any() and prm.mu == 0 and own and math.isfinite(prm.floor):
-            hold = stiff_hold_batch(P[ok], N[ok], self.center, self.length)
-            ok[ok] = hold.squeeze_per_weight <= prm.floor
+            spw = stiff_hold_batch(P[ok], N[ok], self.center, self.length).squeeze_per_weight
+            with np.errstate(divide="ignore"):
+                ratio[ok] = np.minimum(1.0, prm.floor / spw)
+            over = spw > prm.floor
+            self.above_floor += int(over.sum())
+            self.least_above = min(self.least_above, float(spw[over].min(initial=math.inf)))
+            ok[ok] = ~over
         if ok.any() and prm.min_conditioning > 0:  # conditioning matters only for closure
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
-        return d, ok
+        return d, ok, ratio
 
     def _chunk(self, P: NDArray[np.float64], N: NDArray[np.float64], S: NDArray[np.float64],
                finger: NDArray[np.int64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """d* and fitness of one chunk: every array here is as large as the chunk, no larger."""
         sets = self.readings(N, S)
         own = finger is None or bool((finger == np.arange(P.shape[1])).all())
-        d, ok = self._closure(P, sets[0], own)
+        d, ok, ratio = self._closure(P, sets[0], own)
         if len(sets) == 2:  # the second reading only where it differs from the first
             rows = np.flatnonzero(differs(N, S))
             if len(rows):
-                d2, ok2 = self._closure(P[rows], S[rows], own)
+                d2, ok2, ratio2 = self._closure(P[rows], S[rows], own)
                 d[rows], ok[rows] = np.minimum(d[rows], d2), ok[rows] & ok2
+                ratio[rows] = np.minimum(ratio[rows], ratio2)
         if finger is None:
             tips, present = P - self.r * N, np.ones(P.shape[:2], bool)
         else:
@@ -204,7 +219,8 @@ class Scorer:
         gap = np.where(present[:, iu[0]] & present[:, iu[1]],
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
-        return d, np.where(tips_ok, np.where(ok, d, d - 1.0), -2.0)
+        above = ~ok & (ratio > 0) & (ratio < 1)  # closure, above the floor
+        return d, np.where(tips_ok, np.where(ok, d, np.where(above, ratio - 1.0, d - 1.0)), -2.0)
 
     def score(self, b: GraspBatch) -> None:
         """Fill in ``b.d`` and ``b.fit``."""

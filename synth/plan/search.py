@@ -183,6 +183,13 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif rejected:
         message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
                    f"{_dropped(rejected, prm)}")
+    elif score.above_floor and not (archive.fit > 0).any():
+        message = (f"{score.above_floor} closure grasps were found, but none within the "
+                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
+                   f"weight per finger to hold it in every orientation, above --max-squeeze "
+                   f"{prm.floor:g}" + (f"; a budget above --evals {prm.evals} may find one that "
+                                       "holds" if prm.evals < PlanParams().evals else "")
+                   + "; --max-squeeze 0 returns them anyway")
     elif not stopped_by_time and len(archive) and not (
             (archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
             (archive.d > 0).any() or not (archive.fit > _OVERLAP).any()):

@@ -132,7 +132,8 @@ def build_jaw_scene(shape: PartShape, part: Any, pose: NDArray[np.float64], widt
     # the facets the pads can reach: the box they sweep, in mesh units, grown as for fingers
     half = np.array([0.5 * w + gap + thick, abs(yc) + 0.5 * pad_w, 0.5 * pad_h]) / metres
     centre = np.array([0.0, 0.0, zc / metres])
-    pieces = shape.near(_between_pads(R, t + R @ centre, half, REACH_RTOL * part.length))
+    pieces, depths = shape.near(_between_pads(R, t + R @ centre, half,
+                                              REACH_RTOL * part.length))
     density = mass / ((volume if volume > 0 else shape.volume) * metres**3)
     add_part(spec, shape, pieces, center_mass=com, volume=volume, scale=metres, rotation=R,
              position=R.T @ (com - t) * metres, density=density, common=common)
@@ -164,7 +165,7 @@ def build_jaw_scene(shape: PartShape, part: Any, pose: NDArray[np.float64], widt
     return Scene(model, 1, 1, metres, com, R, float(part.length) * metres, mass, mass * GRAVITY,
                  np.asarray(model.body_inertia[1]), np.zeros(1), np.array([2.0 * gap]),
                  np.array([2.0 * gap + w]), None, grip, 0.0,
-                 penetration_limit(shape, metres, thick), START_RTOL * thick,
+                 penetration_limit(model, depths, metres, thick), START_RTOL * thick,
                  np.array([0.0, 0.0, 1.0]), settings, contact)
 
 

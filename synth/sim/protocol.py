@@ -197,11 +197,13 @@ class _Runner:
         if speed > SPEED_LIMIT:
             raise _Diverged(f"the part flew off at {speed:.3g} sizes per second")
         if d.ncon:
-            deepest = -float(d.contact.dist[: d.ncon].min())
+            con = d.contact[: d.ncon]
             lim = self.scene.penetration_limit
-            if deepest > lim:
-                raise _Diverged(f"a finger sank {deepest * 1e3:.3g} mm into the part (limit "
-                                f"{lim * 1e3:.3g} mm)")
+            over = -con.dist - np.minimum(lim[con.geom1], lim[con.geom2])
+            k = int(np.argmax(over))
+            if over[k] > 0:
+                raise _Diverged(f"a finger sank {-con.dist[k] * 1e3:.3g} mm into the part "
+                                f"(limit {(-con.dist[k] - over[k]) * 1e3:.3g} mm)")
 
     def run(self, seconds: float, each, ref) -> NDArray[np.float64] | None:
         """Step for ``seconds``, calling ``each(fraction of the time)`` before each step; the

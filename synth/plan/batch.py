@@ -26,14 +26,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.fingers import Fingers, tip_centers
+from synth.fingers import Fingers, default_fingers, tip_centers
 from synth.plan.params import PlanParams
 from synth.scores import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
 from synth.scores.surface import differs, readings
 
-__all__ = ["GraspBatch", "Scorer", "distinct_top"]
+__all__ = ["GraspBatch", "Scorer", "distinct_top", "admitted_d_star", "admission_key"]
 
 _CHUNK = 4096
 _FIELDS = ("points", "normals", "smooth", "faces", "regions", "d", "fit", "finger")
@@ -219,3 +219,48 @@ def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:
         if len(out) == n:
             break
     return np.array(out, dtype=np.int64)
+
+
+def admitted_d_star(part: Any, points: NDArray[np.float64], normals: NDArray[np.float64],
+                    smooth: NDArray[np.float64], params: PlanParams | None = None,
+                    fingers: Fingers | None = None) -> NDArray[np.float64]:
+    """d* of each grasp where the planner admits it, else -1: the planner's own rules
+    (:class:`Scorer`, whatever they are now: closure and the floor under every reading of the
+    surface model, fingertips apart), for benchmarks and references that must follow them.
+
+    Parameters
+    ----------
+    part : synth.Part
+    points, normals, smooth : (B, k, 3) float
+        Contacts, the mesh's inward normals and the smooth reading's.
+    params : PlanParams, optional
+        The rules' parameters (surface model, friction, floor); default ``PlanParams()``.
+    fingers : Fingers, optional
+        Default :func:`synth.default_fingers` of the part.
+
+    Returns
+    -------
+    d : (B,) float
+        The d* the planner reports where admitted, -1 elsewhere.
+    """
+    prm = params or PlanParams()
+    fg = fingers or default_fingers(part)
+    _, fit = Scorer(part, prm, fg)(np.asarray(points, float), np.asarray(normals, float),
+                                   np.asarray(smooth, float))
+    return np.where(fit > 0, fit, -1.0)
+
+
+def admission_key(params: PlanParams | None = None) -> str:
+    """A short fingerprint of the admission rules: the source of the scorer (this module) and
+    the parameters that are not search effort. A stored reference whose key differs was
+    computed under other rules and must be scored again."""
+    import hashlib
+    import inspect
+    import sys
+    from dataclasses import asdict
+
+    prm = asdict(params or PlanParams())
+    for effort in ("evals", "time", "seed", "top", "rank_by", "regions", "diversity"):
+        prm.pop(effort, None)
+    text = inspect.getsource(sys.modules[__name__]) + repr(sorted(prm.items()))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]

@@ -102,7 +102,6 @@ def reference_search(part: Any, seconds: float, seed: int, prm: PlanParams, k: i
                      ) -> Found | None:
     """The best admitted grasp of the hill-climb in ``seconds`` (see the module notes)."""
     rng = np.random.default_rng(seed)
-    t_end_random = time.perf_counter() + 0.3 * seconds
     fingers = default_fingers(part)
     L = part.length
 
@@ -115,6 +114,7 @@ def reference_search(part: Any, seconds: float, seed: int, prm: PlanParams, k: i
                       pool.faces[single])
     ok = _reachable(part, PP, PN, fingers)
     PP, PN, PS, PF = PP[ok], PN[ok], PS[ok], PF[ok]
+    t_end_random = time.perf_counter() + 0.3 * seconds  # the pool's sampling is not counted
     best_sets: list[tuple[float, np.ndarray]] = []
     while time.perf_counter() < t_end_random and len(PP) >= k:
         idx = rng.integers(0, len(PP), size=(4096, k))
@@ -197,7 +197,7 @@ def main() -> None:
         for method, found in runs:
             if found is not None and (best is None or found[0] > best[0][0]):
                 best = (found, method)
-        line = "  ".join(f"{m.split(' seed ')[0][:7]} {m.split(' seed ')[-1]}: "
+        line = "  ".join(f"{m.split()[0]} {m.split(' seed ')[-1]}: "
                          f"{f[0] if f else 0.0:.4f}" for m, f in runs)
         if best is None:
             table.pop(name, None)

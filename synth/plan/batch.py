@@ -19,6 +19,7 @@ results can depend on how it is split, and the same seed must give the same gras
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -190,7 +191,7 @@ class Scorer:
             tips, present = P - self.r * N, np.ones(P.shape[:2], bool)
         else:
             tips, present, _, _ = tip_centers(P, N, self.r, finger)
-        iu = np.triu_indices(P.shape[1], 1)
+        iu = _pairs(P.shape[1])
         gap = np.where(present[:, iu[0]] & present[:, iu[1]],
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
@@ -201,6 +202,16 @@ class Scorer:
         k = b.finger.shape[1]
         own = bool((b.finger == np.arange(k)).all())  # one fingertip per contact
         b.d, b.fit = self(b.points, b.normals, b.smooth, None if own else b.finger)
+
+
+@functools.lru_cache(maxsize=None)
+def _pairs(k: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``np.triu_indices(k, 1)``, kept (it costs about 0.1 ms, and the scorer asks for it
+    on every chunk)."""
+    iu = np.triu_indices(k, 1)
+    for a in iu:
+        a.flags.writeable = False
+    return iu
 
 
 def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:

@@ -168,10 +168,11 @@ def main() -> None:
     ap.add_argument("--climb-seconds", type=float, default=20.0,
                     help="seconds of each hill-climb seed (0: skip the hill-climb)")
     ap.add_argument("--climb-seeds", type=int, nargs="*", default=[0, 1])
+    ap.add_argument("--cache", type=Path, default=CACHE, help="the reference file to update")
     args = ap.parse_args()
     prm = PlanParams(surface=args.surface)
     key = admission_key(prm)
-    cache = json.loads(CACHE.read_text()) if CACHE.exists() else {}
+    cache = json.loads(args.cache.read_text()) if args.cache.exists() else {}
     table = cache.setdefault(args.surface, {})
     today = datetime.now(timezone.utc).strftime("%Y-%m-%d")
     for name, path, units, _ in parts(args.files):
@@ -210,7 +211,7 @@ def main() -> None:
                                "key": key, "computed": today}
             print(f"{name[:44]:44s} best {table[name]['best']:.4f} ({table[name]['method']})  "
                   f"{line}", flush=True)
-        CACHE.write_text(json.dumps(cache, indent=1, sort_keys=True) + "\n")
+        args.cache.write_text(json.dumps(cache, indent=1, sort_keys=True) + "\n")
 
 
 if __name__ == "__main__":

@@ -74,7 +74,7 @@ def main() -> None:
             ds.append(plan.grasps[0].d_star if plan.grasps else 0.0)
             stopped += plan.stopped_by_time
         stored = refs.get(name)
-        ref, note = float("nan"), ""
+        ref, note = float("nan"), " no reference yet" if stored is None else ""
         if stored is not None:
             ref = stored["best"]
             if stored.get("key") != key:
@@ -91,12 +91,13 @@ def main() -> None:
         print(f"{('*' if held else '') + name[:41]:42s} {len(part.mesh.faces):>7} {ds[0]:>7.4f} "
               f"{min(ds):>8.4f} {max(ds):>6.4f} {ref:>9.4f} {ratio:>6.3f} {low:>9.3f} "
               f"{ts[0]:>5.2f} {max(ts):>5.2f} {stopped:>3}{note}", flush=True)
-    r, w = np.array(ratios), np.array(worst)
+    r, w = np.array(ratios + [np.nan]), np.array(worst + [np.nan])  # nan: none at all
     print(f"{len(r)} parts, {len(times)} plans: CPU time median {np.median(times):.2f} s "
           f"(target <= 0.5), max {max(times):.2f} s (target <= 1.5); plans stopped by the time "
-          f"cap: {cut}; first grasp / reference at seed 0: median {np.median(r):.3f}, min "
-          f"{r.min():.3f}, parts >= 0.99: {int((r >= 0.99).sum())} of {len(r)}; over seeds "
-          f"0-3: min {w.min():.3f}, runs >= 0.99 everywhere on {int((w >= 0.99).sum())} parts")
+          f"cap: {cut}; first grasp / reference at seed 0: median {np.nanmedian(r):.3f}, min "
+          f"{np.nanmin(r):.3f}, parts >= 0.99: {int((r >= 0.99).sum())} of {len(ratios)}; over "
+          f"seeds 0-3: min {np.nanmin(w):.3f}, runs >= 0.99 everywhere on "
+          f"{int((w >= 0.99).sum())} parts")
 
 
 if __name__ == "__main__":

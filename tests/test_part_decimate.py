@@ -38,7 +38,7 @@ def test_a_mesh_above_max_faces_loads_only_decimated(monkeypatch, tmp_path):
     path = tmp_path / "blob.stl"
     trimesh.creation.icosphere(subdivisions=4).export(path)  # 5120 faces
     monkeypatch.setattr(load_module, "MAX_FACES", 3000)
-    with pytest.raises(MeshError, match="--decimate N"):
+    with pytest.raises(MeshError, match="decimate=N"):
         load_part(path)
     part = load_part(path, decimate=2000)
     assert len(part.mesh.faces) <= 2000

@@ -18,8 +18,7 @@ def load_part_from_args(args: argparse.Namespace):
     from synth.part import load_part
     from synth.plan import load_options
 
-    return load_part(args.mesh, **load_options(vars(args)),
-                     decimate=getattr(args, "decimate", None))
+    return load_part(args.mesh, **load_options(vars(args)))
 
 
 def report_part(part, quiet: bool) -> None:  # type: ignore[no-untyped-def]
@@ -63,12 +62,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     from synth.plan.gripper import GRIPPER_RANK_BY
 
     add_planning_options(p, time=PlanParams().time, rank_by_extra=GRIPPER_RANK_BY)
-    from synth.limits import MAX_FACES
-
-    p.add_argument("--decimate", type=int, default=None, metavar="N",
-                   help=f"decimate a mesh of more than N triangles to N (4 to {MAX_FACES:,}) "
-                   f"on loading, reporting the surface error (needs fast-simplification); a "
-                   f"mesh above {MAX_FACES:,} triangles is refused without it")
     add_gripper_options(p)
     p.set_defaults(mu=None, rank_by=None)  # their defaults differ with --gripper
     o = p.add_argument_group("output")

@@ -153,7 +153,7 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     if n_faces > MAX_FACES:
         raise _fail(name, f"{n_faces:,} triangles, more than the {MAX_FACES:,} synth loads (a "
                     f"1.3M-triangle mesh takes about 30 s and 3 GB); decimate it on loading "
-                    f"(--decimate N, Python: decimate=N; the surface error is reported) or "
+                    f"(Python: load_part(path, decimate=N); the surface error is reported) or "
                     f"first, e.g. with Blender's Decimate")
     if not np.isfinite(allv).all():
         bad = int((~np.isfinite(allv).all(axis=1)).sum())

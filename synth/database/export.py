@@ -42,7 +42,11 @@ contact_regions        (n,) str      JSON text of the grasp's contact regions, `
 sim                    (n,) str      JSON text of the grasp's simulation label (``synth db
                                      build --sim``), ``""`` if not simulated
 sim_held               (n,) float64  1 if the simulated part held, 0 if not (also when the
-                                     simulation diverged), NaN if not simulated
+                                     simulation diverged), NaN if not simulated (or synth
+                                     could not simulate it: its label says why)
+squeeze_per_weight,    (n,) float64  the least finger force per weight that holds the part in
+least_squeeze, margin                every orientation, in newtons, and the grip over it (NaN
+                                     where the build had no mass or grip, or predates them)
 =====================  ============  ==========================================================
 
 Gripper grasps (``synth db build --gripper``; every array empty, with its shape, in a
@@ -135,7 +139,7 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         for k in (
             "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
             "regions tip_centers approach finger_frames tip_radius body_length body_radius "
-            "tolerance contact_regions sim sim_held"
+            "tolerance contact_regions sim sim_held squeeze_per_weight least_squeeze margin"
         ).split()
     }
     contact_start, finger_start = [0], [0]
@@ -155,13 +159,17 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         lists["contact_regions"].append(
             "" if g.contact_regions is None else canonical_json(g.contact_regions))
         lists["sim"].append("" if g.sim is None else canonical_json(g.sim))
-        lists["sim_held"].append(np.nan if g.sim is None else float(bool(g.sim["held"])))
+        lists["sim_held"].append(np.nan if g.sim is None or g.sim["held"] is None
+                                 else float(bool(g.sim["held"])))
+        for name in ("squeeze_per_weight", "least_squeeze", "margin"):
+            value = getattr(g, name)
+            lists[name].append(np.nan if value is None else float(value))
         contact_start.append(contact_start[-1] + g.n_contacts)
         finger_start.append(finger_start[-1] + g.tip_centers.shape[0])
     for name in ("grasp_mesh_id", "rank"):
         cols[name] = np.array(lists[name], dtype=np.int64)
     for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius",
-                 "tolerance", "sim_held"):
+                 "tolerance", "sim_held", "squeeze_per_weight", "least_squeeze", "margin"):
         cols[name] = np.array(lists[name], dtype=np.float64)
     cols["contact_regions"] = _str_array(lists["contact_regions"])
     cols["sim"] = _str_array(lists["sim"])
@@ -211,7 +219,8 @@ def _gripper_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
     cols["gripper_sim"] = _str_array(["" if g.sim is None else canonical_json(g.sim)
                                       for g in grasps])
     cols["gripper_sim_held"] = np.array(
-        [np.nan if g.sim is None else float(bool(g.sim["held"])) for g in grasps], np.float64)
+        [np.nan if g.sim is None or g.sim["held"] is None else float(bool(g.sim["held"]))
+         for g in grasps], np.float64)
     return cols
 
 

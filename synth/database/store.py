@@ -35,7 +35,7 @@ __all__ = ["GraspDatabase", "DatabaseInfo", "TOP_ORDERS", "GRIPPER_TOP_ORDERS"]
 
 #: Orders of :meth:`GraspDatabase.top` for point-finger grasps: the planner's ranks as stored,
 #: or the words of ``--rank-by`` (:func:`synth.plan.ranking.rank_grasps`).
-TOP_ORDERS = ("rank", "d_star", "conditioning", "epsilon", "tolerance")
+TOP_ORDERS = ("rank", "d_star", "conditioning", "epsilon", "tolerance", "margin")
 #: Orders of :meth:`GraspDatabase.top` for gripper grasps: the ranks as stored, or the words of
 #: ``synth plan --gripper --rank-by`` (:func:`synth.plan.gripper.rank_order`).
 GRIPPER_TOP_ORDERS = ("rank", "margin", "d_star", "mu_min", "epsilon")

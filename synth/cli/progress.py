@@ -24,6 +24,7 @@ class LineProgress:
         self.drawn = False
 
     def __call__(self, fraction: float, message: str) -> None:
+        """Draw the bar at ``fraction`` (clipped to [0, 1]) with ``message`` after it."""
         if not self.enabled or time.perf_counter() - self.t0 < 0.5:
             return
         f = min(max(fraction, 0.0), 1.0)

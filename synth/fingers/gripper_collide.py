@@ -1,4 +1,4 @@
-"""Can a gripper pose be reached and closed without hitting the part or the table? (FCL)
+"""Can a gripper pose be reached and closed without hitting the part or the table (FCL)?
 
 For a pose and its grasp width, the checker tests, against every body of the part (one FCL
 model, shared with the finger checker, :func:`synth.fingers.checker_for`) and a support plane:

@@ -15,7 +15,6 @@ Margins assume a 0.5 kg part (70 N rated force).
 from __future__ import annotations
 
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -27,8 +26,16 @@ from synth.fingers.gripper import load_gripper
 from synth.fingers.gripper_collide import CLEAR, GripperChecker
 from synth.fingers.jaws import LANDED, close_jaws
 from synth.part import load_part
-from synth.plan.gripper import (DISTINCT_RTOL, PREGRASP_M, TORSION_M, GripperParams,
-                                _distinct, _poses, _sample_pairs, plan_gripper)
+from synth.plan.gripper import (
+    DISTINCT_RTOL,
+    PREGRASP_M,
+    TORSION_M,
+    GripperParams,
+    _distinct,
+    _poses,
+    _sample_pairs,
+    plan_gripper,
+)
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import GRAVITY, gravity_hold_batch
 

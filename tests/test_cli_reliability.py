@@ -18,7 +18,6 @@ from synth.plan import params as lim
 from tests.cli_support import BIG, CUBE_FC
 
 
-
 @pytest.fixture()
 def box(tmp_path):
     path = tmp_path / "box.stl"

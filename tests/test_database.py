@@ -10,6 +10,9 @@ import time
 from pathlib import Path
 
 import pytest
+
+from synth.database import GraspDatabase, build_database
+from synth.errors import DatabaseError, InputError
 from tests.db_support import (
     BROKEN,
     DUPLICATE,
@@ -20,9 +23,6 @@ from tests.db_support import (
     planner_env,
     snapshot,
 )
-
-from synth.database import GraspDatabase, build_database
-from synth.errors import DatabaseError, InputError
 
 
 def test_build_counts_and_failures(tmp_path: Path, mesh_dir: Path) -> None:

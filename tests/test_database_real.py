@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tests.db_support import REPO_DIR, snapshot
 
 import synth
 from synth.database import GraspDatabase
 from synth.plan import plan_mesh_file
 from synth.plan.ranking import shown_d_star
+from tests.db_support import REPO_DIR, snapshot
 
 REAL_PLANNER = "synth.plan:plan_mesh_file"
 PARAMS = {"evals": 10_000, "top": 3, "seed": 0}  # a small budget; 3 grasps on GOOD meshes

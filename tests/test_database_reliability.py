@@ -14,6 +14,11 @@ from pathlib import Path
 
 import pytest
 import trimesh
+
+from synth.cli import main
+from synth.database import GraspDatabase, build_database, collect_mesh_files, export_database
+from synth.database.schema import SCHEMA_VERSION
+from synth.errors import DatabaseError, InputError
 from tests.db_support import (
     PARAMS,
     PLANNER,
@@ -23,11 +28,6 @@ from tests.db_support import (
     planner_env,
     snapshot,
 )
-
-from synth.cli import main
-from synth.database import GraspDatabase, build_database, collect_mesh_files, export_database
-from synth.database.schema import SCHEMA_VERSION
-from synth.errors import DatabaseError, InputError
 
 ARGS = [f"--{k}={v}" for k, v in PARAMS.items()]
 

@@ -11,8 +11,16 @@ import pytest
 import trimesh
 
 from synth.part import load_part
-from synth.plan.picture import (VIEW_DIRECTIONS, GraspPicture, Hand, _image, choose_views,
-                                contact_visibility, draw_grasps, unit_symbol)
+from synth.plan.picture import (
+    VIEW_DIRECTIONS,
+    GraspPicture,
+    Hand,
+    _image,
+    choose_views,
+    contact_visibility,
+    draw_grasps,
+    unit_symbol,
+)
 from synth.plan.raster import rasterize, view_along
 
 MESHES = Path(__file__).resolve().parents[1] / "meshes"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from synth import InputError, form_closure, form_closure_batch, wrench_matrix
-from tests.scoring_cases import blob_contacts, cube_contacts, example1_W, TABLE1
+from tests.scoring_cases import TABLE1, blob_contacts, cube_contacts, example1_W
 
 #: every test here runs with both simplex routes (see tests/conftest.py)
 pytestmark = pytest.mark.usefixtures("pivot_route")

@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, QhullError
 
-from synth import InputError, form_closure, friction_cone_wrenches, frictional_form_closure
+from synth import (
+    InputError,
+    form_closure,
+    friction_cone_wrenches,
+    frictional_form_closure,
+    wrench_matrix,
+)
 from synth.scores.friction import frictional_squeezable
-from synth import wrench_matrix
 from tests.scoring_cases import blob_contacts
 
 

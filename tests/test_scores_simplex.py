@@ -12,7 +12,6 @@ from synth.scores import simplex
 from synth.scores.simplex import OPTIMAL, UNBOUNDED, UNVERIFIED, _certify, solve_batch
 
 
-
 def _random_lps(rng, B, M, n):
     """max c^T x, [A I] x = 0, 0 <= x <= 1 for the first n, slack/artificials fixed at 0,
     plus one free-above column (like the s column of the d* LP)."""

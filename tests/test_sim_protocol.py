@@ -27,8 +27,8 @@ from synth.sim import (  # noqa: E402
     read_grasp_file,
     simulate_file,
 )
-from synth.sim.shape import part_shape  # noqa: E402
 from synth.sim.protocol import settle_under  # noqa: E402
+from synth.sim.shape import part_shape  # noqa: E402
 from synth.sim.simulate import balanced_preload  # noqa: E402
 from tests.sim_support import (  # noqa: E402
     CUBE3,

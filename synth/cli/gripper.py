@@ -12,8 +12,8 @@ from typing import Any
 from synth.cli.checks import integer, output_path, real
 from synth.cli.options import check_weight_options
 from synth.cli.vocabulary import check_top
-from synth.limits import MAX_LENGTH
 from synth.errors import OptionError
+from synth.limits import MAX_LENGTH
 
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
            "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
@@ -166,9 +166,8 @@ def run_gripper(args: argparse.Namespace) -> int:
     from synth.files import atomic_paths, writing
     from synth.paths import stored_mesh_path
     from synth.plan.gripper import loaded_with, plan_gripper
-    from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
-
     from synth.plan.params import PlanParams
+    from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
 
     refuse_finger_options(args, PlanParams().time)
     params = gripper_params(args)

@@ -19,10 +19,21 @@ from typing import Any
 from synth.cli.checks import integer, real
 from synth.cli.vocabulary import add_top, check_top
 from synth.errors import OptionError
-from synth.limits import (AUTO_MAX_FINGERS, DEFAULT_SURFACE, MAX_CONTACTS, MAX_EDGES, MAX_EVALS,
-                          MAX_FACES,
-                          MAX_FINGERS, MAX_LENGTH, MAX_MU, MAX_SEED, MIN_EDGES,
-                          MIN_EVALS, SURFACES)
+from synth.limits import (
+    AUTO_MAX_FINGERS,
+    DEFAULT_SURFACE,
+    MAX_CONTACTS,
+    MAX_EDGES,
+    MAX_EVALS,
+    MAX_FACES,
+    MAX_FINGERS,
+    MAX_LENGTH,
+    MAX_MU,
+    MAX_SEED,
+    MIN_EDGES,
+    MIN_EVALS,
+    SURFACES,
+)
 from synth.plan.params import RANK_BY, PlanParams
 
 __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_planning_options",

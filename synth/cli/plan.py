@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 from synth.cli.checks import output_path
 from synth.cli.options import add_planning_options, check_planning_options, planning_params
@@ -63,10 +63,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
             "could not be written"),
     )
     p.add_argument("mesh", metavar="MESH", help="mesh file: STL, OBJ, PLY, OFF, GLB/GLTF or 3MF")
-    from synth.plan.params import PlanParams
-
     from synth.cli.gripper import add_gripper_options
     from synth.plan.gripper_params import GRIPPER_RANK_BY
+    from synth.plan.params import PlanParams
 
     add_planning_options(p, time=PlanParams().time, rank_by_extra=GRIPPER_RANK_BY)
     add_gripper_options(p)

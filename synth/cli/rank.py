@@ -8,12 +8,27 @@ import math
 import sys
 
 from synth.cli.checks import integer, output_path, real
-from synth.cli.options import (add_finger_options, add_friction_options, add_grip,
-                               add_part_options, add_rank_by, add_weight_options,
-                               check_finger_options, check_part_options, check_weight_options,
-                               finger_overrides)
-from synth.cli.vocabulary import (DEFAULT_ROWS, add_json, add_out, add_quiet, add_top,
-                                  check_top, exit_epilog)
+from synth.cli.options import (
+    add_finger_options,
+    add_friction_options,
+    add_grip,
+    add_part_options,
+    add_rank_by,
+    add_weight_options,
+    check_finger_options,
+    check_part_options,
+    check_weight_options,
+    finger_overrides,
+)
+from synth.cli.vocabulary import (
+    DEFAULT_ROWS,
+    add_json,
+    add_out,
+    add_quiet,
+    add_top,
+    check_top,
+    exit_epilog,
+)
 from synth.errors import InputError
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES
@@ -89,11 +104,16 @@ def _cell(value: float, spec: str, width: int) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``synth rank``: exit status 2 when a candidate was malformed (the others are
     ranked and written) or when none could be used."""
-    from synth.cli.rank_contacts import (SCORED, STATUSES, RankedCandidate, order_rows,
-                                         rank_candidates)
+    from synth.cli.plan import load_part_from_args, report_part
+    from synth.cli.rank_contacts import (
+        SCORED,
+        STATUSES,
+        RankedCandidate,
+        order_rows,
+        rank_candidates,
+    )
     from synth.fingers import default_fingers
     from synth.grasps import read_candidate_table
-    from synth.cli.plan import load_part_from_args, report_part
 
     if args.gripper is not None:
         from synth.cli.rank_gripper import run_rank_gripper

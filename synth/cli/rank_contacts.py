@@ -109,13 +109,12 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     squeeze per weight (:mod:`synth.scores.hold`) the larger of the two; with the part's
     ``weight`` (N) its least squeeze in newtons, and with ``grip`` too its margin.
     """
-    from synth.scores.hold import finger_hold_batch
     from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
     from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
-    from synth.scores.quality import (conditioning, epsilon_quality, grasp_wrenches,
-                                      scaled_wrenches)
+    from synth.scores.hold import finger_hold_batch
+    from synth.scores.quality import conditioning, epsilon_quality, grasp_wrenches, scaled_wrenches
     from synth.scores.surface import readings, surface_scores, worst_reading
 
     rows: list[RankedCandidate] = []

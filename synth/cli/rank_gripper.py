@@ -73,10 +73,10 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
 
     from synth.cli.checks import output_path
     from synth.cli.gripper import gripper_params, refuse_point_options
+    from synth.cli.options import check_part_options
+    from synth.cli.plan import load_part_from_args, report_part
     from synth.cli.rank import counts_line
     from synth.cli.vocabulary import check_top
-    from synth.cli.plan import load_part_from_args, report_part
-    from synth.cli.options import check_part_options
     from synth.files import write_atomic
     from synth.filetype import POSES, require
     from synth.fingers.gripper import load_gripper

@@ -15,8 +15,15 @@ from typing import Any
 
 from synth.cli.checks import integer, output_path, real
 from synth.cli.options import add_friction_options
-from synth.cli.vocabulary import (DEFAULT_ROWS, add_json, add_out, add_quiet, add_top,
-                                  check_top, exit_epilog)
+from synth.cli.vocabulary import (
+    DEFAULT_ROWS,
+    add_json,
+    add_out,
+    add_quiet,
+    add_top,
+    check_top,
+    exit_epilog,
+)
 from synth.errors import InputError
 from synth.files import write_atomic
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MIN_EDGES

@@ -151,9 +151,9 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from synth.cli.progress import LineProgress
+    from synth.filetype import GRASPS, MESH, read_json, require
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
-    from synth.filetype import GRASPS, MESH, read_json, require
     from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document
 
     real("--mu", args.mu, 0, MAX_MU)
@@ -191,10 +191,9 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
     from synth.errors import InputError
     from synth.part import load_part
     from synth.part.resolve import closest_points
+    from synth.paths import resolve_mesh_path
     from synth.plan import load_options
     from synth.sim import require_sim, simulate_jaw_document
-
-    from synth.paths import resolve_mesh_path
 
     mesh = doc["mesh"]
     path = args.mesh if args.mesh is not None or mesh.get("path") is None else \

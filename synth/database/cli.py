@@ -15,12 +15,16 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
-from synth.cli.options import (add_planning_options, check_part_options,
-                               check_planning_options, planning_params)
+from synth.cli.options import (
+    add_planning_options,
+    check_part_options,
+    check_planning_options,
+    planning_params,
+)
 from synth.cli.vocabulary import add_json, add_quiet, exit_epilog, top_help
-from synth.limits import MAX_TOP
 from synth.errors import shown
 from synth.filetype import MESH_FORMATS
+from synth.limits import MAX_TOP
 from synth.plan.gripper_params import GRIPPER_RANK_BY
 from synth.plan.params import BUILD_TIME, RANK_BY, PlanParams
 

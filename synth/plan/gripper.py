@@ -46,8 +46,7 @@ from numpy.typing import NDArray
 from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GripperChecker
-from synth.fingers.jaws import (EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws,
-                                 pad_touch)
+from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws, pad_touch
 from synth.plan.gripper_params import APPROACHES, GRIPPER_RANK_BY, GripperParams
 from synth.plan.gripper_refine import Scored, refine
 from synth.plan.result import describe_part, new_run_id

@@ -37,8 +37,15 @@ from synth.fingers.gripper import Gripper, half_turn, load_gripper
 from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
 from synth.fingers.jaws import JAW_STATUS, LANDED, MISSES, close_jaws
 from synth.formats.poses import canonical_half_turn
-from synth.plan.gripper import (PREGRASP_M, TORSION_M, GripperGrasp, GripperParams,
-                                grasp_results, part_mass, rank_order)
+from synth.plan.gripper import (
+    PREGRASP_M,
+    TORSION_M,
+    GripperGrasp,
+    GripperParams,
+    grasp_results,
+    part_mass,
+    rank_order,
+)
 from synth.plan.gripper_refine import Scored
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import gravity_hold_batch

@@ -24,8 +24,7 @@ from numpy.typing import ArrayLike
 
 from synth.errors import InputError
 from synth.scores.batch import BatchScores
-from synth.scores.cones import (check_contacts_batch, cone_wrenches_batch,
-                                generators_per_contact)
+from synth.scores.cones import check_contacts_batch, cone_wrenches_batch, generators_per_contact
 from synth.scores.friction_lp import solve_frictional_lp
 from synth.scores.gram import rank_of_balanced
 from synth.scores.simplex import UNBOUNDED, UNVERIFIED, compiled_for, solve_batch

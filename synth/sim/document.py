@@ -260,8 +260,8 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
 
 def _load(mesh: dict[str, Any], name: str) -> dict[str, Any]:
     """:func:`synth.load_part` keywords from a document's ``mesh`` object."""
-    from synth.plan import load_options
     from synth.part.load import length_unit
+    from synth.plan import load_options
 
     load = mesh.get("load")
     if load is None:

@@ -30,7 +30,6 @@ from numpy.typing import NDArray
 
 from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.shape import PartShape
 from synth.sim.scene import (
     GRAVITY,
     HAND_BITS,
@@ -45,6 +44,7 @@ from synth.sim.scene import (
     penetration_limit,
 )
 from synth.sim.settings import SimSettings
+from synth.sim.shape import PartShape
 
 __all__ = ["JAW_GAP", "PAD_THICKNESS", "build_jaw_scene", "simulate_jaw_document",
            "jaw_mass"]
@@ -197,8 +197,8 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     from synth.fingers.gripper import load_gripper
     from synth.formats.arrays import unit_metres
     from synth.sim.label import SimLabel, error_label, label_run
-    from synth.sim.shape import part_shape
     from synth.sim.protocol import run_protocol
+    from synth.sim.shape import part_shape
     from synth.sim.simulate import SimReport
 
     t0 = time.perf_counter()

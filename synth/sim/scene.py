@@ -39,8 +39,8 @@ from numpy.typing import NDArray
 
 from synth.errors import SimulationError
 from synth.sim.contact import ContactModel
-from synth.sim.shape import PartShape, within
 from synth.sim.settings import TRANSLATION_RTOL, SimSettings
+from synth.sim.shape import PartShape, within
 
 __all__ = ["Scene", "build_scene", "new_spec", "add_part", "compile_spec", "quiet_mujoco",
            "contact_params", "GRAVITY",

@@ -155,7 +155,7 @@ def score_cli() -> None:
         npz, js, out = Path(tmp) / "c.npz", Path(tmp) / "c.json", Path(tmp) / "out.json"
         np.savez(npz, points=P, normals=N, names=np.array(names))
         js.write_text(json.dumps([{"name": a, "points": p, "normals": q}
-                                  for a, p, q in zip(names, P.tolist(), N.tolist())]))
+                                  for a, p, q in zip(names, P.tolist(), N.tolist(), strict=True)]))
         for path in (npz, js):
             t0 = time.perf_counter()
             proc = subprocess.run([sys.executable, "-m", "synth", "score", str(path), "--out",

@@ -73,11 +73,11 @@ def atomic_paths(targets: Sequence[str | os.PathLike[str]]) -> Iterator[list[Pat
             tmps.append(Path(name))
             os.chmod(name, 0o666 & ~_UMASK)  # mkstemp makes it private; give open()'s mode
         yield list(tmps)
-        for tmp, out in zip(tmps, outs):
+        for tmp, out in zip(tmps, outs, strict=True):
             with writing(out):
                 with open(tmp, "rb+") as fh:  # on disk before the rename, not only in cache
                     os.fsync(fh.fileno())
-        for tmp, out in zip(tmps, outs):
+        for tmp, out in zip(tmps, outs, strict=True):
             with writing(out):
                 os.replace(tmp, out)
     finally:

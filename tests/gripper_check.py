@@ -187,7 +187,7 @@ def check_grasp(grasp: dict, mesh_path: Path, description: Path, scale: float, m
     # tolerance follows the coordinates' precision, a few 1e-6 of the size on these parts)
     tol = 1e-5 * size
     closed = winding_number(pts - 2e-3 * size * nrm, V, F)  # a step out of the part
-    for i, (p, n, sgn) in enumerate(zip(pts, nrm, (1.0, -1.0))):
+    for i, (p, n, sgn) in enumerate(zip(pts, nrm, (1.0, -1.0), strict=True)):
         d = point_triangle_distance(p, V[F]).min()
         if d > tol:
             errors.append(f"contact {i} is {d:.3g} off the surface")

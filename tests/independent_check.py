@@ -274,7 +274,7 @@ def check_grasp(pieces: Pieces, g: dict, mu: float = 0.0, edges: int = 8,
     for j in np.flatnonzero(depth >= 0):
         out.append(f"contact {j} is not exposed: a step outward lands inside a closed piece")
     own = N.copy()  # the file's own normal at each contact
-    for j, (p, n, sm) in enumerate(zip(P, N, S)):
+    for j, (p, n, sm) in enumerate(zip(P, N, S, strict=True)):
         faces = pieces.touched(p)
         if not len(faces):
             continue

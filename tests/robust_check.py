@@ -115,7 +115,7 @@ def tangent_discs(P, N, kinds, polygons, r, m=64):
     choice is a real placement): a disc in the tangent plane for "plane", the segment along
     the edge for "edge", the point for others."""
     out = []
-    for p, n, kind, poly in zip(P, N, kinds, polygons):
+    for p, n, kind, poly in zip(P, N, kinds, polygons, strict=True):
         if kind == "plane":
             a = np.eye(3)[np.argmin(np.abs(n))]
             u = np.cross(n, a)

@@ -129,7 +129,7 @@ def _preload(P, N, com) -> np.ndarray:
 def _friction_preload(P, N, com, mu) -> np.ndarray:
     k = len(P)
     cols = []
-    for p, n in zip(P, N):
+    for p, n in zip(P, N, strict=True):
         t = np.cross(n, [1, 0, 0] if abs(n[0]) < 0.9 else [0, 1, 0])
         t /= np.linalg.norm(t)
         b = np.cross(n, t)
@@ -227,7 +227,7 @@ def simulate_points(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool
         pre = (_preload(P, N, com) if mu == 0 else _friction_preload(P, N, com, mu)) * GRIP
         fingers, acts = [], []
         kv = 2 * math.sqrt(STIFF * TIP_MASS)
-        for j, (c, a) in enumerate(zip(C, A)):
+        for j, (c, a) in enumerate(zip(C, A, strict=True)):
             fingers.append(f'<body pos="{_fmt((c - com) * s + 0.5 * r * a)}" gravcomp="1">'
                            f'<joint name="j{j}" type="slide" axis="{_fmt(-a)}"/>'
                            f'<geom type="sphere" size="{r:.9g}" mass="{TIP_MASS}" contype="2" '

@@ -72,7 +72,7 @@ def _fingers_drawn_as_planned(scene, fingers, mesh_path):
     tips, approach = np.array(fingers["tip_centers"]), np.array(fingers["approach"])
     L, rb = fingers["body_length"], fingers["body_radius"]
     atol = 1e-6 * np.linalg.norm(np.ptp(part.vertices, axis=0))  # the GLB stores float32
-    for i, (c, a) in enumerate(zip(tips, approach)):
+    for i, (c, a) in enumerate(zip(tips, approach, strict=True)):
         body = scene.geometry[f"finger_{i}"]
         v = body.vertices - c
         along = v @ a
@@ -192,7 +192,8 @@ def test_plan_and_rank_report_tolerance(tmp_path):
     best = doc["grasps"][0]
     lift = 1e-3 * doc["mesh"]["length"]
     patches = 0
-    for i, (poly, n) in enumerate(zip(best["contact_regions"]["polygons"], best["normals"])):
+    for i, (poly, n) in enumerate(zip(best["contact_regions"]["polygons"], best["normals"],
+                                      strict=True)):
         if len(poly) < 3:
             continue
         patches += 1

@@ -222,5 +222,5 @@ def test_first_hits_fine_mesh_matches_brute_force() -> None:
     o, d = _ray_cases(part, np.random.default_rng(6))
     a, b = first_hits(part, o, d), _first_hits_trimesh(part, o, d)
     assert len(a[1]) > 100
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert np.array_equal(x, y)

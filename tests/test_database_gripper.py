@@ -180,7 +180,7 @@ def test_json_h5_and_npz_exports_hold_the_gripper_grasps(simulated, tmp_path) ->
     got = [(Path(m["name"]).stem, g) for m in exported["meshes"] for g in m["grasps"]]
     assert all(m["grasp_format"] == "synth.gripper_grasps" for m in exported["meshes"])
     assert [s for s, _ in got] == [s for s, _ in want]
-    for (_, g), (_, w) in zip(got, want):
+    for (_, g), (_, w) in zip(got, want, strict=True):
         assert g["pose"] == w["pose"] and g["measures"]["margin"] == w["measures"]["margin"]
         assert _untimed(g["sim"]) == _untimed(w["sim"])
     npz = np.load(tmp_path / "e.npz")

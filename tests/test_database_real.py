@@ -114,7 +114,7 @@ def test_real_build_counts_failures_and_d_star(
         cube_doc = plan_mesh_file(mesh_dir / "cube.stl", PARAMS)
         stored = list(db.grasps("cube.stl"))
         assert len(stored) == len(cube_doc["grasps"])
-        for g, p in zip(stored, cube_doc["grasps"]):
+        for g, p in zip(stored, cube_doc["grasps"], strict=True):
             assert g.d_star == p["d_star"] and g.closure == p["closure"]
             np.testing.assert_array_equal(g.points, p["points"])
             np.testing.assert_array_equal(g.normals, p["normals"])
@@ -132,5 +132,5 @@ def test_real_build_one_and_two_workers_identical(
     assert len(grasps1) == 3 * len(GOOD)
     assert meshes2 == meshes1
     assert len(grasps2) == len(grasps1)
-    for a, b in zip(grasps1, grasps2):
+    for a, b in zip(grasps1, grasps2, strict=True):
         assert a == b

@@ -135,14 +135,14 @@ def test_exports_carry_the_report(real: tuple[Path, Path], tmp_path: Path) -> No
     assert {m["id"]: m["report"] for m in doc["meshes"]} == reports
     export_database(out, tmp_path / "e.npz")
     with np.load(tmp_path / "e.npz") as z:
-        got = dict(zip(z["mesh_id"].tolist(), z["mesh_report"].tolist()))
+        got = dict(zip(z["mesh_id"].tolist(), z["mesh_report"].tolist(), strict=True))
     assert {i: json.loads(t) if t else None for i, t in got.items()} == reports
     h5py = pytest.importorskip("h5py")
     export_database(out, tmp_path / "e.h5")
     with h5py.File(tmp_path / "e.h5", "r") as f:
         ids = f["meshes/id"][()].tolist()
         texts = [t.decode() for t in f["meshes/report"][()]]
-    assert {i: json.loads(t) if t else None for i, t in zip(ids, texts)} == reports
+    assert {i: json.loads(t) if t else None for i, t in zip(ids, texts, strict=True)} == reports
 
 
 def test_plugged_in_planners_report_what_they_give(tmp_path: Path) -> None:

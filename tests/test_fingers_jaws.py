@@ -177,7 +177,7 @@ def test_rim_contacts_pass_the_independent_check_and_a_wrong_normal_fails_it(tmp
         res = _close(part, [_pose([0, 0, 0])])
         g = {"pose": res.poses[0].tolist(), "width": float(res.width[0]),
              "contacts": [{"point": p.tolist(), "normal": n.tolist()}
-                          for p, n in zip(res.points[0], res.normals[0])]}
+                          for p, n in zip(res.points[0], res.normals[0], strict=True)]}
         assert check_grasp(g, mesh, desc, 1.0, 0.5, 1e-4) == []
         bad = [dict(c) for c in g["contacts"]]
         n = np.array(bad[0]["normal"]) + [0.0, 0.0, 0.1]  # off the plane normal to the rim
@@ -233,7 +233,7 @@ def test_a_groove_contact_passes_the_independent_check_and_a_deep_one_fails_it(t
     res = _close(trimesh.load(path), [_pose([0, 0, 0])], tol=1e-5)
     g = {"pose": res.poses[0].tolist(), "width": float(res.width[0]),
          "contacts": [{"point": p.tolist(), "normal": n.tolist()}
-                      for p, n in zip(res.points[0], res.normals[0])]}
+                      for p, n in zip(res.points[0], res.normals[0], strict=True)]}
     assert check_grasp(g, path, desc, 1.0, 0.5, 1e-4) == []
     # the same contact in a groove twice as steep lies twice as deep behind the pad: the pad
     # cannot rest across it (0.4 of half the span), so the check refuses the point

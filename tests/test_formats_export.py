@@ -59,7 +59,7 @@ def test_acronym_loads_the_export_with_its_own_code(built, tmp_path):
                        rtol=1e-12)
     marker = acronym.create_gripper_marker()  # ACRONYM's Franka: fingers from z 0.066 up
     z_lo, z_hi = 0.0659, marker.bounds[1, 2]
-    for g, pose in zip(stored, T):
+    for g, pose in zip(stored, T, strict=True):
         pts = g.points * CM  # synth's contacts, in the frame ACRONYM's loader builds
         closest, dist, _ = trimesh.proximity.closest_point(mesh, pts)
         assert dist.max() <= 1e-9 * np.linalg.norm(mesh.extents)

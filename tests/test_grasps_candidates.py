@@ -24,7 +24,7 @@ def test_both_parsers_read_a_candidate_file_identically(tmp_path, monkeypatch) -
     rng = np.random.default_rng(1)
     P, N = rng.normal(size=(50, 7, 3)) * 1e3, rng.normal(size=(50, 7, 3))
     doc = [{"name": f"g{i}", "points": p, "normals": q, "mu": 0.1 * (i % 3)}
-           for i, (p, q) in enumerate(zip(P.tolist(), N.tolist()))]
+           for i, (p, q) in enumerate(zip(P.tolist(), N.tolist(), strict=True))]
     path = tmp_path / "c.json"
     path.write_text(json.dumps(doc))
     fast = read_candidate_table(path)

@@ -154,7 +154,8 @@ def test_same_seed_same_grasps():
     a = plan_part(part, PlanParams(evals=2000, seed=5))
     b = plan_part(part, PlanParams(evals=2000, seed=5))
     assert [g.d_star for g in a.grasps] == [g.d_star for g in b.grasps]
-    assert all(np.array_equal(x.points, y.points) for x, y in zip(a.grasps, b.grasps))
+    assert all(np.array_equal(x.points, y.points)
+               for x, y in zip(a.grasps, b.grasps, strict=True))
 
 
 @pytest.mark.parametrize("mu,contacts", [(0.0, 7), (0.5, 4)])
@@ -169,7 +170,8 @@ def test_the_machines_speed_never_changes_the_grasps(monkeypatch, mu, contacts):
     b = plan_part(part, prm)
     assert a.grasps and not b.stopped_by_time
     assert [g.d_star for g in a.grasps] == [g.d_star for g in b.grasps]
-    assert all(np.array_equal(x.points, y.points) for x, y in zip(a.grasps, b.grasps))
+    assert all(np.array_equal(x.points, y.points)
+               for x, y in zip(a.grasps, b.grasps, strict=True))
 
 
 def test_a_default_plan_is_the_same_while_other_processes_keep_the_cores_busy():
@@ -193,7 +195,8 @@ def test_a_default_plan_is_the_same_while_other_processes_keep_the_cores_busy():
     assert quiet.grasps and not quiet.stopped_by_time and not loaded.stopped_by_time
     assert loaded.evaluations == quiet.evaluations
     assert [g.d_star for g in loaded.grasps] == [g.d_star for g in quiet.grasps]
-    assert all(np.array_equal(x.points, y.points) for x, y in zip(quiet.grasps, loaded.grasps))
+    assert all(np.array_equal(x.points, y.points)
+               for x, y in zip(quiet.grasps, loaded.grasps, strict=True))
 
 
 def test_bad_parameters():

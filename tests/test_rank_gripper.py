@@ -78,7 +78,7 @@ def test_the_planners_grasps_read_back_with_its_contacts_and_measures():
     poses = np.array([g.pose for g in plan.grasps])
     r = _rank(part, poses[::-1], mass=0.2)  # in reverse: ranked back into the plan's order
     assert [row.index for row in r.rows] == [2, 1, 0]
-    for g, row in zip(plan.grasps, r.rows):
+    for g, row in zip(plan.grasps, r.rows, strict=True):
         h = row.grasp
         assert np.abs(h.points - g.points).max() <= 1e-9 * part.length
         assert np.abs(h.pose - g.pose).max() <= 1e-9 * part.length

@@ -97,7 +97,7 @@ def test_certify_regions_takes_regions_of_slightly_tilted_normals():
         assert closure is True and d_min > 0
     with pytest.raises(synth.InputError, match="does not contain its contact"):
         certify_regions(g.points, g.normals, [p + 0.5 * (p[0] - q) if len(p) > 2 else p
-                                              for p, q in zip(reg.polygons, g.points)],
+                                              for p, q in zip(reg.polygons, g.points, strict=True)],
                         part.center_mass, part.length)
 
 
@@ -109,7 +109,7 @@ def test_the_checks_fast_scorer_agrees_with_its_svd():
     assert ((a > 0) == (b > 0)).all() and (a > 0).sum() > 100
     np.testing.assert_allclose(a[a > 0], b[a > 0], atol=1e-9)
     assert np.array_equal(a[:10] > 0, b[:10] > 0)
-    for w, d in zip(W[:200], b[:200]):  # and linprog
+    for w, d in zip(W[:200], b[:200], strict=True):  # and linprog
         assert abs(max(d, 0.0) - d_star_lp(w)) < 1e-6
 
 
@@ -187,13 +187,14 @@ def test_regions_grown_by_a_fifth_break(planned):
             continue
         cs = _contacts(part, g.points, g.normals)
         size = max(float(np.linalg.norm(p - q, axis=1).max())
-                   for p, q, c in zip(reg.polygons, g.points, cs) if c.kind == "plane")
+                   for p, q, c in zip(reg.polygons, g.points, cs, strict=True) if c.kind == "plane")
         grown = [_shape(c, 1.2 * size, REGION_VERTICES, False) for c in cs]
         if all(len(s) == len(c.feature) and np.allclose(np.sort(s, axis=0),
-               np.sort(c.feature, axis=0)) for s, c in zip(grown, cs) if c.kind == "plane"):
+               np.sort(c.feature, axis=0))
+               for s, c in zip(grown, cs, strict=True) if c.kind == "plane"):
             continue  # every region already fills its piece
         tried += 1
-        polys = [g.points[i] + s @ c.axes for i, (s, c) in enumerate(zip(grown, cs))]
+        polys = [g.points[i] + s @ c.axes for i, (s, c) in enumerate(zip(grown, cs, strict=True))]
         value, pts = worst_vertex_choice(g.points, g.normals, polys, part.center_mass,
                                          part.length, rng)
         assert value <= 0, f"{path}: regions grown by 20% still hold"

@@ -39,7 +39,7 @@ def test_small_mu_approaches_frictionless():
     P = np.array([p for p, _ in PN])
     N = np.array([n for _, n in PN])
     fr = frictional_form_closure_batch(P, N, 1e-9)
-    fl = form_closure_batch(np.stack([wrench_matrix(p, n) for p, n in zip(P, N)]))
+    fl = form_closure_batch(np.stack([wrench_matrix(p, n) for p, n in zip(P, N, strict=True)]))
     assert np.allclose(fr.d_star, fl.d_star, atol=1e-6)
 
 

@@ -37,7 +37,7 @@ def _frame(n):
 
 def _reference_generators(P, N, mu, gamma, edges):
     cols = []
-    for p, n in zip(P, N):
+    for p, n in zip(P, N, strict=True):
         n = n / np.linalg.norm(n)
         u, v = _frame(n)
         dirs = []
@@ -104,7 +104,7 @@ def test_soft_forces_lie_in_the_elliptic_cone_and_balance():
     G, M = _reference_generators(P, N, mu, gamma, 8)
     lam = r.lam.reshape(-1)
     assert np.abs(G @ lam).max() < 1e-7  # an internal force
-    for i, (p, n) in enumerate(zip(P, N)):
+    for i, (p, n) in enumerate(zip(P, N, strict=True)):
         u, v = _frame(n)
         cols = G[:, i * M : (i + 1) * M]
         w = cols @ r.lam[i] - np.r_[np.zeros(3), np.cross(p - P.mean(0), cols[:3] @ r.lam[i])]

@@ -120,7 +120,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
     several = len(part.bodies) > 1
-    for i, c in zip(index if index is not None else range(len(cands)), cands):
+    for i, c in zip(index if index is not None else range(len(cands)), cands, strict=True):
         label = f"candidate {i} ({c.name})"
         if c.points.shape[1] != 3:
             rows.append(RankedCandidate(c.name, "malformed", f"{label}: points must be 3-D",

@@ -133,7 +133,7 @@ def first_hits(part: Part, origins: np.ndarray, directions: np.ndarray
             active = active[~done]
         if not hits:
             continue
-        ti, ri, loc, dist = (np.concatenate(x) for x in zip(*hits))
+        ti, ri, loc, dist = (np.concatenate(x) for x in zip(*hits, strict=True))
         # one row per (ray, face), the first found; then nearest per ray
         _, u = np.unique(ri * n_f + ti, return_index=True)
         ti, ri, loc, dist = ti[u], ri[u], loc[u], dist[u]

@@ -541,7 +541,8 @@ class GripperGraspRecord(_StoredGrasp):
             "rank": self.rank, "gripper": self.gripper, "pose": self.pose.tolist(),
             "tcp": self.tcp.tolist(), "width": self.width,
             "contacts": [{"point": p.tolist(), "normal": n.tolist(), "touch": t} for p, n, t
-                         in zip(self.points, self.normals, pad_touch(self.pose, self.normals))],
+                         in zip(self.points, self.normals, pad_touch(self.pose, self.normals),
+                                strict=True)],
             "measures": {"margin": self.margin, "least_squeeze": self.least_squeeze,
                          "squeeze_per_weight": self.squeeze_per_weight, "d_star": self.d_star,
                          "mu_min": self.mu_min, "epsilon": self.epsilon},

@@ -355,7 +355,7 @@ class GraspDatabase:
                     value = report.get(k) if isinstance(report, dict) else None
                     counts[i] += isinstance(value, list) and len(value) > 0
             row = tuple(counts)
-        return {k: int(v) for k, v in zip(keys, row)}
+        return {k: int(v) for k, v in zip(keys, row, strict=True)}
 
     def meshes(self, status: str | None = None) -> Iterator[MeshRecord]:
         """Iterate over mesh records in id order, optionally only those of one ``status``."""

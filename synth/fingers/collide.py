@@ -262,7 +262,7 @@ class FingerChecker:
 
         # 1. Shared fingertips must touch all their contacts.
         bad = present & (misfit > SHARED_TIP_FIT_RTOL * r)
-        for b, j in zip(*np.nonzero(bad)):
+        for b, j in zip(*np.nonzero(bad), strict=True):
             if alive[b]:
                 cs = np.flatnonzero(ids[b] == j).tolist()
                 fail(b, j, MISFIT, f"finger {slot_name[b][j]} cannot touch contacts {cs} at "
@@ -274,7 +274,7 @@ class FingerChecker:
             dist = np.linalg.norm(centers[:, iu] - centers[:, ju], axis=-1)
             both = present[:, iu] & present[:, ju]
             close = both & (dist < 2.0 * r - tol)
-            for b, p in zip(*np.nonzero(close)):
+            for b, p in zip(*np.nonzero(close), strict=True):
                 if alive[b]:
                     i, j = iu[p], ju[p]
                     fail(b, i, OVERLAP, f"fingers {slot_name[b][i]} and {slot_name[b][j]} "
@@ -299,7 +299,7 @@ class FingerChecker:
             h_far = h[..., None] + D * (dirs @ n0)  # (B, k, m)
             tip_below = present & (h < r - tol)
             usable = ~tip_below[..., None] & (h_far >= r - tol)
-            for b, j in zip(*np.nonzero(tip_below | (present & ~usable.any(axis=2)))):
+            for b, j in zip(*np.nonzero(tip_below | (present & ~usable.any(axis=2))), strict=True):
                 if alive[b]:
                     what = "tip" if tip_below[b, j] else "approach"
                     fail(b, j, PLANE, f"finger {slot_name[b][j]} {what} crosses the support plane")
@@ -355,7 +355,7 @@ class FingerChecker:
             tb = np.minimum(point_segment_distance(ci, cj, ej), point_segment_distance(cj, ci, ei))
             bb = segment_segment_distance(ci, ei, cj, ej)
             hit = both & ((tb < r + rb - tol) | (bb < 2.0 * rb - tol))
-            for q, p in zip(*np.nonzero(hit)):
+            for q, p in zip(*np.nonzero(hit), strict=True):
                 b = live[q]
                 if alive[b]:
                     i, j = iu[p], ju[p]

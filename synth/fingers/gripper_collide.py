@@ -95,7 +95,7 @@ class GripperChecker:
         out = np.full(len(poses), CLEAR, np.int64)
         probes: list[NDArray[np.float64]] = []
         probed: list[int] = []
-        for b, (T, w) in enumerate(zip(poses, widths)):
+        for b, (T, w) in enumerate(zip(poses, widths, strict=True)):
             R, t = T[:3, :3], T[:3, 3]
             closed = [(Tf, V, obj) for Tf in self.gripper.finger_transforms(
                 float(w) + 2.0 * self.clearance) for V, obj in self._fingers]

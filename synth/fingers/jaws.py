@@ -134,7 +134,7 @@ def pad_touch(pose: NDArray[np.float64], normals: NDArray[np.float64]) -> tuple[
     """
     x = np.asarray(pose, float)[:3, 0]
     return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
-                 for n, sign in zip(np.asarray(normals, float), (1.0, -1.0)))
+                 for n, sign in zip(np.asarray(normals, float), (1.0, -1.0), strict=True))
 
 
 def _rotate(D: NDArray[np.float64], R: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -118,7 +118,7 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
 
     centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
     warnings: list[str] = []
-    for i, j in zip(*np.nonzero(near)):
+    for i, j in zip(*np.nonzero(near), strict=True):
         i, j = int(i), int(j)
         if sets.find(i) == sets.find(j):
             continue
@@ -172,7 +172,8 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
     hi = np.array([m.bounds[1] for m in meshes], float)
     centre = (lo.min(axis=0) + hi.max(axis=0)) / 2
     boxes = np.triu(_box_gap(lo, hi) <= 0.0, 1)
-    pairs = [(int(i), int(j)) for i, j in zip(*np.nonzero(boxes)) if closed[i] and closed[j]]
+    pairs = [(int(i), int(j)) for i, j in zip(*np.nonzero(boxes), strict=True)
+             if closed[i] and closed[j]]
     used = sorted({k for p in pairs for k in p})
     slot = {k: s for s, k in enumerate(used)}
     notes: list[str] = []
@@ -184,8 +185,8 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
         volumes = [0.0] * len(pairs)
         notes.append(f"could not test which bodies overlap (manifold3d crashed: {e.how}); "
                      "kept them separate")
-    vol = [abs(float(m.volume)) if c else 0.0 for m, c in zip(meshes, closed)]
-    for (i, j), common in zip(pairs, volumes):
+    vol = [abs(float(m.volume)) if c else 0.0 for m, c in zip(meshes, closed, strict=True)]
+    for (i, j), common in zip(pairs, volumes, strict=True):
         if common > OVERLAP_RTOL * min(vol[i], vol[j]):
             sets.join(i, j)
     out_m: list[trimesh.Trimesh] = []

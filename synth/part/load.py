@@ -319,7 +319,8 @@ def _decimated(raw: list[tuple[str, trimesh.Trimesh]], target: object, name: str
         return raw
     offsets = np.cumsum([0] + [len(m.vertices) for _, m in raw])
     v = np.concatenate([np.asarray(m.vertices, float) for _, m in raw])
-    f = np.concatenate([np.asarray(m.faces, np.int64) + o for (_, m), o in zip(raw, offsets)])
+    f = np.concatenate([np.asarray(m.faces, np.int64) + o
+                        for (_, m), o in zip(raw, offsets[:-1], strict=True)])
     try:
         d = decimate_mesh(v, f, int(target))
     except InputError as e:

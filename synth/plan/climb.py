@@ -296,7 +296,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
         j = int(rng.integers(0, k))
         d = np.ones((M, n_pool), np.float32)
         rows = [q for q in range(7) if q != j]
-        for X, X32 in zip(Xs, X32s):  # the smaller d* of the readings
+        for X, X32 in zip(Xs, X32s, strict=True):  # the smaller d* of the readings
             C, vj = _cofactors(X[:, members].transpose(1, 0, 2), j)
             # with the null vector's fixed entry v_j made positive, a swap is closure when the
             # six others are positive too, and d* = min/max of all seven (a screen: float32)

@@ -144,7 +144,7 @@ class GripperGrasp:
                 "contacts": [{"point": p.tolist(), "normal": n.tolist(), "patch": float(s),
                               "touch": t}
                              for p, n, s, t in zip(self.points, self.normals, self.patch,
-                                                   self.touch)],
+                                                   self.touch, strict=True)],
                 "measures": {"margin": num(self.margin), "least_squeeze": num(self.least_squeeze),
                              "squeeze_per_weight": num(self.squeeze_per_weight),
                              "squeeze_per_weight_sampled": num(self.squeeze_sampled),

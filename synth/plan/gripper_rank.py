@@ -196,7 +196,7 @@ def rank_gripper_poses(part: Any, poses: NDArray[np.float64], metres_per_unit: f
     every = epsilon_top is None or params.rank_by in ("mu_min", "epsilon")
     results, order = _score(part, jaws.take(clear), gripper, params, gamma, mass,
                             None if every else epsilon_top)
-    grasp_of = dict(zip(clear.tolist(), results))
+    grasp_of = dict(zip(clear.tolist(), results, strict=True))
     position = {int(clear[k]): r for r, k in enumerate(order)}
     rows: list[RankedPose] = []
     ranked: list[tuple[int, RankedPose]] = []

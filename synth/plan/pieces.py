@@ -51,7 +51,7 @@ def best_positions(
         A_eq[3:, i] = np.cross(pc.origin - center, n) / length
         A_eq[3:, k + i] = np.cross(pc.u, n) / length
         A_eq[3:, 2 * k + i] = np.cross(pc.v, n) / length
-        for a, bb in zip(pc.A, pc.b):
+        for a, bb in zip(pc.A, pc.b, strict=True):
             row = np.zeros(nv)
             row[k + i], row[2 * k + i], row[i] = a[0], a[1], -bb
             rows_ub.append(row)

@@ -182,7 +182,8 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
         g = plan.grasps[grasp]
         f = g.fingers
         r = float(f["tip_radius"])
-        for i, (c, a) in enumerate(zip(np.asarray(f["tip_centers"]), np.asarray(f["approach"]))):
+        for i, (c, a) in enumerate(zip(np.asarray(f["tip_centers"]), np.asarray(f["approach"]),
+                                       strict=True)):
             col = (np.append(_COLOURS[i % len(_COLOURS)], 1.0) * 255).astype(np.uint8)
             tip = trimesh.creation.icosphere(subdivisions=2, radius=r)
             tip.apply_translation(c)
@@ -201,13 +202,13 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
             cap.visual.face_colors = col
             scene.add_geometry(cap, geom_name=f"finger_{i}")
         if g.contact_regions is not None:
-            for i, (poly, n) in enumerate(zip(g.contact_regions.polygons, g.normals)):
+            for i, (poly, n) in enumerate(zip(g.contact_regions.polygons, g.normals, strict=True)):
                 patch = _patch(np.asarray(poly) - 1e-3 * part.length * n, 3e-3 * part.length)
                 if patch is not None:
                     patch.visual.face_colors = (np.append(_COLOURS[i % len(_COLOURS)], 0.8)
                                                 * 255).astype(np.uint8)
                     scene.add_geometry(patch, geom_name=f"region_{i}")
-        for i, (p, n) in enumerate(zip(g.points, g.normals)):
+        for i, (p, n) in enumerate(zip(g.points, g.normals, strict=True)):
             arrow = trimesh.creation.cylinder(radius=0.004 * part.length,
                                               segment=[p, p + 0.1 * part.length * n])
             arrow.visual.face_colors = [20, 20, 20, 255]

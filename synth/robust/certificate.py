@@ -107,7 +107,7 @@ def _layout(k: int, order: int) -> tuple[NDArray[np.int64], list[tuple[int, int,
             for S in combinations(cols, o):
                 for axes in np.ndindex(*(2,) * o):
                     sel = list(cols)
-                    for i, a in zip(S, axes):
+                    for i, a in zip(S, axes, strict=True):
                         sel[cols.index(i)] = k + 2 * i + a
                     rows.append(sel)
                     meta.append((j, o, (S, axes)))
@@ -155,7 +155,8 @@ def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
     tidx = {tuple(t): n for n, t in enumerate(triples.tolist())}
     B = np.zeros((k, len(pairs), 2, 2))
     T = np.zeros((k, len(triples), 2, 2, 2))
-    for value, (j, o, key) in zip(dets * (-1.0) ** np.array([mm[0] for mm in meta]), meta):
+    for value, (j, o, key) in zip(dets * (-1.0) ** np.array([mm[0] for mm in meta]), meta,
+                                  strict=True):
         if o == 0:
             c0[j] = value
         elif o == 1:

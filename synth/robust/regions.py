@@ -296,7 +296,7 @@ def _points(P: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
 
 def _to3(P: NDArray[np.float64], cs: list[_Contact], shapes: list[NDArray[np.float64]]
          ) -> tuple[NDArray[np.float64], ...]:
-    return tuple(P[i] + s @ c.axes for i, (c, s) in enumerate(zip(cs, shapes)))
+    return tuple(P[i] + s @ c.axes for i, (c, s) in enumerate(zip(cs, shapes, strict=True)))
 
 
 def _subsets(W: NDArray[np.float64], rng: np.random.Generator) -> list[NDArray[np.int64]]:

@@ -67,9 +67,9 @@ def corpus() -> None:
     for e in entries:
         path = CORPUS / e["file"]
         kw = {"split_objects": True, "group_material": False} if path.suffix == ".obj" else {}
-        t_tm, _ = _best(lambda: trimesh.load(path, **kw))
+        t_tm, _ = _best(lambda path=path, kw=kw: trimesh.load(path, **kw))
         try:
-            t_load, part = _best(lambda: load_part(path, units=e["units"]))
+            t_load, part = _best(lambda path=path, e=e: load_part(path, units=e["units"]))
         except Exception as ex:  # the flat cloth is refused as bad input
             print(f"{e['file'][:44]:44s} {'':>6s} {'':>6s} {t_tm:9.3f}   refused: "
                   f"{str(ex).split(': ', 1)[-1][:40]}")

@@ -113,11 +113,13 @@ def fuzz() -> None:
     for name, (v, f) in malformed().items():
         small = len(f) < 8_000  # loading thousands of pieces takes seconds: the calls see them
         calls = {
-            "merge_close": lambda: native.merge_close(v, f),
-            "overlap_volumes": lambda: native.overlap_volumes([(v, f), (v + 0.1, f)], [(0, 1)]),
-            "unite": lambda: native.unite([(v, f), (v + 0.1, f)]),
-            "fcl": lambda: fcl_queries(v, f),
-            **({"load_part and check_fingers": lambda: loaded(v, f)} if small else {}),
+            # each call runs in this iteration; v and f are bound as defaults all the same
+            "merge_close": lambda v=v, f=f: native.merge_close(v, f),
+            "overlap_volumes": lambda v=v, f=f: native.overlap_volumes([(v, f), (v + 0.1, f)],
+                                                                       [(0, 1)]),
+            "unite": lambda v=v, f=f: native.unite([(v, f), (v + 0.1, f)]),
+            "fcl": lambda v=v, f=f: fcl_queries(v, f),
+            **({"load_part and check_fingers": lambda v=v, f=f: loaded(v, f)} if small else {}),
         }
         for call, run in calls.items():
             print(json.dumps({"mesh": name, "call": call, "outcome": _outcome(run)}), flush=True)

@@ -163,10 +163,11 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                 fr = frictional_form_closure(P, n, m, center=center, edges=edges)
                 graded.append((fr.closure == "frictional form", fr.d_star, fr.closure))
         _, d, closure = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
-        cond = worst_reading(lambda n: float(conditioning(grasp_wrenches(P, n, center, L, m,
-                                                                         edges))), N, S, surface)
-        eps = worst_reading(lambda n: float(epsilon_quality(P, n, center, L, m, edges)), N, S,
-                            surface)
+        # the loop's P and m bound as defaults (the readings are taken right here)
+        cond = worst_reading(lambda n, P=P, m=m: float(conditioning(grasp_wrenches(
+            P, n, center, L, m, edges))), N, S, surface)
+        eps = worst_reading(lambda n, P=P, m=m: float(epsilon_quality(P, n, center, L, m, edges)),
+                            N, S, surface)
         ids = np.unique(con.finger, return_inverse=True)[1]
         spw = max(float(finger_hold_batch(P[None], n[None], center, L, m, ids[None], edges)
                         .squeeze_per_weight[0]) for n in readings(N, S, surface))

@@ -575,11 +575,12 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                           .max(initial=0.0))
             both = surface_scores(P[None], N[None], S[None], prm.surface, score.center,
                                   score.length, prm.mu, prm.edges, compiled=False)
-            cond = worst_reading(lambda n: float(conditioning(score.matrix(P, n))), N, S,
+            cond = worst_reading(lambda n, P=P: float(conditioning(score.matrix(P, n))), N, S,
                                  prm.surface)
             closure = "form" if prm.mu == 0 else "frictional form"
-            eps = worst_reading(lambda n: epsilon_quality(P, n, score.center, score.length,
-                                                          prm.mu, prm.edges), N, S, prm.surface)
+            eps = worst_reading(lambda n, P=P: epsilon_quality(P, n, score.center, score.length,
+                                                               prm.mu, prm.edges),
+                                N, S, prm.surface)
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
                                      d_star=float(archive.d[i]), smooth=S,
                                      surface=prm.surface) if prm.wants_regions else None

@@ -105,7 +105,8 @@ def main() -> int:
     print(f"speed-up from the second worker: {times[1] / times[2]:.2f}x (target >= 1.7x)")
     print(f"database overhead, 1 worker vs direct loop: {(times[1] / direct - 1) * 100:+.1f}% "
           "(target < 5%)")  # fmt: skip
-    print(f"database CPU overhead, 1 worker vs direct loop: {(cpus[1] / direct_cpu - 1) * 100:+.1f}%"
+    print("database CPU overhead, 1 worker vs direct loop: "
+          f"{(cpus[1] / direct_cpu - 1) * 100:+.1f}%"
           " (includes starting the worker process; robust to other load on the machine)")
     print(f"load average now: {os.getloadavg()[0]:.2f} on {len(os.sched_getaffinity(0))} cpus "
           "(wall-clock figures are only meaningful on an otherwise idle machine)")

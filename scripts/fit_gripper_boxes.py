@@ -6,9 +6,9 @@ joint at 0), every collision geom (meshes with their scale, boxes) is put into t
 base link's mesh (z along the approach, x along the closing direction), and boxes are fitted:
 the palm to the base link, and per side one box to the inner finger with its fingertip and pad
 (the part that moves with the pad) and one to the outer knuckle, outer finger and inner knuckle
-(the linkage, held fixed at its open pose). The pad is robosuite's pad box. The script prints every collision geom's bounds in the base
-link's frame at the open pose; the boxes of the JSON files are read off those bounds (robosuite's
-y, the closing direction, is synth's x).
+(the linkage, held fixed at its open pose). The pad is robosuite's pad box. The script prints every
+collision geom's bounds in the base link's frame at the open pose; the boxes of the JSON files are
+read off those bounds (robosuite's y, the closing direction, is synth's x).
 
 Usage: ``python scripts/fit_gripper_boxes.py ROBOSUITE_GRIPPERS_DIR`` (the folder
 ``robosuite/models/assets/grippers`` of an unpacked robosuite 1.5.2 wheel).

@@ -9,9 +9,9 @@ the candidate readers check them.
 
 from __future__ import annotations
 
-__all__ = ["SURFACES", "DEFAULT_SURFACE", "MAX_COORDINATE", "MAX_FACES", "MAX_LENGTH", "MAX_FINGERS", "AUTO_MAX_FINGERS",
-           "MAX_CONTACTS", "MIN_EDGES", "MAX_EDGES", "MIN_EVALS", "MAX_EVALS", "MAX_MU",
-           "MAX_TOP", "MAX_SEED"]
+__all__ = ["SURFACES", "DEFAULT_SURFACE", "MAX_COORDINATE", "MAX_FACES", "MAX_LENGTH",
+           "MAX_FINGERS", "AUTO_MAX_FINGERS", "MAX_CONTACTS", "MIN_EDGES", "MAX_EDGES", "MIN_EVALS",
+           "MAX_EVALS", "MAX_MU", "MAX_TOP", "MAX_SEED"]
 
 #: Largest magnitude of a vertex or contact coordinate, in the file's units. Beyond it the
 #: squared lengths and moments the scores are built from overflow or swamp the LPs'

@@ -55,7 +55,8 @@ def mesh_problem(vertices: Any, faces: Any) -> str | None:
     if max(len(v), len(f)) > _MAX_INDEX:
         return f"{len(v)} vertices and {len(f)} faces: more than 32-bit indices reach"
     if not np.isfinite(v).all():
-        return f"{int((~np.isfinite(v).all(axis=1)).sum())} vertices have NaN or infinite coordinates"
+        return (f"{int((~np.isfinite(v).all(axis=1)).sum())} vertices have NaN or infinite "
+                "coordinates")
     bad = np.flatnonzero(((f < 0) | (f >= len(v))).any(axis=1))
     if len(bad):
         row = f[bad[0]]

@@ -1,7 +1,7 @@
 """A small, real, deterministic planner for the database tests, used through ``SYNTH_DB_PLANNER``.
 
-``SYNTH_DB_PLANNER=tests.db_fakeplanner:plan_mesh_file`` (with the repository on ``PYTHONPATH``) makes
-``synth db build`` use it. It loads the mesh with trimesh, refuses files that are not a closed
+``SYNTH_DB_PLANNER=tests.db_fakeplanner:plan_mesh_file`` (with the repository on ``PYTHONPATH``)
+makes ``synth db build`` use it. It loads the mesh with trimesh, refuses files that are not a closed
 surface, samples ``evals`` sets of ``contacts`` surface points with ``default_rng(seed)``, scores
 each with d* from the null space of the frictionless wrench matrix (exact when the null space
 has dimension one, i.e. 7 contacts of full rank; the last right-singular vector otherwise), and

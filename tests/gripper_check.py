@@ -4,12 +4,13 @@ From a grasp file's JSON, the part's mesh file and the gripper's description fil
 numpy, scipy's NNLS and trimesh (to read files): the pose is a rigid transform; both contacts
 lie on the part's surface (exact point-triangle distance) and outside it just beyond (winding
 number), and on their pads (or, a pad resting across a groove, on the groove's bottom under
-it: the part meets the pad's plane at two opposite sides of the pad); each normal is its pad's or, for a contact on the pad's rim, the
-inward normal of a triangle through the point or, where the rim crosses an edge of the part,
-a normal perpendicular to the rim between those of the triangles through the point; the line
-between them lies inside both friction cones; the posed gripper's shapes, the fingers opened by ``clear`` on each side, do not intersect the part (an exact
-triangle-triangle separating-axis test, so crossing edges count, not only vertices) and no
-shape lies inside it.
+it: the part meets the pad's plane at two opposite sides of the pad); each normal is its pad's or,
+for a contact on the pad's rim, the inward normal of a triangle through the point or, where the rim
+crosses an edge of the part, a normal perpendicular to the rim between those of the triangles
+through the point; the line between them lies inside both friction cones; the posed gripper's
+shapes, the fingers opened by ``clear`` on each side, do not intersect the part (an exact
+triangle-triangle separating-axis test, so crossing edges count, not only vertices) and no shape
+lies inside it.
 """
 
 from __future__ import annotations

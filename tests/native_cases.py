@@ -54,8 +54,9 @@ def malformed() -> dict[str, tuple[np.ndarray, np.ndarray]]:
         "open, holes trimesh cannot fill": (sphere.vertices, sphere.faces),
         "non-manifold edge (a fin)": (np.vstack([v, [[2.0, 2.0, 2.0]]]),
                                       np.vstack([f, [[f[0, 0], f[0, 1], 8]]])),
-        "bow tie (two bodies sharing one vertex)": (np.vstack([tet, -tet[1:]]),
-                                                   np.vstack([tet_f, np.where(tet_f, tet_f + 3, 0)[:, ::-1]])),
+        "bow tie (two bodies sharing one vertex)": (
+            np.vstack([tet, -tet[1:]]),
+            np.vstack([tet_f, np.where(tet_f, tet_f + 3, 0)[:, ::-1]])),
         "duplicate faces": (v, np.vstack([f, f, f[:3, ::-1]])),
         "degenerate faces": (np.vstack([v, [[0.25, 0.0, -0.5]]]),
                              np.vstack([f, [[0, 0, 1], [2, 2, 2], [0, 1, 8]]])),

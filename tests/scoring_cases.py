@@ -16,10 +16,11 @@ TABLE1 = [  # alpha, printed d*, printed class
 ]
 
 
-def example1_W(alpha: float, l: float = 1.0) -> np.ndarray:
-    """Trinkle's Example 1 wrench matrix (moments about the upper right corner)."""
+def example1_W(alpha: float, length: float = 1.0) -> np.ndarray:
+    """Trinkle's Example 1 wrench matrix (moments about the upper right corner; the paper's
+    length l is ``length``)."""
     return np.array(
-        [[0, 0, 1, -np.cos(alpha)], [1, 1, 0, -np.sin(alpha)], [-l, 0, 7 * l / 4, 0]],
+        [[0, 0, 1, -np.cos(alpha)], [1, 1, 0, -np.sin(alpha)], [-length, 0, 7 * length / 4, 0]],
         dtype=float,
     )
 

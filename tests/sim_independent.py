@@ -84,11 +84,11 @@ def _closed_inertia(mesh_path: Path, com: np.ndarray) -> np.ndarray:
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
     loaded.merge_vertices()
     bodies = loaded.split(only_watertight=True) or [loaded.convex_hull]
-    I = np.zeros((3, 3))
+    inertia = np.zeros((3, 3))
     for b in bodies:
         d = b.center_mass - com
-        I += b.moment_inertia + b.volume * (d @ d * np.eye(3) - np.outer(d, d))
-    return I
+        inertia += b.moment_inertia + b.volume * (d @ d * np.eye(3) - np.outer(d, d))
+    return inertia
 
 
 def _fmt(a) -> str:
@@ -103,8 +103,8 @@ def _part_xml(pieces, com, R, pos, scale, mass, inertia, condim, friction, solre
                       f'vertex="{_fmt(((v - com) @ R) * scale)}"/>')
         geoms.append(f'<geom type="mesh" mesh="m{i}" contype="1" conaffinity="2" '
                      f'condim="{condim}" friction="{_fmt(friction)}" solref="{_fmt(solref)}"/>')
-    I = R.T @ inertia @ R
-    full = f"{I[0, 0]:.9g} {I[1, 1]:.9g} {I[2, 2]:.9g} {I[0, 1]:.9g} {I[0, 2]:.9g} {I[1, 2]:.9g}"
+    J = R.T @ inertia @ R
+    full = f"{J[0, 0]:.9g} {J[1, 1]:.9g} {J[2, 2]:.9g} {J[0, 1]:.9g} {J[0, 2]:.9g} {J[1, 2]:.9g}"
     body = (f'<body name="part" pos="{_fmt(pos)}"><freejoint/>'
             f'<inertial pos="0 0 0" mass="{mass:.9g}" fullinertia="{full}"/>'
             + "".join(geoms) + "</body>")
@@ -139,7 +139,8 @@ def _friction_preload(P, N, com, mu) -> np.ndarray:
     Gm = np.array(cols).T
     S = np.kron(np.eye(k), np.ones(8))
     m = Gm.shape[1]
-    res = linprog(np.r_[np.zeros(m), -1.0], A_ub=np.block([[-S, np.ones((k, 1))], [S, np.zeros((k, 1))]]),
+    res = linprog(np.r_[np.zeros(m), -1.0],
+                  A_ub=np.block([[-S, np.ones((k, 1))], [S, np.zeros((k, 1))]]),
                   b_ub=np.r_[np.zeros(k), np.ones(k)], A_eq=np.hstack([Gm, np.zeros((6, 1))]),
                   b_eq=np.zeros(6), bounds=[(0, None)] * (m + 1), method="highs")
     if res.status != 0 or res.x[-1] <= 1e-9:
@@ -173,7 +174,8 @@ def _run(xml: str, ctrl_touch, ctrl_squeeze, target, size, slack, down, shake=1.
         return n
 
     steps(0.1, lambda f: d.ctrl.__setitem__(slice(None), min(1, 2 * f) * ctrl_touch))
-    steps(0.25, lambda f: d.ctrl.__setitem__(slice(None), ctrl_touch + min(1, 2.5 * f) * (ctrl_squeeze - ctrl_touch)))
+    steps(0.25, lambda f: d.ctrl.__setitem__(
+        slice(None), ctrl_touch + min(1, 2.5 * f) * (ctrl_squeeze - ctrl_touch)))
     if target is not None:
         d.ctrl[:] = d.ctrl + (target - np.abs(d.actuator_force)) / STIFF
         steps(0.1, lambda f: None)
@@ -192,7 +194,8 @@ def _run(xml: str, ctrl_touch, ctrl_squeeze, target, size, slack, down, shake=1.
         steps(0.1, lambda f: m.opt.gravity.__setitem__(slice(None), f * G * down))
         for axis in range(3):
             a = np.eye(3)[axis] * shake * G
-            steps(0.5, lambda f, a=a: m.opt.gravity.__setitem__(slice(None), G * down + a * math.sin(4 * math.pi * f)))
+            steps(0.5, lambda f, a=a: m.opt.gravity.__setitem__(
+                slice(None), G * down + a * math.sin(4 * math.pi * f)))
             if moved(xh, qh):
                 return False
     return not moved(xh, qh)
@@ -218,7 +221,8 @@ def simulate_points(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool
     for g in doc["grasps"]:
         P, N = np.asarray(g["points"], float), np.asarray(g["normals"], float)
         C = np.asarray(g["fingers"]["tip_centers"], float)
-        pieces = _pieces(convex, tris, C, NEAR_RTOL * length + 2 * float(g["fingers"]["tip_radius"]),
+        pieces = _pieces(convex, tris, C,
+                         NEAR_RTOL * length + 2 * float(g["fingers"]["tip_radius"]),
                          SLAB_RTOL * length)
         assets, body = _part_xml(pieces, com, np.eye(3), np.zeros(3), s, mass, inertia, condim,
                                  [mu, 0, 0], solref)
@@ -285,7 +289,8 @@ def simulate_jaws(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool]:
             f'<body gravcomp="1"><joint name="s{j}" type="slide" axis="{-sg} 0 0"/>'
             f'<geom type="box" size="{th / 2} {pad_w / 2} {pad_h / 2}" '
             f'pos="{sg * (w / 2 + gap + th / 2)} {sg * pad_y} {z}" mass="{TIP_MASS}" contype="2" '
-            f'conaffinity="1" condim="4" friction="{mu} {torsion} 0" solref="{_fmt(solref)}"/></body>'
+            f'conaffinity="1" condim="4" friction="{mu} {torsion} 0" '
+            f'solref="{_fmt(solref)}"/></body>'
             for j, sg in enumerate((1, -1)))
         kv = 2 * math.sqrt(STIFF * TIP_MASS)
         xml = (f"<mujoco>{_options(4)}<asset>{assets}</asset><worldbody>{body}{pads}</worldbody>"

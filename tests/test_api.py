@@ -6,9 +6,9 @@ import pytest
 
 import synth
 
-MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances", "synth.part",
-           "synth.contacts", "synth.fingers", "synth.plan", "synth.database", "synth.isolate",
-           "synth.native", "synth.sim", "synth.formats", "synth.formats.poses",
+MODULES = ["synth", "synth.scores", "synth.grasps", "synth.errors", "synth.tolerances",
+           "synth.part", "synth.contacts", "synth.fingers", "synth.plan", "synth.database",
+           "synth.isolate", "synth.native", "synth.sim", "synth.formats", "synth.formats.poses",
            "synth.formats.acronym", "synth.formats.graspgen", "synth.formats.isaac",
            "synth.formats.arrays", "synth.formats.objects", "synth.plan.gripper_rank",
            "synth.database.export_objects"]

@@ -106,7 +106,8 @@ def test_export_writes_exactly_the_named_file_and_keeps_the_old_one_on_failure(
     before = out.read_bytes()
     with pytest.raises(DatabaseError):
         export_database(tmp_path / "missing.sqlite", out, "npz")
-    assert out.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["grasps.dat"]
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["grasps.dat"]
 
 
 def test_export_json_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:

@@ -436,8 +436,8 @@ def test_numeric_options_are_checked_up_front(
     assert "print the best N grasps, 1 to 1,000, or 0 for all" in top_help
     build_help = " ".join(_cli(["db", "build", "--help"], capsys)[1].split())
     for text in ("contacts per grasp, one fingertip each: 7 to 64 without friction, 3 to 64 "
-                 "with", "keep the best N grasps, 1 to 1,000", "budget of grasp evaluations, 100 to "
-                 "10,000,000", "worker processes, 0 to 1024",
+                 "with", "keep the best N grasps, 1 to 1,000",
+                 "budget of grasp evaluations, 100 to 10,000,000", "worker processes, 0 to 1024",
                  "seconds of planning per mesh, above 0 to 1,000,000"):  # fmt: skip
         assert text in build_help, text
     with GraspDatabase(reference) as db:  # the library takes any k

@@ -27,10 +27,10 @@ from tests.scoring_cases import (
 TABLE1_MISPRINTS = {1.06, 1.2, 1.5707}
 
 
-@pytest.mark.parametrize("l", [0.25, 1.0, 7.0])
+@pytest.mark.parametrize("length", [0.25, 1.0, 7.0])
 @pytest.mark.parametrize("alpha, printed, kind", TABLE1)
-def test_table1_exact(alpha, printed, kind, l):
-    r = form_closure(example1_W(alpha, l))
+def test_table1_exact(alpha, printed, kind, length):
+    r = form_closure(example1_W(alpha, length))
     assert r.d_star == pytest.approx(example1_exact(alpha), abs=1e-8)
     inside = np.arctan(7 / 4) < alpha < np.pi / 2
     assert r.closure == ("form" if inside else "force")

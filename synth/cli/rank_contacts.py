@@ -144,7 +144,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                      "in a crevice of the part narrower than a fingertip's step off the "
                      "surface")
             rows.append(RankedCandidate(
-                c.name, "no contact", f"{label}: point {int(hidden[0])} lies on a hidden part of the "
+                c.name, "no contact",
+                f"{label}: point {int(hidden[0])} lies on a hidden part of the "
                 f"surface ({where}), where no finger can touch", index=i))
             continue
         P, N, S = con.points, con.normals, con.smooth_normals

@@ -122,7 +122,8 @@ def first_hits(part: Part, origins: np.ndarray, directions: np.ndarray
             p0, p1 = o[r] + t0[:, None] * d[r], o[r] + t1[:, None] * d[r]
             ids, counts = tree.intersection_v(np.minimum(p0, p1) - pad,
                                               np.maximum(p0, p1) + pad)
-            key = np.unique(np.repeat(r, np.asarray(counts, np.int64)) * n_f + np.asarray(ids, np.int64))
+            key = np.unique(np.repeat(r, np.asarray(counts, np.int64)) * n_f
+                            + np.asarray(ids, np.int64))
             h = _narrow(tri, normals, o, d, key % n_f, key // n_f)
             if len(h[0]):
                 hits.append(h)

@@ -567,7 +567,8 @@ def _run_dask(
         from distributed import Client, LocalCluster, as_completed
     except ImportError as e:
         raise InputError(
-            'the Dask engine needs dask.distributed, which is not installed: pip install "synth[dask]"'
+            "the Dask engine needs dask.distributed, which is not installed: "
+            'pip install "synth[dask]"'
         ) from e
     cluster = None
     try:

@@ -147,8 +147,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
     b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
                    metavar="SECONDS",
-                   help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, before it is "
-                   "stopped and recorded as failed with kind 'timeout' (local engine)")
+                   help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, "
+                   "before it is stopped and recorded as failed with kind 'timeout' (local engine)")
     add_quiet(b)
     from synth.cli.sim import add_sim_options
 

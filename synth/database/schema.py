@@ -117,7 +117,8 @@ sim                 TEXT       canonical JSON of the grasp's simulation label, N
 ==================  =========  =================================================================
 
 Indexes: ``meshes(path)`` (unique), ``meshes(sha256)``, ``meshes(name)``, ``meshes(status)``,
-``grasps(d_star)`` and ``grasps(tolerance)``; the primary key of ``grasps`` serves "the best k grasps of a mesh".
+``grasps(d_star)`` and ``grasps(tolerance)``; the primary key of ``grasps`` serves "the best k
+grasps of a mesh".
 
 A mesh's grasps are written in the same transaction as its ``done`` status, so a reader never
 sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``done``.
@@ -126,13 +127,13 @@ Versions: schema version 1 lacks ``meshes.mesh_report``; versions 1 and 2 lack
 ``grasps.tolerance`` and ``grasps.contact_regions``; versions 1 to 3 lack the
 ``gripper_grasps`` table and ``grasps.sim``. Files of version 4 written before ``sim`` existed
 (the day version 4 appeared) lack ``grasps.sim`` and ``gripper_grasps.sim``, and those written
-before the hold measures lack ``grasps.squeeze_per_weight``, ``least_squeeze`` and ``margin``. An older file is
-read as it is (the missing fields read as None, the missing table as no gripper grasps) and is
-migrated in place to the full version 4 -- the missing columns added with ``ALTER TABLE`` (NULL
-in existing rows), the ``grasps(tolerance)`` index and the ``gripper_grasps`` table created,
-``meta.schema_version`` and ``PRAGMA user_version`` set to 4, in one transaction -- the first
-time a build writes to it (:func:`migrate_schema`, :func:`schema_current`). A file of a newer
-version than this synth's is refused.
+before the hold measures lack ``grasps.squeeze_per_weight``, ``least_squeeze`` and ``margin``. An
+older file is read as it is (the missing fields read as None, the missing table as no gripper
+grasps) and is migrated in place to the full version 4 -- the missing columns added with
+``ALTER TABLE`` (NULL in existing rows), the ``grasps(tolerance)`` index and the ``gripper_grasps``
+table created, ``meta.schema_version`` and ``PRAGMA user_version`` set to 4, in one transaction --
+the first time a build writes to it (:func:`migrate_schema`, :func:`schema_current`). A file of a
+newer version than this synth's is refused.
 """
 
 from __future__ import annotations

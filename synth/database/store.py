@@ -362,7 +362,8 @@ class GraspDatabase:
         if status is None:
             rows = self._conn.execute("SELECT * FROM meshes ORDER BY id")
         else:
-            rows = self._conn.execute("SELECT * FROM meshes WHERE status = ? ORDER BY id", (status,))
+            rows = self._conn.execute("SELECT * FROM meshes WHERE status = ? ORDER BY id",
+                                      (status,))
         for row in rows:
             yield MeshRecord.from_row(row)
 

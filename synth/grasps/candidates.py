@@ -243,7 +243,8 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
             except CandidateError as e:
                 errors[i] = str(e)
         keep = ~bad
-        N = np.where(placeholder[:, None, None], N, N / np.where(length > 0, length, 1.0)[..., None])
+        N = np.where(placeholder[:, None, None], N,
+                     N / np.where(length > 0, length, 1.0)[..., None])
         groups.append(CandidateGroup(np.asarray(idx, np.int64)[keep], P[keep], N[keep]))
     return CandidateTable(where, tuple(names), mu_a, tuple(g for g in groups if len(g.index)),
                           tuple(sorted(errors.items())))

@@ -6,9 +6,9 @@ with one difference that matters on real meshes: trimesh compares the region tes
 absolute zero (1e-13, in squared length units), which on a part measured in metres, or on a
 thin triangle, sends points that lie inside the triangle to a vertex or an edge. Here every
 comparison is relative to the triangle's own size (``_ZERO_RTOL`` of its squared edge
-lengths), so the answer does not depend on the unit or on where the part sits. The search certifies its answer with the bound ``dist(p, f) >= |p - c| - r`` where ``c`` is a
-proxy point of face ``f`` (the centroid of a piece of it) and ``r`` the largest
-proxy-to-corner distance of the pieces.
+lengths), so the answer does not depend on the unit or on where the part sits. The search certifies
+its answer with the bound ``dist(p, f) >= |p - c| - r`` where ``c`` is a proxy point of face ``f``
+(the centroid of a piece of it) and ``r`` the largest proxy-to-corner distance of the pieces.
 """
 
 from __future__ import annotations
@@ -449,8 +449,9 @@ def _near_faces(index: MeshIndex, points: np.ndarray, reach: np.ndarray
     """Every face that may come within ``reach`` (m,) of each point (m, 3).
 
     Faces with a proxy of some size group within ``reach`` plus the group's largest radius
-    (a face may come more than once). Returns the points that have any (``rows``), and for them the candidates
-    ``cand`` (c,) grouped by point (``owner`` (c,) into ``rows``, ``starts`` of each group).
+    (a face may come more than once). Returns the points that have any (``rows``), and for them the
+    candidates ``cand`` (c,) grouped by point (``owner`` (c,) into ``rows``, ``starts`` of each
+    group).
     """
     owners, cands = [], []
     for faces, tree, r_level in index.levels:

@@ -41,8 +41,9 @@ class Part:
         Characteristic length: the diagonal of the axis-aligned bounding box, in ``units``.
         Used only to make tolerances and moment arms scale-free.
     precision : float
-        Rounding error of the stored coordinates (:func:`~synth.part.tolerances.coordinate_precision`),
-        in ``units``; every length tolerance is at least a few times this.
+        Rounding error of the stored coordinates
+        (:func:`~synth.part.tolerances.coordinate_precision`), in ``units``; every length
+        tolerance is at least a few times this.
     center_mass : (3,) float
         Of the closed bodies together (uniform density); the area centroid when no body is
         closed.

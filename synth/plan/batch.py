@@ -7,9 +7,9 @@ frictionless grasps of one contact per fingertip, and for every grasp when it is
 is conditioned at least ``PlanParams.min_conditioning``, and its fingertips do not overlap;
 ``floor / squeeze - 1`` (in (-1, 0)) for a closure grasp above the floor, so that a climber
 moves towards grasps that hold; d* - 1 when closure or conditioning fails (so better
-candidates still rank higher); -2 when two fingertips overlap. All of it under the surface model ``PlanParams.surface``
-(:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must hold with the
-mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every
+candidates still rank higher); -2 when two fingertips overlap. All of it under the surface model
+``PlanParams.surface`` (:mod:`synth.scores.surface`): with ``"both"``, closure and conditioning must
+hold with the mesh's normals and with the smooth reading's, and d* is the smaller of the two. Every
 candidate scored counts as one evaluation of the budget.
 
 The scorer also keeps the search's clock: it scores in chunks and stops at the deadline

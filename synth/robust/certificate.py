@@ -286,8 +286,9 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
     hulls, with the expansion recentred in it: the linear part exactly (its worst vertex),
     the rest by the spectral and Frobenius norms of the recentred coefficients times the
     runs' radii. A box that is not certified has the run with the largest share of the error
-    cut into two runs that share no vertex (the boxes need only cover every vertex choice). The value at each box's worst-vertex choice is a real value, so a
-    non-positive one is a counterexample.
+    cut into two runs that share no vertex (the boxes need only cover every vertex choice). The
+    value at each box's worst-vertex choice is a real value, so a non-positive one is a
+    counterexample.
 
     Parameters
     ----------

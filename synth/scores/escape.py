@@ -148,8 +148,10 @@ def describe_twist(
     axis = _direction(w)
     small = 1e-2 * length if length else 1e-3 * nv / nw
     if abs(pitch) <= small or abs(pitch) * nw < 1e-9:
-        return f"free to rotate about {sign}{axis.lstrip('+-') if sign else axis} through {_point(p, length)}"
+        return (f"free to rotate about {sign}{axis.lstrip('+-') if sign else axis} "
+                f"through {_point(p, length)}")
     return (
-        f"free to screw about {sign}{axis.lstrip('+-') if sign else axis} through {_point(p, length)}"
+        f"free to screw about {sign}{axis.lstrip('+-') if sign else axis} "
+        f"through {_point(p, length)}"
         f" (pitch {pitch:.3g} per radian)"
     )

@@ -42,8 +42,9 @@ from numpy.typing import NDArray
 
 from synth.sim.scene import GRAVITY, HAND_BITS, Scene, quiet_mujoco
 
-__all__ = ["SimRun", "run_protocol", "settle_under", "DIRECTIONS", "CLOSE_S", "SETTLE_S", "SQUEEZE_S",
-           "HOLD_S", "CORRECTIONS", "RAMP_S", "GRAVITY_S", "CHECK_STEPS", "SPEED_LIMIT"]
+__all__ = ["SimRun", "run_protocol", "settle_under", "DIRECTIONS", "CLOSE_S", "SETTLE_S",
+           "SQUEEZE_S", "HOLD_S", "CORRECTIONS", "RAMP_S", "GRAVITY_S", "CHECK_STEPS",
+           "SPEED_LIMIT"]
 
 #: Time over which the fingers close onto the part, s.
 CLOSE_S: float = 0.05

@@ -9,9 +9,9 @@ along -z of the file.
 * The part is one body with a free joint, its frame at the centre of mass, its mass and
   inertia those of the part's closed bodies at the settings' density (given explicitly:
   MuJoCo would sum the overlapping convex pieces), one mesh geom per convex piece and per
-  facet slab near the fingers (:mod:`synth.sim.shape`). A weld (the equality ``hold``) keeps it in place while the
-  hand closes and squeezes, as a part rests where it is while fingers close on it; the
-  protocol then lets go, and the part is held by the fingers alone.
+  facet slab near the fingers (:mod:`synth.sim.shape`). A weld (the equality ``hold``) keeps it in
+  place while the hand closes and squeezes, as a part rests where it is while fingers close on it;
+  the protocol then lets go, and the part is held by the fingers alone.
 * Each finger is a sphere of the planned tip radius on a slide joint along its approach,
   starting ``START_GAP`` tip radii back from its planned place along the approach (clear of
   the part: the planner checked the finger's body there), driven by a position servo of gain
@@ -44,7 +44,8 @@ from synth.sim.shape import PartShape, within
 
 __all__ = ["Scene", "build_scene", "new_spec", "add_part", "compile_spec", "quiet_mujoco",
            "contact_params", "GRAVITY",
-           "IMPRATIO", "START_GAP", "START_RTOL", "REACH_RTOL", "penetration_limit", "PART_BITS", "HAND_BITS"]
+           "IMPRATIO", "START_GAP", "START_RTOL", "REACH_RTOL", "penetration_limit", "PART_BITS",
+           "HAND_BITS"]
 
 #: Standard gravity, m/s^2.
 GRAVITY: float = 9.80665

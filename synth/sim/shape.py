@@ -12,14 +12,14 @@ whose vertices are split along normal or texture seams is a set of open sheets u
 * Any other body (a non-convex solid, an open surface) is given, near the hand only, as its
   facets: each triangle extruded ``SLAB_RTOL`` of the part's size into the part, a thin convex
   prism (less where the wall behind it is thinner: at most ``WALL_SHARE`` of the wall's
-  thickness, found by casting rays into the part, so no slab stands out of the far side). A fingertip or pad then meets the mesh's own facets, with their own normals, at the
-  planned contacts. (A convex decomposition is the other way. Measured with CoACD on a robot
-  finger, an open mesh: its pieces buried the planned contacts by up to 0.63 tip radii at
-  CoACD's default threshold and 0.33 at 0.02, and 6 of its 10 best grasps were pushed out by
-  their own squeeze; decomposing such a body took minutes.) Only facets the hand can reach
-  before the part has moved past the protocol's threshold are needed; :meth:`PartShape.near`
-  picks those within a distance of the fingers. The simulation stops as diverged before a
-  finger sinks half a slab deep.
+  thickness, found by casting rays into the part, so no slab stands out of the far side). A
+  fingertip or pad then meets the mesh's own facets, with their own normals, at the planned
+  contacts. (A convex decomposition is the other way. Measured with CoACD on a robot finger, an open
+  mesh: its pieces buried the planned contacts by up to 0.63 tip radii at CoACD's default threshold
+  and 0.33 at 0.02, and 6 of its 10 best grasps were pushed out by their own squeeze; decomposing
+  such a body took minutes.) Only facets the hand can reach before the part has moved past the
+  protocol's threshold are needed; :meth:`PartShape.near` picks those within a distance of the
+  fingers. The simulation stops as diverged before a finger sinks half a slab deep.
 
 The part's mass properties are those of its closed bodies (of the hull of its points when none
 is closed).

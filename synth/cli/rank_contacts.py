@@ -6,6 +6,7 @@ checked and its grasp scored as ``synth plan`` scores its own.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -120,6 +121,13 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
     several = len(part.bodies) > 1
+
+    def conditioning_of(P: np.ndarray, mu: float, n: np.ndarray) -> float:
+        return float(conditioning(grasp_wrenches(P, n, center, L, mu, edges)))
+
+    def epsilon_of(P: np.ndarray, mu: float, n: np.ndarray) -> float:
+        return float(epsilon_quality(P, n, center, L, mu, edges))
+
     for i, c in zip(index if index is not None else range(len(cands)), cands, strict=True):
         label = f"candidate {i} ({c.name})"
         if c.points.shape[1] != 3:
@@ -164,11 +172,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                 fr = frictional_form_closure(P, n, m, center=center, edges=edges)
                 graded.append((fr.closure == "frictional form", fr.d_star, fr.closure))
         _, d, closure = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
-        # the loop's P and m bound as defaults (the readings are taken right here)
-        cond = worst_reading(lambda n, P=P, m=m: float(conditioning(grasp_wrenches(
-            P, n, center, L, m, edges))), N, S, surface)
-        eps = worst_reading(lambda n, P=P, m=m: float(epsilon_quality(P, n, center, L, m, edges)),
-                            N, S, surface)
+        cond = worst_reading(partial(conditioning_of, P, m), N, S, surface)
+        eps = worst_reading(partial(epsilon_of, P, m), N, S, surface)
         ids = np.unique(con.finger, return_inverse=True)[1]
         spw = max(float(finger_hold_batch(P[None], n[None], center, L, m, ids[None], edges)
                         .squeeze_per_weight[0]) for n in readings(N, S, surface))

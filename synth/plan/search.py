@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -546,6 +547,13 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     rejected: dict[str, int] = {}
     min_gap = prm.diversity * part.length
     want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
+
+    def conditioning_of(P: NDArray[np.float64], n: NDArray[np.float64]) -> float:
+        return float(conditioning(score.matrix(P, n)))
+
+    def epsilon_of(P: NDArray[np.float64], n: NDArray[np.float64]) -> float:
+        return epsilon_quality(P, n, score.center, score.length, prm.mu, prm.edges)
+
     for s in range(0, len(order), 64):
         if s > 0 and time.perf_counter() > deadline:  # the first block is always checked
             break
@@ -575,12 +583,9 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                           .max(initial=0.0))
             both = surface_scores(P[None], N[None], S[None], prm.surface, score.center,
                                   score.length, prm.mu, prm.edges, compiled=False)
-            cond = worst_reading(lambda n, P=P: float(conditioning(score.matrix(P, n))), N, S,
-                                 prm.surface)
+            cond = worst_reading(partial(conditioning_of, P), N, S, prm.surface)
             closure = "form" if prm.mu == 0 else "frictional form"
-            eps = worst_reading(lambda n, P=P: epsilon_quality(P, n, score.center, score.length,
-                                                               prm.mu, prm.edges),
-                                N, S, prm.surface)
+            eps = worst_reading(partial(epsilon_of, P), N, S, prm.surface)
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
                                      d_star=float(archive.d[i]), smooth=S,
                                      surface=prm.surface) if prm.wants_regions else None

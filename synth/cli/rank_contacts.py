@@ -182,9 +182,10 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         chk = check_fingers(part, P[None], N[None], fingers, ids[None])
         fing = None
         if chk.mask[0]:
-            where = chk.placement(0)
-            fing = where.to_dict()
-            fing["tip_sink"] = float(tip_sinks(part, where.tip_centers, where.tip_radius).max())
+            placement = chk.placement(0)
+            fing = placement.to_dict()
+            fing["tip_sink"] = float(tip_sinks(part, placement.tip_centers, placement.tip_radius)
+                                     .max())
         holds = closure in ("form", "frictional form")
         robust = contact_regions(part, P, N, mu=m, edges=edges, d_star=d, smooth=S,
                                  surface=surface) if holds and (

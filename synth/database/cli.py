@@ -277,8 +277,9 @@ def _loading_line(info: Any) -> str:
 
 
 def _top(args: argparse.Namespace) -> int:
-    from synth.database.schema import GripperGraspRecord
+    from synth.database.schema import GraspRecord, GripperGraspRecord
     from synth.database.store import GraspDatabase
+    from synth.errors import DatabaseFileError
 
     with GraspDatabase(args.database) as db:
         mesh = db.mesh(args.mesh)
@@ -289,23 +290,28 @@ def _top(args: argparse.Namespace) -> int:
                           "grasps": [g.to_dict() for g in grasps]}, indent=1))
         return 0
     note = f" ({mesh.error})" if mesh.status != "done" and mesh.error else ""
-    jaws = bool(grasps) and isinstance(grasps[0], GripperGraspRecord)
-    what = f"{grasps[0].gripper} gripper grasps" if jaws else "grasps"
+    # a mesh's grasps are of one kind: gripper grasps, or point-finger grasps
+    jaws = [g for g in grasps if isinstance(g, GripperGraspRecord)]
+    points = [g for g in grasps if isinstance(g, GraspRecord)]
+    what = f"{jaws[0].gripper} gripper grasps" if jaws else "grasps"
     print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} {what}")
     if jaws:
         import trimesh
 
         from synth.cli.gripper import format_gripper_table
 
+        if mesh.units is None:  # gripper grasps are planned in known units
+            raise DatabaseFileError(f"{args.database}: mesh {mesh.path!r} has gripper grasps "
+                                    "but no units: the file is damaged")
         mm = float(trimesh.units.unit_conversion(mesh.units, "millimeters"))
-        print(format_gripper_table(grasps, mm, [g.sim for g in grasps], [g.rank for g in grasps]))
-    elif grasps:
-        show = any(g.tolerance is not None for g in grasps)
-        sim = any(g.sim is not None for g in grasps)
+        print(format_gripper_table(jaws, mm, [g.sim for g in jaws], [g.rank for g in jaws]))
+    elif points:
+        show = any(g.tolerance is not None for g in points)
+        sim = any(g.sim is not None for g in points)
         print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
               + (f"{'tolerance':>10}  " if show else "")
               + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "closure")
-        for g in grasps:
+        for g in points:
             tol = "-" if g.tolerance is None else f"{g.tolerance:.3g}"
             held = "" if not sim else (f"{'-':<4}  {'-':<9}  " if g.sim is None else
                                        f"{'yes' if g.sim['held'] else 'no':<4}  "

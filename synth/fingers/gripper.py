@@ -41,7 +41,7 @@ import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -139,8 +139,9 @@ class Gripper:
             pad_center=self.pad_center * factor, pad_size=self.pad_size * factor,
             finger_z=self.finger_z * factor, unit_scale=self.unit_scale * factor)
 
-    def rise(self, width: float | NDArray[np.float64]) -> NDArray[np.float64]:
-        """How far the fingers rise along z at opening ``width`` (scalar or (n,))."""
+    def rise(self, width: float | NDArray[np.float64]) -> NDArray[np.float64] | np.float64:
+        """How far the fingers rise along z at opening ``width`` (scalar or (n,): a scalar or
+        (n,) result)."""
         return np.interp(width, self.finger_z[:, 0], self.finger_z[:, 1])
 
     def finger_transforms(self, width: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -229,7 +230,7 @@ def _mesh_shape(item: dict[str, Any], where: str, at: str, folder: Path) -> Grip
     if not path.is_file():
         raise InputError(f"{where}: field '{at}.mesh': no such file {str(path)!r}")
     try:
-        mesh = trimesh.load(path, force="mesh", process=True)
+        mesh = cast(trimesh.Trimesh, trimesh.load(path, force="mesh", process=True))
     except Exception as e:  # trimesh raises many kinds; all mean an unreadable mesh
         raise InputError(f"{where}: field '{at}.mesh': cannot read {str(path)!r}: {e}") from e
     if len(mesh.faces) == 0:

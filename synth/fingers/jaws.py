@@ -204,6 +204,7 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
               n: int, rect: tuple[float, float, float, float], sign: float, tol: float,
               half: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                          NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64],
+                         NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_],
                          NDArray[np.float64]]:
     """For ``n`` poses at once: the largest ``sign * x`` of the mesh inside a pad's prism.
 
@@ -213,8 +214,10 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     the open pads (NaN where the pad misses), the touched patch's centre ``(y, z)`` (n, 2) and
     diagonal (n,), whether the touch is a contact with the pad's normal (n,) (a patch or an
     interior touch), whether it is instead the pad's rim on a face (n,), that face's outward
-    normal (n, 3) (NaN where there is none), and the extreme over the whole prism (n,), behind
-    the open pad included.
+    normal (n, 3) (NaN where there is none), the extreme over the whole prism (n,), behind
+    the open pad included, the touched patch's bounds ``(lo_y, hi_y, lo_z, hi_z)`` (n, 4),
+    which triangles touch (K,), and, for a pad resting across a groove, how deep the part's
+    surface under its middle lies behind it (n,) (0 elsewhere).
     """
     y0, y1, z0, z1 = rect
     A = Tg

@@ -177,7 +177,7 @@ def _uniform(points: object, normals: object) -> tuple[np.ndarray, np.ndarray] |
     return P, N
 
 
-def _table(where: str, names: list[str], named: list[bool], points: object, normals: object,
+def _table(where: str, names: list[str], named: list[bool], points: Any, normals: Any,
            mu: list[object], errors: dict[int, str]) -> CandidateTable:
     """Validate candidates given as lists or (B, k, d) arrays (None marks an item already in
     ``errors``).
@@ -209,8 +209,9 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
             P = N = None  # type: ignore[assignment]
         if P is None or N is None or P.shape != N.shape or P.ndim != 2 or P.shape[1] not in \
                 (2, 3) or P.shape[0] == 0:
-            try:
-                _check_one(points[i], normals[i], _label(where, i, names[i] if named[i] else None))
+            try:  # raises here: its checks include those above
+                P, N = _check_one(points[i], normals[i],
+                                  _label(where, i, names[i] if named[i] else None))
             except CandidateError as e:
                 errors[i] = str(e)
                 continue
@@ -223,9 +224,9 @@ def _table(where: str, names: list[str], named: list[bool], points: object, norm
         else:
             P = np.stack([arrays[i][0] for i in idx])
             N = np.stack([arrays[i][1] for i in idx])
-        placeholder = np.isnan(N).all(axis=(1, 2))
+        placeholder = np.asarray(np.isnan(N).all(axis=(1, 2)))  # (B,) bool
         length = np.linalg.norm(N, axis=2)
-        finite = np.isfinite(P).all(axis=(1, 2))
+        finite = np.asarray(np.isfinite(P).all(axis=(1, 2)))
         huge = finite & (np.abs(np.where(np.isfinite(P), P, 0.0)) > MAX_COORDINATE).any(
             axis=(1, 2))
         bad = huge | ~(finite & ((np.isfinite(N).all(axis=(1, 2)) &
@@ -417,7 +418,7 @@ def _read_npz(p: Path) -> CandidateTable:
         raise CandidateError(f"{p}: array 'mu' must be one number or shape ({B},), got "
                              f"{mu.shape}")
     named = names is not None
-    name_list = [str(x) for x in names] if named else [f"#{i}" for i in range(B)]
+    name_list = [str(x) for x in names] if names is not None else [f"#{i}" for i in range(B)]
     mu_list: list[object] = [None] * B if mu is None else (
         [mu.item()] * B if mu.ndim == 0 else mu.tolist())
     return _table(str(p), name_list, [named] * B, P.astype(np.float64), N.astype(np.float64),

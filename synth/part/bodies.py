@@ -30,7 +30,7 @@ normal; Baerentzen and Aanaes, 2005), which is exact for a closed, consistently 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import trimesh
@@ -51,6 +51,9 @@ _FACE_SAMPLES = np.array(
 )
 _BARY_TOL = 1e-9  # barycentric coordinates are scale free
 _CHUNK = 1 << 16
+#: The inside test of a closed body that is not convex: its mesh index, face normals, and
+#: corner and edge pseudo-normals (:func:`_mesh_hidden`).
+_MeshTest = tuple[MeshIndex, np.ndarray, np.ndarray, np.ndarray]
 
 
 def face_sample_weights() -> np.ndarray:
@@ -155,7 +158,7 @@ def compute_bodies(
     bounds = np.searchsorted(labels[order], np.arange(n_b + 1))
     for b in range(n_b):
         faces = order[bounds[b] : bounds[b + 1]].copy()
-        sub = mesh.submesh([faces], append=True, repair=False)
+        sub = cast(trimesh.Trimesh, mesh.submesh([faces], append=True, repair=False))
         with np.errstate(invalid="ignore", divide="ignore"):  # open pieces have no volume
             closed = bool(sub.is_watertight and sub.is_winding_consistent and sub.volume > 0)
         convex = bool(closed and sub.is_convex)
@@ -184,7 +187,8 @@ class Solids:
         fn = np.asarray(mesh.face_normals, float)
         tri = np.asarray(mesh.triangles, float)
         faces = np.asarray(mesh.faces, np.int64)
-        self._tests: list[tuple[int, np.ndarray, Any]] = []
+        # per closed body: its index, its box and its test (a convex body's planes)
+        self._tests: list[tuple[int, np.ndarray, np.ndarray | _MeshTest]] = []
         need_pseudo = any(b.closed and not b.convex for b in bodies)
         if need_pseudo:
             ang = np.asarray(mesh.face_angles, float)

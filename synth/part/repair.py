@@ -181,7 +181,8 @@ def close(mesh: trimesh.Trimesh, native: bool = True) -> tuple[trimesh.Trimesh, 
     got = call_isolated(MERGE_CLOSE, np.asarray(mesh.vertices, np.float64),
                         np.asarray(mesh.faces, np.int64))
     if got is not None:
-        closed = trimesh.Trimesh(*got, process=False)
+        vertices, faces = got
+        closed = trimesh.Trimesh(vertices, faces, process=False)
         if closed.is_watertight and closed.volume > 0:
             return closed, "closed the mesh with manifold3d (merged open edges)"
     return mesh, None

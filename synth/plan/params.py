@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, TypeGuard
 
 from synth.errors import InputError, shown
 from synth.limits import (
@@ -47,10 +47,11 @@ MAX_SQUEEZE: float = 4.0
 BUILD_TIME: float = 600.0
 
 
-def _integer(value: object) -> bool:
+def _integer(value: object) -> TypeGuard[int]:
     """A Python or numpy integer, not a bool (numpy registers its integers as
     ``numbers.Integral``; this module does not import numpy, so that the command line's
-    ``--help`` need not load it)."""
+    ``--help`` need not load it). To the type checker an ``int``: numpy's integers compare
+    as ints do."""
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 

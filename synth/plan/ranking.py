@@ -66,8 +66,10 @@ def rank_grasps(grasps: Sequence[G], rank_by: str = "d_star") -> list[G]:
 
     if rank_by == "d_star":
         return sorted(grasps, key=by_d_star)
+    def by_margin(g: Any) -> tuple[float, float, float]:
+        return (-_measure(-g.squeeze_per_weight if g.squeeze_per_weight is not None else None),
+                *by_d_star(g))
+
     if rank_by == "margin":  # the least squeeze per weight, smallest first; unknown last
-        return sorted(grasps, key=lambda g: (-_measure(-g.squeeze_per_weight
-                                                       if g.squeeze_per_weight is not None
-                                                       else None), *by_d_star(g)))
+        return sorted(grasps, key=by_margin)
     return sorted(grasps, key=lambda g: (-_measure(getattr(g, rank_by)), *by_d_star(g)))

@@ -98,7 +98,8 @@ def _layout(k: int, order: int) -> tuple[NDArray[np.int64], list[tuple[int, int,
     derivative along its frame axis ``a``. Returns the selections ``(E, k - 1)`` and, per
     row, ``(j, order, (contacts, axes))``.
     """
-    rows, meta = [], []
+    rows: list[list[int]] = []
+    meta: list[tuple[int, int, tuple]] = []
     for j in range(k):
         cols = [i for i in range(k) if i != j]
         rows.append(cols)
@@ -247,8 +248,9 @@ def _spectral2(M: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.sqrt(np.maximum(0.5 * (f2 + np.sqrt(np.maximum(f2 * f2 - 4 * det * det, 0))), 0))
 
 
-def _box_bounds(poly: tuple[NDArray, ...], tn: NDArray, V: NDArray[np.float64],
-                member: NDArray[np.bool_]) -> tuple[NDArray[np.float64], ...]:
+def _box_bounds(poly: tuple[NDArray, NDArray, NDArray, NDArray], tn: NDArray,
+                V: NDArray[np.float64], member: NDArray[np.bool_]
+                ) -> tuple[NDArray[np.float64], ...]:
     """Bounds of each box's cofactor (``poly``: its ``c0, g, B, T`` per box, as :func:`_at`
     takes them; ``tn`` its :func:`_full` block norms) over box ``z``, which lets contact
     ``i`` take the vertices

@@ -134,7 +134,7 @@ def describe_twist(
     v, w = (t[:2], t[2:]) if planar else (t[:3], t[3:])
     nv, nw = np.linalg.norm(v), np.linalg.norm(w)
     sign = "±" if both_senses else ""
-    if nw <= 1e-9 * max(nv, 1e-300) or nw == 0.0:
+    if nw <= 1e-9 * max(float(nv), 1e-300) or nw == 0.0:
         dirn = _direction(np.append(v, 0.0) if planar else v)
         return f"free to translate along {sign}{dirn.lstrip('+-') if sign else dirn}"
     if planar:

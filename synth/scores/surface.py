@@ -100,7 +100,8 @@ def differs(normals: NDArray[np.float64], smooth: NDArray[np.float64]) -> NDArra
     -------
     (B,) bool
     """
-    return (np.abs(np.asarray(smooth) - np.asarray(normals)) > SAME_NORMAL_TOL).any(axis=(1, 2))
+    return np.asarray(
+        (np.abs(np.asarray(smooth) - np.asarray(normals)) > SAME_NORMAL_TOL).any(axis=(1, 2)))
 
 
 @dataclass(frozen=True)

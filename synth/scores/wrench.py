@@ -101,7 +101,7 @@ def wrench_matrix(
     d = P.shape[1]
     o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
     if o.shape != (d,) or not np.all(np.isfinite(o)):
-        raise InputError(f"center must be a finite ({d},) vector, got {np.shape(center)}")
+        raise InputError(f"center must be a finite ({d},) vector, got {o.shape}")
     R = P - o
     if d == 3:
         return np.vstack([N.T, np.cross(R, N).T])

@@ -137,14 +137,14 @@ def build_jaw_scene(shape: PartShape, part: Any, pose: NDArray[np.float64], widt
     density = mass / ((volume if volume > 0 else shape.volume) * metres**3)
     add_part(spec, shape, pieces, center_mass=com, volume=volume, scale=metres, rotation=R,
              position=R.T @ (com - t) * metres, density=density, common=common)
-    half = [0.5 * thick, 0.5 * pad_w, 0.5 * pad_h]
+    pad_half = [0.5 * thick, 0.5 * pad_w, 0.5 * pad_h]
     kv = 2.0 * np.sqrt(settings.stiffness * settings.finger_mass)
     for j, sign in enumerate((1.0, -1.0)):
         body = spec.worldbody.add_body(name=f"finger{j}")
         body.gravcomp = 1.0
         body.add_joint(type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[-sign, 0.0, 0.0],
                        name=f"slide{j}")
-        body.add_geom(name=f"pad {j}", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
+        body.add_geom(name=f"pad {j}", type=mujoco.mjtGeom.mjGEOM_BOX, size=pad_half,
                       pos=[sign * (0.5 * w + gap + 0.5 * thick), sign * yc, zc],
                       mass=settings.finger_mass, contype=HAND_BITS, conaffinity=PART_BITS,
                       **common)

@@ -65,7 +65,8 @@ class Contacts:
     unique_normal: np.ndarray
     region: np.ndarray
     finger: np.ndarray
-    smooth_normals: np.ndarray | None = None
+    # None given: ``normals`` (set by __post_init__, so never None on an instance)
+    smooth_normals: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         pts = np.array(self.points, dtype=float, copy=True)

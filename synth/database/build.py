@@ -25,7 +25,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Hashable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
@@ -362,7 +362,7 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     scenes: list[str] = []
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
-    for src in map(os.fspath, sources):
+    for src in (os.fspath(s) for s in sources):
         if os.path.isdir(src):
             for root, files, first in _walk(src, seen):
                 if not first and os.path.realpath(root) != os.path.abspath(root):
@@ -583,7 +583,7 @@ def _run_dask(
         nthreads = max(1, sum(client.nthreads().values()))
         on_workers(nthreads)
         queue = list(reversed(tasks))
-        pending: dict[str, _Task] = {}
+        pending: dict[Hashable, _Task] = {}  # by Dask's key of the task's future
         ac = as_completed()
 
         def submit() -> None:

@@ -326,7 +326,7 @@ def export_database(
         if fmt == "h5":
             _write_h5(db, tmp)
         elif fmt == "npz":
-            cols = export_columns(db)
+            cols: dict[str, Any] = export_columns(db)
             cols["params"] = np.array(json.dumps(db.params, sort_keys=True))
             cols["planner"] = np.array(db.planner)
             cols["units"] = np.array(UNITS)

@@ -66,23 +66,24 @@ def _objects(db: GraspDatabase, units: str | None) -> list[ObjectGrasps]:
         name = stem if stems[stem] == 1 else f"{stem}-{mesh.id}"
         poses = np.array([g.pose for g in grasps])
         poses[:, :3, 3] *= m
-        known = [g for g in grasps if g.least_squeeze is not None]
-        mass = known[0].least_squeeze / (known[0].squeeze_per_weight * GRAVITY) if known \
-            else None
+        known = [(g.least_squeeze, g.squeeze_per_weight) for g in grasps
+                 if g.least_squeeze is not None and g.squeeze_per_weight is not None]
+        mass = known[0][0] / (known[0][1] * GRAVITY) if known else None
         how = ("from the stored least squeeze (the build's --mass or --density)" if known else
                "unknown: the build had no --mass nor --density")
         meas = {k: np.array([np.nan if getattr(g, k) is None else getattr(g, k)
                              for g in grasps], float) for k in _MEASURES}
         # a grasp synth could not simulate (its label says why: held is null) takes the
         # analytic verdict, as one not simulated
-        simulated = np.array([g.sim is not None and g.sim.get("held") is not None
-                              for g in grasps])
-        label = np.array([bool(g.sim["held"]) if sim else
+        sims = [g.sim if g.sim is not None and g.sim.get("held") is not None else None
+                for g in grasps]
+        simulated = np.array([sim is not None for sim in sims])
+        label = np.array([bool(sim["held"]) if sim is not None else
                           g.d_star > 0 and (g.margin is None or g.margin >= 1.0)
-                          for g, sim in zip(grasps, simulated, strict=True)])
+                          for g, sim in zip(grasps, sims, strict=True)])
         meas["simulated"] = simulated.astype(float)
-        makers = sorted({str(g.sim.get("simulator", "synth.sim 1"))
-                         for g, sim in zip(grasps, simulated, strict=True) if sim})
+        makers = sorted({str(sim.get("simulator", "synth.sim 1"))
+                         for sim in sims if sim is not None})
         verdict = VERDICT.format(
             sims=int(simulated.sum()), n=len(grasps), simulator=" and ".join(makers) or "-",
             mu=params.get("mu"), torsion="default 5 mm" if params.get("torsion") is None

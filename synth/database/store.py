@@ -290,7 +290,9 @@ class GraspDatabase:
 
     def info(self) -> DatabaseInfo:
         """Counts, failures and parameters of the database."""
-        counts = dict(self._query("SELECT status, count(*) FROM meshes GROUP BY status"))
+        counts: dict[str, int] = {
+            status: n for status, n in self._query(
+                "SELECT status, count(*) FROM meshes GROUP BY status")}
         n_grasps = self._query("SELECT count(*) FROM grasps")[0][0]
         n_gripper = 0
         if self.schema_version >= 4:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 import trimesh
@@ -93,7 +94,8 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     try:
         # OBJ: one body per object ("o"), never welded to another (collision meshes store
         # their convex pieces as objects that share corner positions)
-        extra = {"split_objects": True, "group_material": False} if ext == "obj" else {}
+        extra: dict[str, Any] = {"split_objects": True, "group_material": False} \
+            if ext == "obj" else {}
         loaded = trimesh.load(str(path), file_type=ext, process=False, force=None, **extra)
     except Exception as e:  # trimesh raises many kinds
         raise _fail(name, f"cannot be read as {ext.upper()} ({type(e).__name__}: {e})") from e
@@ -129,7 +131,8 @@ def _split(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
     labels = body_labels(mesh)
     if labels.max() == 0:
         return [mesh]
-    return [mesh.submesh([np.flatnonzero(labels == i)], append=True, repair=False)
+    return [cast(trimesh.Trimesh,
+                 mesh.submesh([np.flatnonzero(labels == i)], append=True, repair=False))
             for i in range(int(labels.max()) + 1)]
 
 
@@ -333,11 +336,13 @@ def length_unit(unit: object) -> str | None:
     """The unit name trimesh reads for ``unit`` (an alias such as ``mm`` resolved, see
     ``UNIT_ALIASES``), or None when it is not a length unit trimesh knows."""
     name = UNIT_ALIASES.get(str(unit).strip().lower(), unit)
+    if not isinstance(name, str):  # trimesh knows units by name only
+        return None
     try:
         trimesh.units.to_inch(name)
     except Exception:  # noqa: BLE001 - trimesh raises several kinds
         return None
-    return name  # type: ignore[return-value]
+    return name
 
 
 def _valid_unit(unit: object) -> str | None:
@@ -439,10 +444,12 @@ def load_part(
     convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
                      if bodies[i][2] and bodies[i][1].is_convex}
     repairs.extend(notes)
-    mesh = meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    mesh = meshes[0] if len(meshes) == 1 else cast(trimesh.Trimesh,
+                                                   trimesh.util.concatenate(meshes))
     mesh = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
                            process=False)
-    mesh.units = unit
+    # trimesh stores str(unit).lower(): "none" when the unit is unknown (GLB files carry it)
+    mesh.units = str(unit)
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,
                 warnings=warnings, source=path, sha256=digest, body_names=names,
                 dropped=dropped, precision=precision, face_source=np.concatenate(sources),

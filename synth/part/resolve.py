@@ -275,8 +275,8 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
                          np.full(len(rs), 2, np.int8), vid[rs], vk[multi] == 3))
 
     src_all = [np.flatnonzero(single)]
-    cols = [(normal[single], smooth[single], face_out[single], kind[single], index[single],
-             unique[single])]
+    cols: list[tuple[np.ndarray, ...]] = [(normal[single], smooth[single], face_out[single],
+                                           kind[single], index[single], unique[single])]
     for r in rows:
         src_all.append(r[0])
         cols.append(r[1:])

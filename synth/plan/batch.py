@@ -73,7 +73,7 @@ class GraspBatch:
     regions: NDArray[np.int64]
     d: NDArray[np.float64]
     fit: NDArray[np.float64]
-    finger: NDArray[np.int64] = field(default=None)  # type: ignore[assignment]
+    finger: NDArray[np.int64] = field(default=None)  # type: ignore[arg-type]  # __post_init__
 
     def __post_init__(self) -> None:
         if self.finger is None:

@@ -136,8 +136,8 @@ def refine(best: Scored, part: Any, gripper: Gripper, checker: GripperChecker, m
                 pick.append(mine[np.argmin(coarse[mine])])
         if not pick:
             break
-        pick = np.array(pick)
-        hold = gravity_hold_batch(P[pick], N[pick], mu, gamma, part.center_mass, part.length,
+        rows = np.array(pick)
+        hold = gravity_hold_batch(P[rows], N[rows], mu, gamma, part.center_mass, part.length,
                                   gravity, edges, compiled=False)
         fields = {f: np.array(getattr(cur, f)) for f in cur.__dataclass_fields__}
         for k, j in enumerate(pick):

@@ -10,6 +10,7 @@ the GLB in its scene's extras (``scene.metadata["synth"]["run_id"]`` once loaded
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import trimesh
@@ -199,19 +200,19 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
             T = trimesh.geometry.align_vectors([0, 0, 1], a)
             T[:3, 3] = c + 0.5 * length * a
             cap.apply_transform(T)
-            cap.visual.face_colors = col
+            cast(trimesh.visual.ColorVisuals, cap.visual).face_colors = col
             scene.add_geometry(cap, geom_name=f"finger_{i}")
         if g.contact_regions is not None:
             for i, (poly, n) in enumerate(zip(g.contact_regions.polygons, g.normals, strict=True)):
                 patch = _patch(np.asarray(poly) - 1e-3 * part.length * n, 3e-3 * part.length)
                 if patch is not None:
-                    patch.visual.face_colors = (np.append(_COLOURS[i % len(_COLOURS)], 0.8)
-                                                * 255).astype(np.uint8)
+                    cast(trimesh.visual.ColorVisuals, patch.visual).face_colors = (
+                        np.append(_COLOURS[i % len(_COLOURS)], 0.8) * 255).astype(np.uint8)
                     scene.add_geometry(patch, geom_name=f"region_{i}")
         for i, (p, n) in enumerate(zip(g.points, g.normals, strict=True)):
             arrow = trimesh.creation.cylinder(radius=0.004 * part.length,
                                               segment=[p, p + 0.1 * part.length * n])
-            arrow.visual.face_colors = [20, 20, 20, 255]
+            cast(trimesh.visual.ColorVisuals, arrow.visual).face_colors = [20, 20, 20, 255]
             scene.add_geometry(arrow, geom_name=f"normal_{i}")
     data = scene.export(file_type="glb")
     if atomic:

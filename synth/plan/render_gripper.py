@@ -11,7 +11,7 @@ PNG names the run in its title and text chunks, as a point-finger plan's does.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import trimesh
@@ -37,7 +37,7 @@ def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -
     from dataclasses import asdict
 
     scene = trimesh.Scene()
-    shown = {"grasp_rank": None}
+    shown: dict[str, Any] = {"grasp_rank": None}
     if plan.grasps:
         g = plan.grasps[grasp]
         shown = {"grasp_rank": grasp + 1, "pose": g.pose.tolist(), "width": g.width}
@@ -48,7 +48,7 @@ def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -
     scene.add_geometry(body, geom_name="part")
     if plan.grasps:
         for i, m in enumerate(posed_gripper(plan, grasp)):
-            m.visual.face_colors = [70, 110, 200, 200]
+            cast(trimesh.visual.ColorVisuals, m.visual).face_colors = [70, 110, 200, 200]
             scene.add_geometry(m, geom_name=f"gripper_{i}")
     Path(path).write_bytes(scene.export(file_type="glb"))
     return Path(path)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -128,7 +129,7 @@ def plan_part(part: Part, params: PlanParams | None = None,
     if not isinstance(prm, PlanParams):
         raise InputError(f"params: expected a synth.PlanParams, got {type(prm).__name__}")
     t0 = time.perf_counter()
-    overrides = {k: v for k, v in (("tip_radius", prm.finger_radius),
+    overrides: dict[str, Any] = {k: v for k, v in (("tip_radius", prm.finger_radius),
                                    ("body_length", prm.body_length),
                                    ("body_radius", prm.body_radius)) if v is not None}
     if prm.approach_cone:
@@ -279,8 +280,9 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
         for kk, parts in archives.items():
             if kk < need:
                 continue
-            g, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score, deadline)
-            found.extend(g)
+            picked, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score,
+                                  deadline)
+            found.extend(picked)
             for key, v in rej.items():
                 rejected[key] = rejected.get(key, 0) + v
         if found:
@@ -440,16 +442,17 @@ def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
         faces = archive.faces[i]
         if not all(part.regions[int(part.face_region[f])].planar for f in faces):
             continue
-        pcs = [convex_piece(part, f, fingers.tip_radius) for f in faces.tolist()]
-        if any(p is None for p in pcs):
+        pieces = [convex_piece(part, f, fingers.tip_radius) for f in faces.tolist()]
+        pcs = [p for p in pieces if p is not None]
+        if len(pcs) < len(pieces):
             continue
         key = tuple(sorted(id(p) for p in pcs))
         if key in tuples_seen:
             continue
         tuples_seen.add(key)
-        if not _spans_forces(np.array([p.normal for p in pcs])):  # type: ignore[attr-defined]
+        if not _spans_forces(np.array([p.normal for p in pcs])):
             continue  # no positions on these pieces can balance every force
-        sol = best_positions(pcs, score.center, score.length)  # type: ignore[arg-type]
+        sol = best_positions(pcs, score.center, score.length)
         if sol is None:
             continue
         c = part.resolve(sol[0], snap=True)

@@ -80,8 +80,7 @@ def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], 
     if esc is None:
         return None
     t = np.asarray(esc, float)
-    rates = None if W is None else W.T @ t
-    both = rates is not None and bool(np.all(np.abs(rates) <= 1e-9 * np.abs(W).max()))
+    both = W is not None and bool(np.all(np.abs(W.T @ t) <= 1e-9 * np.abs(W).max()))
     u = np.concatenate([t[:3], t[3:] * length / 2])
     return Escape(u / np.linalg.norm(u), both)
 

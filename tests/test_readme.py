@@ -146,6 +146,9 @@ def _anchors(page: str) -> set[str]:
 @pytest.mark.parametrize("page", PAGES)
 def test_every_block_that_claims_to_run_is_run_or_says_why(page: str) -> None:
     blocks = BLOCKS[page]
+    for n, line in enumerate((REPO / page).read_text(encoding="utf-8").splitlines(), 1):
+        if line.startswith(("<!-- illustrative", "<!-- output")):
+            assert MARK.match(line), f"{page} line {n}: a mark is one whole line"
     for k, b in enumerate(blocks):
         where = f"{page} line {b.line}"
         if b.mark == "illustrative":

@@ -77,36 +77,74 @@ def baseline(part, seconds: float, seed: int) -> tuple[int, float]:
 
 
 def main() -> None:
-    """Print one row per part and the medians."""
+    """Print one row per part and the medians.
+
+    Options: ``--no-sampler`` leaves the plain sampler out (the planner alone); ``--save
+    FILE`` writes the planner's rows as JSON; ``--against FILE`` prints the rows of such a
+    file (a baseline: the same script run on another version of synth, e.g. with
+    ``PYTHONPATH=/path/to/main``) beside this run's. Times are CPU seconds of this process
+    (``time.process_time``: other work on a shared machine does not inflate them) and wall
+    seconds.
+    """
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("parts", nargs="*")
+    ap.add_argument("--no-sampler", action="store_true")
+    ap.add_argument("--save", default=None)
+    ap.add_argument("--against", default=None)
+    args = ap.parse_args()
     records = json.loads((CORPUS / "corpus.json").read_text())
-    names = sys.argv[1:] or [r["file"] for r in records if r["units"]]
+    names = args.parts or [r["file"] for r in records if r["units"]]
     units = {r["file"]: r["units"] for r in records}
-    print(f"{'part':<44} {'found':>5} {'time s':>6} {'grasps/s':>8} {'best N/W':>8} "
-          f"{'margin':>7} | {'sampler':>7} {'grasps/s':>8} {'best N/W':>8}")
-    times, rows = [], 0
+    base = json.loads(Path(args.against).read_text()) if args.against else {}
+    print(f"{'part':<44} {'found':>5} {'cpu s':>6} {'wall s':>6} {'best N/W':>8} "
+          f"{'margin':>7}" + (f" | {'base found':>10} {'cpu s':>6} {'best N/W':>8}"
+                              if base else "")
+          + ("" if args.no_sampler else f" | {'sampler':>7} {'grasps/s':>8} {'best N/W':>8}"))
+    times, rows, saved = [], 0, {}
+    few, base_few, base_times = [], [], []
     for name in names:
         try:
             part = load_part(CORPUS / name, units=units[name])
         except SynthError as e:
             print(f"{name:<44} not a part: {str(e)[-60:]}")
             continue
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         plan = plan_gripper(part, GripperParams(top=100, samples=800, mass=MASS))
-        dt = time.perf_counter() - t0
+        cpu, dt = time.process_time() - c0, time.perf_counter() - t0
         n = len(plan.grasps)
-        bn, bbest = baseline(part, dt, 1)
+        bn, bbest = (0, float("nan")) if args.no_sampler else baseline(part, dt, 1)
         if n == 0 and bn == 0:
-            print(f"{name:<44} does not fit: {plan.message[:60]}")
+            print(f"{name:<44} does not fit: {plan.message[:70]}")
             continue
         rows += 1
-        times.append(dt)
+        times.append(cpu)
+        few += [name] * (n < 20)
         best = min((g.squeeze_per_weight for g in plan.grasps), default=float("nan"))
         margin = 70.0 / (best * MASS * GRAVITY) if n else float("nan")
-        print(f"{name:<44} {n:>5} {dt:>6.2f} {n / dt:>8.1f} {best:>8.3f} {margin:>7.1f} | "
-              f"{bn:>7} {bn / dt:>8.1f} {bbest:>8.3f}")
+        saved[name] = {"found": n, "cpu_s": cpu, "wall_s": dt, "best": best}
+        line = f"{name:<44} {n:>5} {cpu:>6.2f} {dt:>6.2f} {best:>8.3f} {margin:>7.1f}"
+        if base:
+            b = base.get(name)
+            if b is None:
+                line += f" | {'-':>10} {'-':>6} {'-':>8}"
+            else:
+                line += f" | {b['found']:>10} {b['cpu_s']:>6.2f} {b['best']:>8.3f}"
+                base_times.append(b["cpu_s"])
+                base_few += [name] * (b["found"] < 20)
+        if not args.no_sampler:
+            line += f" | {bn:>7} {bn / dt:>8.1f} {bbest:>8.3f}"
+        print(line)
     if times:
-        print(f"{rows} parts fit: planning time (top 100) median {np.median(times):.2f} s, "
-              f"max {np.max(times):.2f} s")
+        print(f"{rows} parts fit: planning CPU time (top 100) median {np.median(times):.2f} s, "
+              f"max {np.max(times):.2f} s; {len(few)} with fewer than 20 grasps"
+              + (f" ({', '.join(few)})" if few else ""))
+    if base_times:
+        print(f"baseline ({args.against}): median {np.median(base_times):.2f} s, max "
+              f"{np.max(base_times):.2f} s; {len(base_few)} with fewer than 20 grasps")
+    if args.save:
+        Path(args.save).write_text(json.dumps(saved, indent=1))
 
 
 if __name__ == "__main__":

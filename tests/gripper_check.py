@@ -3,7 +3,8 @@
 From a grasp file's JSON, the part's mesh file and the gripper's description file only, with
 numpy, scipy's NNLS and trimesh (to read files): the pose is a rigid transform; both contacts
 lie on the part's surface (exact point-triangle distance) and outside it just beyond (winding
-number), and on their pads; each normal is its pad's or, for a contact on the pad's rim, the
+number), and on their pads (or, a pad resting across a groove, on the groove's bottom under
+it: the part meets the pad's plane at two opposite sides of the pad); each normal is its pad's or, for a contact on the pad's rim, the
 inward normal of a triangle through the point or, where the rim crosses an edge of the part,
 a normal perpendicular to the rim between those of the triangles through the point; the line
 between them lies inside both friction cones; the posed gripper's shapes, the fingers opened by ``clear`` on each side, do not intersect the part (an exact
@@ -135,6 +136,34 @@ def meshes_intersect(VA: np.ndarray, FA: np.ndarray, VB: np.ndarray, FB: np.ndar
     return False
 
 
+def _groove(part: trimesh.Trimesh, R: np.ndarray, t: np.ndarray, plane: float, sgn: float,
+            pc: np.ndarray, ps: np.ndarray, g: np.ndarray, behind: float, tol: float) -> bool:
+    """Whether a pad contact ``behind`` its pad's plane is the bottom of a groove the pad
+    rests across: rays cast towards the part, from beyond the pad, at the middles of two
+    opposite sides of the pad's rectangle (in the gripper frame: ``y = sgn (pc[0] +- ps[0]/2)``
+    at the contact's ``z``, or ``z = pc[1] +- ps[1]/2`` at its ``y``) first meet the part in
+    the pad's plane, and the contact lies at most a quarter of half the span behind it."""
+    for k in (0, 1):
+        if behind > 0.25 * ps[k] / 2 + tol:
+            continue
+        ends = []
+        for side in (-1.0, 1.0):
+            q = g.copy()
+            if k == 0:
+                q[1] = sgn * (pc[0] + side * ps[0] / 2)
+            else:
+                q[2] = pc[1] + side * ps[1] / 2
+            q[0] = plane + sgn * 10 * tol  # just outside the pad, towards its back
+            origin = R @ q + t
+            hits, _, _ = part.ray.intersects_location([origin], [-sgn * R[:, 0]])
+            if len(hits):
+                d = np.linalg.norm(hits - origin, axis=1).min() - 10 * tol
+                ends.append(abs(d) <= tol)
+        if len(ends) == 2 and all(ends):
+            return True
+    return False
+
+
 def check_grasp(grasp: dict, mesh_path: Path, description: Path, scale: float, mu: float,
                 clear: float) -> list[str]:
     """Everything wrong with one grasp of a ``synth.gripper_grasps`` document (empty: fine).
@@ -166,8 +195,12 @@ def check_grasp(grasp: dict, mesh_path: Path, description: Path, scale: float, m
             errors.append(f"contact {i} is not on the exposed surface")
         g = R.T @ (p - t)
         y = sgn * g[1]  # the -x pad is the half-turn of the +x one
-        if abs(g[0] - sgn * w / 2) > tol or abs(y - pc[0]) > ps[0] / 2 + tol or \
-                abs(g[2] - pc[1]) > ps[1] / 2 + tol:
+        behind = sgn * (sgn * w / 2 - g[0])  # how far the contact lies behind the pad plane
+        if abs(behind) > tol and not (np.allclose(n, -sgn * R[:, 0], atol=1e-9) and
+                                      _groove(part, R, t, sgn * w / 2, sgn, pc, ps, g, behind,
+                                              tol)):
+            errors.append(f"contact {i} is not on its pad")
+        if abs(y - pc[0]) > ps[0] / 2 + tol or abs(g[2] - pc[1]) > ps[1] / 2 + tol:
             errors.append(f"contact {i} is not on its pad")
         if not np.allclose(n, -sgn * R[:, 0], atol=1e-9):
             # else the pad's rim: the point on the rectangle's border and the normal a

@@ -50,7 +50,9 @@ def test_export_h5_round_trip(built: tuple[Path, Path], tmp_path: Path) -> None:
         assert f["grasps/points"].chunks is not None
         assert f["grasps/points"].shape == (sum(g.n_contacts for g in grasps), 3)
         for name, arr in expected.items():
-            key = f"meshes/{name[5:]}" if name.startswith("mesh_") else f"grasps/{name}"
+            key = (f"meshes/{name[5:]}" if name.startswith("mesh_") else
+                   f"gripper_grasps/{name[8:]}" if name.startswith("gripper_") else
+                   f"grasps/{name}")
             got = f[key][()]
             if arr.dtype.kind == "U":
                 got = np.array([s.decode() for s in got], dtype=str)

@@ -42,6 +42,57 @@ def test_builtin_grippers_have_the_makers_numbers(name, opening, force):
     assert scaled.grip_force == force
 
 
+@pytest.mark.parametrize("name", BUILTIN_GRIPPERS)
+def test_no_finger_shape_but_the_pad_meets_a_flat_part_first(name):
+    """Where a finger's shapes reach its pad plane (x = w / 2 for the +x finger), they lie
+    within the pad's rectangle: closing on a flat face, the pad is what touches first, and
+    the contact synth reports is where the fingers meet the part."""
+    g = load_gripper(name)
+    for w in (0.0, 0.5 * g.max_opening, g.max_opening):
+        right, _ = g.finger_transforms(w)
+        pad_z = g.pad_center[1] + right[2, 3]  # the pad rises with the finger
+        for s in g.finger:
+            V = s.vertices @ right[:3, :3].T + right[:3, 3]
+            front = V[V[:, 0] <= w / 2 + 1e-6]  # within 1 micrometre of the pad plane
+            assert np.all(np.abs(front[:, 1] - g.pad_center[0]) <= g.pad_size[0] / 2 + 1e-6)
+            assert np.all(np.abs(front[:, 2] - pad_z) <= g.pad_size[1] / 2 + 1e-6)
+
+
+# robosuite 1.5.2's collision geoms of the right finger at the open pose, in the base link's
+# frame with robosuite's y as synth's x (printed by scripts/fit_gripper_boxes.py): x, y, z
+# ranges in metres, to 0.1 mm
+ROBOSUITE = {
+    "robotiq_2f140": {"pad": [(0.0632, 0.0652), (-0.0139, 0.0141), (0.1422, 0.2082)],
+                      "fingertip": [(0.0643, 0.0718), (-0.0149, 0.0151), (0.141, 0.211)],
+                      "inner finger": [(0.0713, 0.1012), (-0.0072, 0.0078), (0.1242, 0.1747)]},
+    "robotiq_2f85": {"pad": [(0.0427, 0.0447), (-0.01, 0.01), (0.1136, 0.1471)],
+                     "fingertip": [(0.043, 0.0494), (-0.011, 0.011), (0.1116, 0.1491)],
+                     "inner finger": [(0.0443, 0.0742), (-0.0075, 0.0075), (0.0919, 0.1424)]},
+}
+
+
+@pytest.mark.parametrize("name", sorted(ROBOSUITE))
+def test_robotiq_fingers_are_the_sources_pad_fingertip_and_inner_finger(name):
+    g = load_gripper(name)
+    doc = json.loads((DATA / f"{name}.json").read_text())
+    source = ROBOSUITE[name]
+    face = source["pad"][0][0]  # the pad plane at the open pose, as synth's x = w / 2 there
+    for item, (xs, ys, zs) in zip(doc["finger"], source.values(), strict=True):
+        c, size = np.array(item["box"]["center"]), np.array(item["box"]["size"])
+        lo, hi = c - size / 2, c + size / 2
+        assert lo[0] + face == pytest.approx(xs[0], abs=1e-4)
+        assert hi[0] + face == pytest.approx(xs[1], abs=1e-4)
+        assert (lo[2], hi[2]) == pytest.approx(zs, abs=1e-4)
+        # centred on y = 0: covering the source's range (to its 0.1 mm), no more than the
+        # smallest such box
+        assert lo[1] <= ys[0] + 1e-4 and hi[1] >= ys[1] - 1e-4
+        assert hi[1] - lo[1] <= 2 * max(abs(ys[0]), abs(ys[1])) + 1e-9
+    # the pad rectangle is the source's fingerpad face
+    (_, _), (y0, y1), (z0, z1) = source["pad"]
+    assert g.pad_size == pytest.approx((y1 - y0, z1 - z0), abs=1e-4)
+    assert g.pad_center[1] == pytest.approx((z0 + z1) / 2, abs=1e-4)
+
+
 def test_franka_fingertips_reach_acronyms_marker():
     g = load_gripper("franka")
     tips = max(v[:, 2].max() for v, _ in g.meshes_at(0.08)[1:])

@@ -14,6 +14,7 @@ from tests.gripper_check import check_grasp, point_triangle_distance
 
 FRANKA = load_gripper("franka")  # metres
 TCP = FRANKA.tcp
+HW, PH = FRANKA.pad_size[0] / 2, FRANKA.pad_size[1]  # the pad's half-width (8.73 mm), height
 
 
 def _pose(centre, shift=(0.0, 0.0, 0.0)):
@@ -44,12 +45,12 @@ def test_a_box_pinched_lands_on_its_faces():
     assert res.width[0] == pytest.approx(0.04)
     assert res.poses[0, 0, 3] == pytest.approx(0.0, abs=1e-12)  # recentred on the part
     assert np.allclose(res.points[0, :, 0], [0.02, -0.02])
-    # the pad (17 x 17.5 mm) lies inside the face: the patch is the pad itself, its centre
+    # the pad (17.5 x 17.6 mm) lies inside the face: the patch is the pad itself, its centre
     # the pad's centre (0.05 mm below the TCP on the Franka Hand)
     pad_z = -0.004 + FRANKA.pad_center[1] - TCP[2]
     assert np.allclose(res.points[0, :, 1:], [[0.003, pad_z]] * 2, atol=1e-12)
     assert np.allclose(res.normals[0], [[-1, 0, 0], [1, 0, 0]])
-    assert res.patch[0] == pytest.approx(np.hypot(0.017, 0.0175), rel=1e-9)
+    assert res.patch[0] == pytest.approx(np.hypot(2 * HW, PH), rel=1e-9)
 
 
 def test_a_patch_of_two_ridges_keeps_its_contact_on_the_part():
@@ -107,35 +108,36 @@ def test_a_ridge_across_the_pad_is_a_contact():
 
 
 def test_a_pad_rim_on_a_face_tilted_10_degrees_is_a_contact_with_the_faces_normal():
-    # the +x face falls away along +y, so inside the +x pad (y in +-8.5 mm) it reaches
-    # furthest along x on the pad's rim side y = -8.5 mm, all along it: the contact is the
-    # middle of that side, x = 0.02 + 0.0085 tan(10 deg), with the face's inward normal
+    # the +x face falls away along +y, so inside the +x pad (y in +-HW, 8.73 mm) it reaches
+    # furthest along x on the pad's rim side y = -HW, all along it: the contact is the
+    # middle of that side, x = 0.02 + HW tan(10 deg), with the face's inward normal
     a = np.radians(10.0)
     res = _close(_tilted_box(10.0), [_pose([0, 0, 0])])
     assert res.status.tolist() == [LANDED]
     pad_z = FRANKA.pad_center[1] - TCP[2]
-    x_rim = 0.02 + 0.0085 * np.tan(a)
+    x_rim = 0.02 + HW * np.tan(a)
     assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
-    assert np.allclose(res.points[0, 0], [x_rim, -0.0085, pad_z], atol=1e-12)
+    assert np.allclose(res.points[0, 0], [x_rim, -HW, pad_z], atol=1e-12)
     assert np.allclose(res.normals[0, 0], [-np.cos(a), -np.sin(a), 0.0], atol=1e-12)
-    assert res.patch[0, 0] == pytest.approx(0.0175, rel=1e-9)  # the rim side's length
-    # the -x pad lies flat on its face: the pad's normal at the pad's centre
-    assert np.allclose(res.points[0, 1], [-0.02, 0.0, pad_z], atol=1e-12)
+    assert res.patch[0, 0] == pytest.approx(PH, rel=1e-9)  # the rim side's length
+    # the -x pad lies flat on its face: the pad's normal, where it faces the rim contact (a
+    # patch presses anywhere within it, so the squeeze passes along the closing axis)
+    assert np.allclose(res.points[0, 1], [-0.02, -HW, pad_z], atol=1e-12)
     assert np.allclose(res.normals[0, 1], [1.0, 0.0, 0.0], atol=1e-12)
 
 
 def test_a_face_tilted_under_one_degree_is_flush_a_patch_with_the_pads_normal():
-    # 0.5 degrees: across the pad's 17 mm the face drops 0.148 mm, within the touch tolerance
+    # 0.5 degrees: across the pad's 17.5 mm the face drops 0.152 mm, within the touch tolerance
     # of 0.2 mm, so the whole pad touches: a patch centred on the pad, the pad's normal
     res = _close(_tilted_box(0.5), [_pose([0, 0, 0])], tol=2e-4)
     assert res.status.tolist() == [LANDED]
     pad_z = FRANKA.pad_center[1] - TCP[2]
-    x_rim = 0.02 + 0.0085 * np.tan(np.radians(0.5))
+    x_rim = 0.02 + HW * np.tan(np.radians(0.5))
     assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
     # in the pad's plane (the touch's extreme), within the tolerance of the face
     assert np.allclose(res.points[0, 0], [x_rim, 0.0, pad_z], atol=1e-12)
     assert np.allclose(res.normals[0], [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
-    assert res.patch[0, 0] == pytest.approx(np.hypot(0.017, 0.0175), rel=1e-9)
+    assert res.patch[0, 0] == pytest.approx(np.hypot(2 * HW, PH), rel=1e-9)
 
 
 def _roof(t, k):
@@ -148,16 +150,16 @@ def _roof(t, k):
 
 
 def test_a_pad_rim_across_a_ridge_is_a_contact_normal_to_rim_and_ridge():
-    # along the +x pad's rim side y = -8.5 mm the roof peaks on its ridge, z = z_r: the
+    # along the +x pad's rim side y = -HW the roof peaks on its ridge, z = z_r: the
     # contact; its faces' normals (1, t, +-k) combine, with nothing along the rim (z), into
     # (1, t, 0): perpendicular to the rim and to the ridge (-t, 1, 0), between the faces'
     t, k = np.tan(np.radians(10.0)), 0.5
     res = _close(_roof(t, k), [_pose([0, 0, 0])])
     assert res.status.tolist() == [LANDED]
     zr = FRANKA.pad_center[1] - TCP[2]
-    x_rim = 0.02 + 0.0085 * t
+    x_rim = 0.02 + HW * t
     assert res.width[0] == pytest.approx(x_rim + 0.02, rel=1e-12)
-    assert np.allclose(res.points[0, 0], [x_rim, -0.0085, zr], atol=1e-12)
+    assert np.allclose(res.points[0, 0], [x_rim, -HW, zr], atol=1e-12)
     assert np.allclose(res.normals[0, 0], -np.array([1.0, t, 0.0]) / np.hypot(1.0, t),
                        atol=1e-12)
 
@@ -184,16 +186,18 @@ def test_rim_contacts_pass_the_independent_check_and_a_wrong_normal_fails_it(tmp
                                                                  desc, 1.0, 0.5, 1e-4))
 
 
-def test_a_pad_rim_buried_in_a_slope_or_touching_twice_is_no_contact():
-    # 70 degrees: inside the +x pad the face runs from x = 0.02 + 0.0085 tan(70) = 0.043,
+def test_a_pad_rim_buried_in_a_slope_is_no_contact():
+    # 70 degrees: inside the +x pad the face runs from x = 0.02 + HW tan(70) = 0.043,
     # behind the open pad (half the opening, 0.04), down to -0.003 on the other rim side,
     # the only part of it between the open pads: the pad is buried in the slope there
     res = _close(_tilted_box(70.0), [_pose([0, 0, 0])])
     assert res.status.tolist() == [EDGE_TOUCH]
-    # a groove along z under the +x pad, x = 0.02 + 0.2 |y|: both rim sides touch the part
-    # at once, at x = 0.0217, and there is no one contact with one normal
+
+
+def _groove(slope):
+    """A box 40 mm deep whose +x face has a groove along z, x = 0.02 + slope |y|."""
     y = np.array([-0.03, 0.0, 0.03])
-    outline = np.column_stack([np.r_[-0.02, 0.02 + 0.2 * np.abs(y), -0.02],
+    outline = np.column_stack([np.r_[-0.02, 0.02 + slope * np.abs(y), -0.02],
                                np.r_[-0.03, y, 0.03]])
     n = len(outline)
     V = np.vstack([np.column_stack([outline, np.full(n, z)]) for z in (-0.03, 0.03)])
@@ -203,8 +207,42 @@ def test_a_pad_rim_buried_in_a_slope_or_touching_twice_is_no_contact():
     groove = trimesh.Trimesh(V, F)
     groove.fix_normals()
     assert groove.is_watertight and groove.volume > 0
-    res = _close(groove, [_pose([0, 0, 0])], tol=1e-5)
+    return groove
+
+
+def test_a_pad_across_a_shallow_groove_rests_on_both_sides():
+    # x = 0.02 + 0.2 |y|: both rim sides of the +x pad (y = +-HW) touch at once, at
+    # x = 0.0217, and the groove's middle lies 0.2 HW = 1.7 mm behind the pad, a rise of
+    # 0.2 of half the span (at most GROOVE_RISE = 0.25): the pad rests on both sides and
+    # presses along its own normal; the contact is the groove's bottom under the pad's middle
+    res = _close(_groove(0.2), [_pose([0, 0, 0])], tol=1e-5)
+    assert res.status.tolist() == [LANDED]
+    pad_z = FRANKA.pad_center[1] - TCP[2]
+    assert res.width[0] == pytest.approx(0.02 + 0.2 * HW + 0.02, rel=1e-12)
+    assert np.allclose(res.points[0, 0], [0.02, 0.0, pad_z], atol=1e-12)
+    assert np.allclose(res.normals[0], [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
+    # x = 0.02 + 0.3 |y| rises 0.3 of half the span: the pad does not rest in it
+    res = _close(_groove(0.3), [_pose([0, 0, 0])], tol=1e-5)
     assert res.status.tolist() == [EDGE_TOUCH]
+
+
+def test_a_groove_contact_passes_the_independent_check_and_a_deep_one_fails_it(tmp_path):
+    desc = Path(__file__).parents[1] / "synth" / "fingers" / "grippers" / "franka.json"
+    path = tmp_path / "groove.stl"
+    _groove(0.2).export(path)
+    res = _close(trimesh.load(path), [_pose([0, 0, 0])], tol=1e-5)
+    g = {"pose": res.poses[0].tolist(), "width": float(res.width[0]),
+         "contacts": [{"point": p.tolist(), "normal": n.tolist()}
+                      for p, n in zip(res.points[0], res.normals[0])]}
+    assert check_grasp(g, path, desc, 1.0, 0.5, 1e-4) == []
+    # the same contact in a groove twice as steep lies twice as deep behind the pad: the pad
+    # cannot rest across it (0.4 of half the span), so the check refuses the point
+    steep = tmp_path / "steep.stl"
+    _groove(0.4).export(steep)
+    x_rim = 0.02 + 0.4 * HW  # the pads at the steep groove's rims and at x = -0.02
+    deep = dict(g, pose=_pose([(x_rim - 0.02) / 2, 0, 0]).tolist(), width=x_rim + 0.02)
+    errors = check_grasp(deep, steep, desc, 1.0, 0.5, 1e-4)
+    assert any("contact 0 is not on its pad" in e for e in errors)
 
 
 @pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e3, 0.0), (1.0, 30.0)])

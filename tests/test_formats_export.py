@@ -66,7 +66,7 @@ def test_acronym_loads_the_export_with_its_own_code(built, tmp_path):
         local = (pts - pose[:3, 3]) @ pose[:3, :3]  # into the gripper frame of the pose
         assert np.allclose(local[:, 0], [g.width * CM / 2, -g.width * CM / 2], atol=1e-12)
         assert np.all((local[:, 2] >= z_lo) & (local[:, 2] <= z_hi))
-        assert np.all(np.abs(local[:, 1]) <= 0.0085 + 1e-12)  # within the pad's width
+        assert np.all(np.abs(local[:, 1]) <= 0.00873 + 1e-12)  # within the pad's half-width
     with h5py.File(path) as f:
         assert f.attrs["units"] == "m" and f["grasps/transforms"].attrs["units"] == "m"
         meaning = f["grasps/qualities/flex/object_in_gripper"].attrs["meaning"]

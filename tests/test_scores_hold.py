@@ -21,16 +21,24 @@ DIRS = RNG.normal(size=(4000, 3))
 DIRS /= np.linalg.norm(DIRS, axis=1, keepdims=True)
 
 
-def _reference(P, N, center) -> float:
-    """min over preloads p in null(W) of max over sampled directions and fingers of the
-    force, subject to every force >= 0: a scipy LP over (y, F) with the directions as rows."""
+def _reference(P, N, center, length) -> float:
+    """min over preloads p in null(W) of max over sampled loads and fingers of the force,
+    subject to every force >= 0: a scipy LP over (y, F), a row per load. The loads are the
+    weight in a direction d and a moment m up to COM_RTOL weight x length: random ones, and
+    for each finger the two that change its force most (d and m along its own responses)."""
+    from synth.scores.hold import COM_RTOL
+
     W = np.vstack([N.T, np.cross(P - center, N).T])
-    A = np.linalg.pinv(W)[:, :3]
+    pinv = np.linalg.pinv(W)
+    A, T = pinv[:, :3], pinv[:, 3:] * COM_RTOL * length
     Z = np.linalg.svd(W)[2][6:].T
     k, n = Z.shape
-    R = DIRS @ A.T  # (D, k): the force change per unit weight is -R
-    rows_lo = np.hstack([-np.repeat(Z[None], len(DIRS), 0).reshape(-1, n), np.zeros((k * len(DIRS), 1))])
-    rows_hi = np.hstack([np.repeat(Z[None], len(DIRS), 0).reshape(-1, n), -np.ones((k * len(DIRS), 1))])
+    unit = lambda x: x / np.linalg.norm(x, axis=-1, keepdims=True)  # noqa: E731
+    M = unit(RNG.normal(size=DIRS.shape)) * RNG.uniform(0, 1, (len(DIRS), 1)) ** (1 / 3)
+    ext_d, ext_m = np.vstack([unit(A), -unit(A)]), np.vstack([unit(T), -unit(T)])
+    R = np.vstack([DIRS @ A.T + M @ T.T, ext_d @ A.T + ext_m @ T.T])  # (D, k)
+    rows_lo = np.hstack([-np.repeat(Z[None], len(R), 0).reshape(-1, n), np.zeros((k * len(R), 1))])
+    rows_hi = np.hstack([np.repeat(Z[None], len(R), 0).reshape(-1, n), -np.ones((k * len(R), 1))])
     b = R.reshape(-1)
     res = linprog(np.r_[np.zeros(n), 1.0], A_ub=np.vstack([rows_lo, rows_hi]),
                   b_ub=np.r_[-b, b], bounds=[(None, None)] * (n + 1), method="highs")
@@ -44,11 +52,9 @@ def test_seven_contacts_match_a_sampled_lp(case):
     P, N = (np.asarray(x, float) for x in case)
     h = stiff_hold_batch(P[None], N[None], np.zeros(3), 3**0.5)
     assert h.model == "stiff"
-    ref = _reference(P, N, np.zeros(3))
-    # the sampled directions miss the worst one by a little: the reference is at most the
-    # exact value, and close to it
-    assert ref <= h.squeeze_per_weight[0] * (1 + 1e-9)
-    assert ref >= 0.99 * h.squeeze_per_weight[0]
+    ref = _reference(P, N, np.zeros(3), 3**0.5)
+    # the loads include each finger's worst: the reference is the exact value
+    assert ref == pytest.approx(h.squeeze_per_weight[0], rel=1e-6)
     forces = h.preload[0][None] - DIRS @ h.response[0].T
     assert forces.min() >= -1e-9 and forces.max() <= h.squeeze_per_weight[0] * (1 + 1e-9)
 
@@ -58,19 +64,20 @@ def test_more_contacts_take_the_lp_and_match_the_reference():
     extra = np.array([[0.2, -0.2, 0.5]]), np.array([[0.0, 0.0, -1.0]])
     P8, N8 = np.vstack([P, extra[0]]), np.vstack([N, extra[1]])
     h = stiff_hold_batch(P8[None], N8[None], np.zeros(3), 3**0.5)
-    ref = _reference(P8, N8, np.zeros(3))
-    assert ref <= h.squeeze_per_weight[0] * (1 + 1e-7) and ref >= 0.99 * h.squeeze_per_weight[0]
+    ref = _reference(P8, N8, np.zeros(3), 3**0.5)
+    assert ref == pytest.approx(h.squeeze_per_weight[0], rel=1e-6)
     W = np.vstack([N8.T, np.cross(P8, N8).T])
     assert np.linalg.norm(W @ h.preload[0]) < 1e-8  # a squeeze the part feels as nothing
 
 
-def test_invariant_to_frame_units_and_reference_length():
+def test_invariant_to_frame_and_units():
     P, N = CUBE7
     q, _ = np.linalg.qr(RNG.normal(size=(3, 3)))
     R = q * np.sign(np.linalg.det(q))
     t = np.array([300.0, -20.0, 5.0])
     a = stiff_hold_batch(P[None], N[None], np.zeros(3), 3**0.5).squeeze_per_weight[0]
-    b = stiff_hold_batch(((P @ R.T) * 250 + t)[None], (N @ R.T)[None], t, 7.0)
+    # the part's size scales with it (it sets the moment the measure allows for)
+    b = stiff_hold_batch(((P @ R.T) * 250 + t)[None], (N @ R.T)[None], t, 250 * 3**0.5)
     assert b.squeeze_per_weight[0] == pytest.approx(a, rel=1e-9)
 
 

@@ -132,6 +132,26 @@ def test_a_gripper_grasp_file_is_simulated_with_its_pads(tmp_path, capsys):
         capsys.readouterr().err)
 
 
+def test_synth_sim_finds_the_planned_mesh_from_any_folder(tmp_path, capsys, monkeypatch):
+    # the plan's file stores the mesh's path relative to itself: synth sim run from another
+    # folder finds the mesh without --mesh, for point fingers and for a gripper
+    (tmp_path / "plans").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    mesh = tmp_path / "cube.stl"
+    mesh.write_bytes((ROOT / "meshes" / "cube.stl").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    assert main(["plan", "cube.stl", "--units", "cm", "--top", "1", "--evals", "2000",
+                 "--out", "plans/p.json", "--quiet"]) == 0
+    assert main(["plan", "cube.stl", "--units", "cm", "--gripper", "franka", "--top", "1",
+                 "--samples", "40", "--out", "plans/g.json", "--quiet"]) == 0
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    for name in ("p.json", "g.json"):
+        capsys.readouterr()
+        assert main(["sim", f"../plans/{name}", "--sim-shake", "0", "--no-files",
+                     "--quiet"]) == 0, capsys.readouterr().err
+        assert "1 of 1 grasps held" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("split", ["normal", "uv"])
 def test_split_vertex_obj_files_are_labelled_as_their_welded_copy(tmp_path, capsys, split):
     # the same grasp of the same cube, planned on an OBJ whose vertices are split along

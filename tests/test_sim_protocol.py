@@ -59,14 +59,19 @@ def _label(tmp_path, points, normals, *, R=None, t=None, mu=0.0, contact=None, s
     return f, simulate_file(f, settings, contact=contact).labels[0]
 
 
-def _bounds(points, normals, center):
+def _bounds(points, normals, center, length):
     """Per axis direction: the weight (in grip forces) at which the stiff model's first
-    finger lets go or reaches its limit, and the largest any forces in [0, 1] balance."""
+    finger lets go or reaches its limit, and the largest any forces in [0, 1] balance. The
+    hand's preload is sized for the weight in any direction plus a moment of ``COM_RTOL``
+    times weight times ``length`` (synth.scores.hold's load set)."""
+    from synth.scores.hold import COM_RTOL
+
     P = np.asarray(points, float) - center
     N = np.asarray(normals, float)
     W = np.vstack([N.T, np.cross(P, N).T])
-    Wp = np.linalg.pinv(W)[:, :3]  # the response to a unit force through the centre
-    r = np.linalg.norm(Wp, axis=1)
+    pinv = np.linalg.pinv(W)
+    Wp = pinv[:, :3]  # the response to a unit force through the centre
+    r = np.linalg.norm(Wp, axis=1) + COM_RTOL * length * np.linalg.norm(pinv[:, 3:], axis=1)
     c = np.linalg.svd(W)[2][-1]
     c = c * np.sign(c.sum())
     p = c * np.max(r / c)  # the preload per weight
@@ -95,7 +100,7 @@ def test_seven_fingers_hold_below_the_stiff_bound_and_fall_above_the_lp_bound(tm
     R, t = (None, None) if placed == "centred" else (rotation(), FAR)
     f = _file(tmp_path, *CUBE7, R=R, t=t)
     g = f.grasps[0]
-    linear, lp = _bounds(g.points, g.normals, f.center_mass)
+    linear, lp = _bounds(g.points, g.normals, f.center_mass, f.length)
     assert np.all(linear <= lp + 1e-9)
     grip = 10.0
 

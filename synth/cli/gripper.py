@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -14,8 +15,8 @@ from synth.cli.vocabulary import check_top
 from synth.limits import MAX_LENGTH
 from synth.errors import OptionError
 
-__all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options", "gripper_params", "run_gripper",
-           "format_gripper_table"]
+__all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
+           "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
 
 _ONLY_GRIPPER = ("gravity", "torsion", "samples")
 #: Most surface points a gripper plan may draw (``--samples``).
@@ -72,6 +73,27 @@ def refuse_gripper_options(args: argparse.Namespace) -> None:
                          f"plans rank by {', '.join(lim.RANK_BY)}")
 
 
+def refuse_finger_options(args: argparse.Namespace, time: float) -> None:
+    """Options of point-finger plans are refused with ``--gripper``, by name, when given a
+    value other than their default (``time``: the command's ``--time`` default)."""
+    from synth.limits import DEFAULT_SURFACE
+    from synth.plan.params import PlanParams
+
+    refuse_point_options(args)  # --grip, --max-squeeze
+    d = PlanParams()
+    defaults = {"contacts": d.contacts, "fingers": None, "evals": d.evals, "time": time,
+                "min_d_star": d.min_d_star, "min_tolerance": d.min_tolerance,
+                "regions": False, "finger_radius": None, "body_length": None,
+                "body_radius": None, "approach_cone": 0.0, "surface": DEFAULT_SURFACE}
+    for name, default in defaults.items():
+        if getattr(args, name, default) != default:
+            option = "--" + name.replace("_", "-")
+            raise OptionError(f"{option} applies to point-finger grasps, not to --gripper "
+                              "(a gripper plan's options: --mu, --edges, --top, --seed, "
+                              "--rank-by, --table, --samples, --torsion, --mass, --density, "
+                              "--gravity and the mesh options)")
+
+
 def _gravity(text: str | None) -> tuple[float, float, float] | None:
     if text is None:
         return None
@@ -84,24 +106,31 @@ def _gravity(text: str | None) -> tuple[float, float, float] | None:
     return v  # type: ignore[return-value]
 
 
-def format_gripper_table(plan: Any, doc: dict[str, Any] | None = None) -> str:
-    """Ranked table of a gripper plan's grasps; with a simulated document (``--sim``), whether
-    each held and where it failed."""
-    mm = 1000.0 / plan.gripper.unit_scale
-    sim = doc is not None and "sim" in doc
+def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
+                         labels: Sequence[dict[str, Any] | None] | None = None,
+                         ranks: Sequence[int] | None = None) -> str:
+    """Ranked table of gripper grasps (:class:`synth.plan.gripper.GripperGrasp` or stored
+    :class:`synth.database.schema.GripperGraspRecord`: ``width``, ``margin``,
+    ``least_squeeze``, ``squeeze_per_weight``, ``mu_min``, ``epsilon``, ``d_star``,
+    ``points``); with simulation ``labels`` (one per grasp, None where not simulated),
+    whether each held and where it failed; ``ranks`` numbers the rows (default 1, 2, ...)."""
+    sim = labels is not None and any(lab is not None for lab in labels)
     lines = [f"{'#':>3}  {'width mm':>8}  {'margin':>7}  {'squeeze N':>9}  {'N/weight':>8}  "
              f"{'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  "
              + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "contacts"]
-    for i, g in enumerate(plan.grasps, 1):
+    for i, g in enumerate(grasps):
         margin = "-" if g.margin is None else f"{g.margin:.2f}"
         squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.3g}"
+        mu_min = "-" if g.mu_min is None else f"{g.mu_min:.2g}"
         pts = "  ".join("(" + ", ".join(f"{c:.4g}" for c in p) + ")" for p in g.points)
         held = ""
         if sim:
-            lab = doc["grasps"][i - 1]["sim"]  # type: ignore[index]
-            held = f"{'yes' if lab['held'] else 'no':<4}  {lab['failed_at'] or '-':<9}  "
-        lines.append(f"{i:>3}  {g.width * mm:>8.1f}  {margin:>7}  {squeeze:>9}  "
-                     f"{g.squeeze_per_weight:>8.3f}  {g.mu_min:>8.2g}  {g.epsilon:>8.4f}  "
+            lab = labels[i]  # type: ignore[index]
+            held = (f"{'-':<4}  {'-':<9}  " if lab is None else
+                    f"{'yes' if lab['held'] else 'no':<4}  {lab['failed_at'] or '-':<9}  ")
+        rank = i + 1 if ranks is None else ranks[i]
+        lines.append(f"{rank:>3}  {g.width * mm_per_unit:>8.1f}  {margin:>7}  {squeeze:>9}  "
+                     f"{g.squeeze_per_weight:>8.3f}  {mu_min:>8}  {g.epsilon:>8.4f}  "
                      f"{g.d_star:>6.3f}  {held}{pts}")
     return "\n".join(lines)
 
@@ -135,9 +164,13 @@ def run_gripper(args: argparse.Namespace) -> int:
     """Run ``synth plan --gripper``; exit status 1 when no grasp was found."""
     from synth.cli.plan import load_part_from_args, report_part
     from synth.files import atomic_paths, writing
-    from synth.plan.gripper import plan_gripper
+    from synth.paths import stored_mesh_path
+    from synth.plan.gripper import loaded_with, plan_gripper
     from synth.plan.render_gripper import export_gripper_glb, render_gripper_png
 
+    from synth.plan.params import PlanParams
+
+    refuse_finger_options(args, PlanParams().time)
     params = gripper_params(args)
     settings = None
     if getattr(args, "sim", False):
@@ -148,7 +181,6 @@ def run_gripper(args: argparse.Namespace) -> int:
         require_sim()
     from synth.fingers.gripper import load_gripper
 
-    refuse_point_options(args)
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read
     paths = None
     if not args.no_files:
@@ -160,8 +192,10 @@ def run_gripper(args: argparse.Namespace) -> int:
     report_part(part, args.quiet)
     plan = plan_gripper(part, params)
     doc = plan.to_json()
-    # how the mesh was loaded, so that synth sim --mesh can load the same part
-    doc["mesh"].update(body=args.body, sharp_angle=args.sharp_angle)
+    # where the mesh is (relative to the JSON's folder) and how it was loaded, so that any
+    # command reading the file loads the same part
+    doc["mesh"].update(path=stored_mesh_path(part.source, None if paths is None else paths[0]),
+                       **loaded_with(vars(args)))
     if settings is not None and plan.grasps:
         from synth.cli.plan import simulate_planned
 
@@ -179,12 +213,13 @@ def run_gripper(args: argparse.Namespace) -> int:
         print(text, end="")
     else:
         if plan.grasps:
-            print(format_gripper_table(plan, doc))
+            print(format_gripper_table(plan.grasps, 1000.0 / plan.gripper.unit_scale,
+                                       [g.get("sim") for g in doc["grasps"]]))
         print(plan.message)
         if "sim" in doc:
             from synth.cli.sim import summary
 
             print(summary(doc))
         if paths is not None and not args.quiet:
-            print(f"wrote {', '.join(map(str, paths))}")
+            print(f"wrote {', '.join(map(str, paths))} (run {plan.run_id})")
     return 0 if plan.grasps else 1

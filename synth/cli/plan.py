@@ -147,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
     """
     from synth.cli.progress import LineProgress
     from synth.files import atomic_paths, writing
+    from synth.paths import stored_mesh_path
     from synth.plan import LOAD_KEYS, PlanParams, export_glb, plan_part, render_png
 
     if args.gripper is not None:
@@ -177,6 +178,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     doc = plan.to_json()
+    doc["mesh"] = {**doc["mesh"], "path": stored_mesh_path(
+        part.source, None if paths is None else paths[0])}  # relative to the JSON's folder
     if settings is not None and plan.grasps:
         doc = simulate_planned(doc, args.mesh, part, settings, args.quiet)
     text = json.dumps(doc, indent=1) + "\n"

@@ -138,7 +138,10 @@ def run(args: argparse.Namespace) -> int:
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
         raise InputError(f"{args.candidates}: no candidate could be used: "
                          f"{unusable[0].reason}{more}")
-    doc = {"format": "synth.ranked", "version": 2, "mesh": {"path": part.source,
+    from synth.paths import stored_mesh_path
+
+    doc = {"format": "synth.ranked", "version": 2, "mesh": {
+           "path": stored_mesh_path(part.source, out),
            "sha256": part.sha256, "units": part.units, "length": part.length},
            "mu": args.mu, "edges": args.edges, "surface": args.surface,
            "fingers": fingers.to_dict(),

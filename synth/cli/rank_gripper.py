@@ -116,8 +116,11 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                                  None if shown_n == 0 else shown_n, where.widths)
     rows = list(ranking.rows)
     p = params
+    from synth.paths import stored_mesh_path
+
     doc = {"format": "synth.ranked_gripper", "version": 1,
-           "mesh": {"path": part.source, "sha256": part.sha256, "units": part.units,
+           "mesh": {"path": stored_mesh_path(part.source, out), "sha256": part.sha256,
+                    "units": part.units,
                     "metres_per_unit": where.metres_per_unit, "length": part.length},
            "poses": {"path": poses.path, "format": poses.format, "unit": poses.unit_name,
                      "object_scale": poses.object_scale, "object_file": poses.object_file,

@@ -194,8 +194,11 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
     from synth.plan import load_options
     from synth.sim import require_sim, simulate_jaw_document
 
+    from synth.paths import resolve_mesh_path
+
     mesh = doc["mesh"]
-    path = args.mesh if args.mesh is not None else mesh.get("path")
+    path = args.mesh if args.mesh is not None or mesh.get("path") is None else \
+        resolve_mesh_path(mesh["path"], args.grasps)
     if path is None:
         raise InputError(f"{args.grasps}: a gripper grasp file of an older synth does not "
                          "record its mesh's path: name the mesh it was planned on with --mesh")
@@ -203,6 +206,16 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
         raise InputError(f"--mu: a gripper's soft contacts need friction: expected mu > 0, got "
                          f"{args.mu:g}")
     require_sim()
+    if isinstance(mesh.get("sha256"), str) and Path(path).is_file():
+        import hashlib
+
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        if digest != mesh["sha256"]:
+            what = (f"{path}: not the mesh these grasps were planned on" if args.mesh else
+                    f"{args.grasps}: field mesh.sha256: {path} has changed since the grasps "
+                    "were planned")
+            raise InputError(f"{what} (sha256 {digest[:12]}..., the file says "
+                             f"{mesh['sha256'][:12]}...)")
     part = load_part(path, **load_options({"units": mesh["units"],
                                            "body": mesh.get("body", "largest"),
                                            "sharp_angle": mesh.get("sharp_angle", 30.0)}))

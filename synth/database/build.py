@@ -48,6 +48,8 @@ __all__ = [
     "BuildReport",
     "BuildTerminated",
     "normalize_params",
+    "gripper_defaults",
+    "resume_defaults",
     "collect_mesh_files",
     "build_database",
 ]
@@ -250,20 +252,41 @@ def _check_sim(sim: Any) -> dict[str, Any] | None:
     return SimSettings.from_dict(sim, "planner parameter 'sim'").to_dict()
 
 
-def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
-    """Parameters of a gripper build (``synth db build --gripper``), checked the same way:
-    :class:`synth.plan.gripper.GripperParams` fields and ``units``, defaults filled in."""
+def gripper_defaults() -> dict[str, Any]:
+    """A gripper build's parameters when none are given: every field of
+    :class:`synth.plan.gripper.GripperParams` and the mesh options of
+    :data:`synth.plan.LOAD_KEYS` (``sharp_angle`` in degrees). A gripper database built before
+    ``body`` and ``sharp_angle`` were among them resumes with their defaults."""
     from dataclasses import asdict
 
-    from synth.fingers.gripper import load_gripper
     from synth.plan.gripper import GripperParams
 
-    fields = set(asdict(GripperParams())) | {"units"}
+    return {**asdict(GripperParams()), "units": None, "body": "largest", "sharp_angle": 30.0}
+
+
+def resume_defaults(params: dict[str, Any]) -> dict[str, Any]:
+    """What a parameter missing from a stored set means, for a build of ``params`` (a point-
+    finger or a gripper build): its default, or what it was before it existed
+    (:data:`PARAMS_BEFORE`)."""
+    if "gripper" in params:
+        return gripper_defaults()
+    return {**DEFAULT_PARAMS, **PARAMS_BEFORE}
+
+
+def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
+    """Parameters of a gripper build (``synth db build --gripper``), checked the same way:
+    :func:`gripper_defaults`' keys, defaults filled in."""
+    from synth.fingers.gripper import load_gripper
+
+    defaults = gripper_defaults()
     for key in params:
-        if key not in fields:
+        if key not in defaults:
             raise InputError(f"unknown gripper planner parameter {key!r}; valid: "
-                             f"{sorted(fields)}")
-    out = {**asdict(GripperParams()), "units": None, **params}
+                             f"{sorted(defaults)}")
+    out = {**defaults, **params}
+    if out["sharp_angle"] is not None and not isinstance(out["sharp_angle"], bool):
+        out["sharp_angle"] = float(out["sharp_angle"])
+    _check_load_options(out)
     load_gripper(out["gripper"])
     for key in ("top", "seed", "samples"):
         if isinstance(out[key], bool) or not isinstance(out[key], int) or out[key] < 1 - (
@@ -701,7 +724,7 @@ def build_database(
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]
         with GraspDatabase(out, mode="w") as db:
-            db.bind(run_params, planner_name, {**DEFAULT_PARAMS, **PARAMS_BEFORE})
+            db.bind(run_params, planner_name, resume_defaults(run_params))
             tasks, hashes, skipped, duplicates, failures = _prepare(
                 db, inputs, params_text, planner_name, retry_failed
             )

@@ -15,11 +15,13 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
-from synth.cli.options import add_planning_options, check_planning_options, planning_params
+from synth.cli.options import (add_planning_options, check_part_options,
+                               check_planning_options, planning_params)
 from synth.cli.vocabulary import add_json, add_quiet, exit_epilog, top_help
 from synth.limits import MAX_TOP
 from synth.errors import shown
 from synth.filetype import MESH_FORMATS
+from synth.plan.gripper_params import GRIPPER_RANK_BY
 from synth.plan.params import BUILD_TIME, RANK_BY, PlanParams
 
 __all__ = ["add_db_parser", "run_db"]
@@ -124,7 +126,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "cycle, is searched once), mesh files, or text files listing mesh paths")
     b.add_argument("--out", required=True, metavar="DB",
                    help="the database file, created or resumed (one build at a time writes it)")
-    add_planning_options(b, time=BUILD_TIME)
+    add_planning_options(b, time=BUILD_TIME, rank_by_extra=GRIPPER_RANK_BY)
     b.add_argument("--workers", type=_int_in(*_WORKERS), default=None, metavar="N",
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
@@ -164,11 +166,15 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
     t.add_argument("--top", "-k", type=_int_in(*_K), default=5, metavar="N",
                    help=top_help("grasps", 5, listing=True) + "; -k is its old spelling")
-    t.add_argument("--rank-by", choices=RANK_BY, default="rank",
-                   help="order of the grasps (default: the database's own, its build's "
-                   "--rank-by; d_star: by d* as printed, 5 decimals, then by conditioning; "
-                   "conditioning, epsilon or tolerance, the placement tolerance, which needs a "
-                   "database built with --regions: by that measure, largest first)")
+    t.add_argument("--rank-by", choices=tuple(dict.fromkeys(("rank",) + RANK_BY
+                                                            + GRIPPER_RANK_BY)),
+                   default="rank",
+                   help="order of the grasps (default rank: the database's own, its build's "
+                   "--rank-by). Point-finger grasps: d_star, by d* as printed, 5 decimals, then "
+                   "by conditioning; conditioning, epsilon or tolerance, the placement "
+                   "tolerance, which needs a database built with --regions: by that measure, "
+                   "largest first. Gripper grasps: margin (least squeeze per weight first), "
+                   "d_star, mu_min (smallest first) or epsilon (largest first)")
     add_json(t, "the grasps", out=False)
 
     e = sub.add_parser(
@@ -205,9 +211,12 @@ def _build(args: argparse.Namespace) -> int:
         check_planning_options(args)
         params = planning_params(args)
     else:  # gripper grasps (synth plan --gripper): the gripper planner's own parameters
-        from synth.cli.gripper import gripper_params
+        from synth.cli.gripper import gripper_params, refuse_finger_options
 
-        params = {"units": args.units, **asdict(gripper_params(args))}
+        refuse_finger_options(args, BUILD_TIME)
+        check_part_options(args)
+        params = {"units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
+                  **asdict(gripper_params(args))}
         planner = planner or "synth.plan:plan_gripper_file"
     if args.sim:
         from synth.cli.sim import settings_from_args
@@ -237,7 +246,12 @@ def _info(args: argparse.Namespace) -> int:
     print(f"planner: {info.planner}\nparams: {params}")
     print(f"meshes: {info.meshes} ({info.done} done, {info.failed} failed, "
           f"{info.duplicates} duplicates, {info.pending} pending)")  # fmt: skip
-    print(f"grasps: {info.grasps}\nplanner time: {info.plan_s:.1f} s")
+    kinds = [f"{info.grasps - info.gripper_grasps} point-finger"] * bool(
+        info.grasps - info.gripper_grasps) + [f"{info.gripper_grasps} gripper"] * bool(
+        info.gripper_grasps)
+    gripper = info.params.get("gripper")
+    of = f" ({', '.join(kinds)}{f', {gripper}' if gripper else ''})" if kinds else ""
+    print(f"grasps: {info.grasps}{of}\nplanner time: {info.plan_s:.1f} s")
     print(_loading_line(info))
     if info.failures:
         print("failures:")
@@ -259,6 +273,7 @@ def _loading_line(info: Any) -> str:
 
 
 def _top(args: argparse.Namespace) -> int:
+    from synth.database.schema import GripperGraspRecord
     from synth.database.store import GraspDatabase
 
     with GraspDatabase(args.database) as db:
@@ -270,8 +285,17 @@ def _top(args: argparse.Namespace) -> int:
                           "grasps": [g.to_dict() for g in grasps]}, indent=1))
         return 0
     note = f" ({mesh.error})" if mesh.status != "done" and mesh.error else ""
-    print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} grasps")
-    if grasps:
+    jaws = bool(grasps) and isinstance(grasps[0], GripperGraspRecord)
+    what = f"{grasps[0].gripper} gripper grasps" if jaws else "grasps"
+    print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} {what}")
+    if jaws:
+        import trimesh
+
+        from synth.cli.gripper import format_gripper_table
+
+        mm = float(trimesh.units.unit_conversion(mesh.units, "millimeters"))
+        print(format_gripper_table(grasps, mm, [g.sim for g in grasps], [g.rank for g in grasps]))
+    elif grasps:
         show = any(g.tolerance is not None for g in grasps)
         sim = any(g.sim is not None for g in grasps)
         print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "

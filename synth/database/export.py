@@ -42,15 +42,42 @@ contact_regions        (n,) str      JSON text of the grasp's contact regions, `
 sim                    (n,) str      JSON text of the grasp's simulation label (``synth db
                                      build --sim``), ``""`` if not simulated
 sim_held               (n,) float64  1 if the simulated part held, 0 if not (also when the
-                                     simulation diverged), NaN if not simulated
+                                     simulation diverged), NaN if not simulated (or synth
+                                     could not simulate it: its label says why)
+squeeze_per_weight,    (n,) float64  the least finger force per weight that holds the part in
+least_squeeze, margin                every orientation, in newtons, and the grip over it (NaN
+                                     where the build had no mass or grip, or predates them)
 =====================  ============  ==========================================================
 
-In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix) and
-the others of the group ``grasps``; datasets are chunked and gzip-compressed; the file's
+Gripper grasps (``synth db build --gripper``; every array empty, with its shape, in a
+point-finger database) have columns of their own, prefixed ``gripper_``:
+
+==============================  ==============  =================================================
+field                           shape           meaning
+==============================  ==============  =================================================
+gripper_mesh_id, gripper_rank   (j,) int64      mesh of each gripper grasp and its rank (1 = best)
+gripper_name                    (j,) str        the gripper (``franka``, ...)
+gripper_pose                    (j, 4, 4) f8    the gripper's base frame in the part's frame
+                                                (approach +z, closing x), in the mesh's unit
+gripper_tcp                     (j, 3) f8       tool centre point
+gripper_width                   (j,) f8         pad distance
+gripper_points, gripper_normals (j, 2, 3) f8    the two contacts (the +x pad's first) and their
+                                                inward normals
+gripper_squeeze_per_weight,     (j,) f8         the gripper measures (``least_squeeze`` in N and
+gripper_least_squeeze,                          ``margin`` NaN without a mass, ``mu_min`` NaN
+gripper_margin, gripper_mu_min,                 where none closes)
+gripper_epsilon, gripper_d_star
+gripper_sim, gripper_sim_held   (j,) str, f8    as ``sim`` and ``sim_held``
+==============================  ==============  =================================================
+
+In HDF5 the ``mesh_*`` fields are datasets of the group ``meshes`` (without the prefix), the
+``gripper_*`` fields of the group ``gripper_grasps`` (without the prefix) and the others of the
+group ``grasps``; datasets are chunked and gzip-compressed; the file's
 attributes hold ``format``, ``schema_version``, ``params`` (JSON), ``planner`` and ``units``
 (``UNITS``: every length is in its mesh's unit). NPZ uses the flat names above plus ``params``,
 ``planner`` and ``units`` (0-d strings). JSON is one object with ``units`` and ``meshes``, each
-carrying its unit, its loading ``report`` (an object, or null) and its ``grasps`` in the
+carrying its unit, its loading ``report`` (an object, or null), its ``grasp_format``
+(``synth.grasps`` or, for gripper grasps, ``synth.gripper_grasps``) and its ``grasps`` in that
 planner's format (with ``sim``, the label object or null).
 """
 
@@ -74,9 +101,10 @@ __all__ = ["EXPORT_FORMATS", "UNITS", "export_columns", "export_database"]
 EXPORT_FORMATS = ("h5", "npz", "json")
 _FORMAT_TAG = "synth.grasps.db-export"
 #: What the exports say about the unit of their numbers.
-UNITS = ("every length (points, tip centres, radii, tolerances, frames) is in its mesh's unit: "
-         "mesh_units ('' when the mesh file did not say); d_star, conditioning and epsilon are "
-         "unitless")
+UNITS = ("every length (points, tip centres, radii, tolerances, frames, gripper poses, tool "
+         "centre points and widths) is in its mesh's unit: mesh_units ('' when the mesh file "
+         "did not say); d_star, conditioning, epsilon, squeeze_per_weight, margin and mu_min "
+         "are unitless, least_squeeze is in newtons")
 
 
 def _str_array(values: list[str]) -> np.ndarray:
@@ -111,7 +139,7 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         for k in (
             "grasp_mesh_id rank d_star closure conditioning epsilon points normals features "
             "regions tip_centers approach finger_frames tip_radius body_length body_radius "
-            "tolerance contact_regions sim sim_held"
+            "tolerance contact_regions sim sim_held squeeze_per_weight least_squeeze margin"
         ).split()
     }
     contact_start, finger_start = [0], [0]
@@ -131,13 +159,17 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
         lists["contact_regions"].append(
             "" if g.contact_regions is None else canonical_json(g.contact_regions))
         lists["sim"].append("" if g.sim is None else canonical_json(g.sim))
-        lists["sim_held"].append(np.nan if g.sim is None else float(bool(g.sim["held"])))
+        lists["sim_held"].append(np.nan if g.sim is None or g.sim["held"] is None
+                                 else float(bool(g.sim["held"])))
+        for name in ("squeeze_per_weight", "least_squeeze", "margin"):
+            value = getattr(g, name)
+            lists[name].append(np.nan if value is None else float(value))
         contact_start.append(contact_start[-1] + g.n_contacts)
         finger_start.append(finger_start[-1] + g.tip_centers.shape[0])
     for name in ("grasp_mesh_id", "rank"):
         cols[name] = np.array(lists[name], dtype=np.int64)
     for name in ("d_star", "conditioning", "epsilon", "tip_radius", "body_length", "body_radius",
-                 "tolerance", "sim_held"):
+                 "tolerance", "sim_held", "squeeze_per_weight", "least_squeeze", "margin"):
         cols[name] = np.array(lists[name], dtype=np.float64)
     cols["contact_regions"] = _str_array(lists["contact_regions"])
     cols["sim"] = _str_array(lists["sim"])
@@ -153,6 +185,42 @@ def export_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
     )  # fmt: skip
     cols["contact_start"] = np.array(contact_start, dtype=np.int64)
     cols["finger_start"] = np.array(finger_start, dtype=np.int64)
+    cols.update(_gripper_columns(db))
+    return cols
+
+
+#: Stored measures of a gripper grasp that may be None (NaN in the columns).
+_GRIPPER_MEASURES = ("squeeze_per_weight", "least_squeeze", "margin", "mu_min", "epsilon",
+                     "d_star")
+
+
+def _gripper_columns(db: GraspDatabase) -> dict[str, np.ndarray]:
+    """The ``gripper_*`` columns: every gripper grasp of ``db`` (see the module docstring)."""
+    grasps = list(db.gripper_grasps())
+
+    def stack(name: str, shape: tuple[int, ...]) -> np.ndarray:
+        return (np.array([getattr(g, name) for g in grasps], np.float64) if grasps
+                else np.zeros((0, *shape)))
+
+    cols: dict[str, np.ndarray] = {
+        "gripper_mesh_id": np.array([g.mesh_id for g in grasps], np.int64),
+        "gripper_rank": np.array([g.rank for g in grasps], np.int64),
+        "gripper_name": _str_array([g.gripper for g in grasps]),
+        "gripper_pose": stack("pose", (4, 4)),
+        "gripper_tcp": stack("tcp", (3,)),
+        "gripper_width": stack("width", ()),
+        "gripper_points": stack("points", (2, 3)),
+        "gripper_normals": stack("normals", (2, 3)),
+    }
+    for name in _GRIPPER_MEASURES:
+        cols[f"gripper_{name}"] = np.array(
+            [np.nan if getattr(g, name) is None else getattr(g, name) for g in grasps],
+            np.float64)
+    cols["gripper_sim"] = _str_array(["" if g.sim is None else canonical_json(g.sim)
+                                      for g in grasps])
+    cols["gripper_sim_held"] = np.array(
+        [np.nan if g.sim is None or g.sim["held"] is None else float(bool(g.sim["held"]))
+         for g in grasps], np.float64)
     return cols
 
 
@@ -170,11 +238,11 @@ def _write_h5(db: GraspDatabase, out: Path) -> None:
         f.attrs["params"] = json.dumps(db.params, sort_keys=True)
         f.attrs["planner"] = db.planner
         f.attrs["units"] = UNITS
-        groups = {"meshes": f.create_group("meshes"), "grasps": f.create_group("grasps")}
+        groups = {"mesh_": f.create_group("meshes"), "gripper_": f.create_group("gripper_grasps"),
+                  "": f.create_group("grasps")}
         for name, arr in cols.items():
-            group, key = (
-                (groups["meshes"], name[5:]) if name.startswith("mesh_") else (groups["grasps"], name)
-            )
+            prefix = next(p for p in groups if name.startswith(p))
+            group, key = groups[prefix], name[len(prefix):]
             if arr.dtype.kind == "U":
                 data: Any = arr.astype(object)
                 dtype: Any = h5py.string_dtype("utf-8")
@@ -186,8 +254,12 @@ def _write_h5(db: GraspDatabase, out: Path) -> None:
 
 def _write_json(db: GraspDatabase, out: Path) -> None:
     by_mesh: dict[int, list[dict[str, Any]]] = {}
-    for g in db.grasps():
-        by_mesh.setdefault(g.mesh_id, []).append(g.to_dict())
+    formats: dict[int, str] = {}
+    for fmt, grasps in (("synth.grasps", db.grasps()),
+                        ("synth.gripper_grasps", db.gripper_grasps())):
+        for g in grasps:
+            by_mesh.setdefault(g.mesh_id, []).append(g.to_dict())
+            formats[g.mesh_id] = fmt
     meshes = []
     for m in db.meshes():
         meshes.append(
@@ -196,7 +268,7 @@ def _write_json(db: GraspDatabase, out: Path) -> None:
                 "status": m.status, "error_kind": m.error_kind, "error": m.error,
                 "duplicate_of": m.duplicate_of, "units": m.units, "length": m.length,
                 "synth_version": m.synth_version, "n_grasps": m.n_grasps, "report": m.report,
-                "grasps": by_mesh.get(m.id, []),
+                "grasp_format": formats.get(m.id), "grasps": by_mesh.get(m.id, []),
             }
         )  # fmt: skip
     doc = {

@@ -32,7 +32,8 @@ __all__ = ["export_objects", "VERDICT"]
 
 #: What the success label of an export holds.
 VERDICT = ("per grasp, where the measure 'simulated' is 1 ({sims} of {n} grasps): MuJoCo's label "
-           "(synth db build --sim: 1 when the part stayed held); elsewhere synth's analytic "
+           "made by {simulator} (synth db build --sim: 1 when the part stayed held; see "
+           "docs/simulation.md); elsewhere synth's analytic "
            "verdict, not a simulation: 1 when the grasp is frictional form closure with the "
            "pads' soft contacts (MuJoCo condim 4, mu {mu}, torsion {torsion}) {mass}")
 _MEASURES = ("margin", "least_squeeze", "squeeze_per_weight", "mu_min", "epsilon", "d_star")
@@ -72,13 +73,19 @@ def _objects(db: GraspDatabase, units: str | None) -> list[ObjectGrasps]:
                "unknown: the build had no --mass nor --density")
         meas = {k: np.array([np.nan if getattr(g, k) is None else getattr(g, k)
                              for g in grasps], float) for k in _MEASURES}
-        simulated = np.array([g.sim is not None for g in grasps])
-        label = np.array([bool(g.sim["held"]) if g.sim is not None else
+        # a grasp synth could not simulate (its label says why: held is null) takes the
+        # analytic verdict, as one not simulated
+        simulated = np.array([g.sim is not None and g.sim.get("held") is not None
+                              for g in grasps])
+        label = np.array([bool(g.sim["held"]) if sim else
                           g.d_star > 0 and (g.margin is None or g.margin >= 1.0)
-                          for g in grasps])
+                          for g, sim in zip(grasps, simulated, strict=True)])
         meas["simulated"] = simulated.astype(float)
+        makers = sorted({str(g.sim.get("simulator", "synth.sim 1"))
+                         for g, sim in zip(grasps, simulated, strict=True) if sim})
         verdict = VERDICT.format(
-            sims=int(simulated.sum()), n=len(grasps), mu=params.get("mu"), torsion="default 5 mm" if params.get("torsion") is None
+            sims=int(simulated.sum()), n=len(grasps), simulator=" and ".join(makers) or "-",
+            mu=params.get("mu"), torsion="default 5 mm" if params.get("torsion") is None
             else f"{params['torsion']} mesh units",
             mass="and the gripper's rated grip force holds the part's weight in every "
             "orientation (margin >= 1); 0 otherwise" if known else

@@ -82,8 +82,13 @@ tolerance      REAL       placement tolerance (:func:`synth.contact_regions`) in
 contact_regions TEXT      canonical JSON of the grasp's ``contact_regions`` object (polygons,
                           kinds, tolerance, limited_by, d_star_min, certified); NULL as above
 sim            TEXT       canonical JSON of the grasp's simulation label (``synth sim``'s
-                          ``sim`` object: held, failed_at, force_held, ...); NULL when the build
+                          ``sim`` object: simulator, held, failed_at, ...); NULL when the build
                           did not simulate (``synth db build --sim``; new in version 4)
+squeeze_per_weight REAL   least force each finger must press with, over the part's weight, to
+                          hold it in every orientation (:mod:`synth.scores.hold`); NULL in files
+                          written before the column (a late column of version 4)
+least_squeeze  REAL       that force in newtons; NULL without the build's --mass or --density
+margin         REAL       the build's --grip over the least squeeze; NULL without both
 =============  =========  ======================================================================
 
 ``gripper_grasps`` -- one row per gripper grasp, ``PRIMARY KEY (mesh_id, rank)``,
@@ -120,7 +125,8 @@ sees a ``done`` mesh with missing grasps, nor grasps of a mesh that is not ``don
 Versions: schema version 1 lacks ``meshes.mesh_report``; versions 1 and 2 lack
 ``grasps.tolerance`` and ``grasps.contact_regions``; versions 1 to 3 lack the
 ``gripper_grasps`` table and ``grasps.sim``. Files of version 4 written before ``sim`` existed
-(the day version 4 appeared) lack ``grasps.sim`` and ``gripper_grasps.sim``. An older file is
+(the day version 4 appeared) lack ``grasps.sim`` and ``gripper_grasps.sim``, and those written
+before the hold measures lack ``grasps.squeeze_per_weight``, ``least_squeeze`` and ``margin``. An older file is
 read as it is (the missing fields read as None, the missing table as no gripper grasps) and is
 migrated in place to the full version 4 -- the missing columns added with ``ALTER TABLE`` (NULL
 in existing rows), the ``grasps(tolerance)`` index and the ``gripper_grasps`` table created,
@@ -219,6 +225,9 @@ CREATE TABLE grasps (
     tolerance    REAL,
     contact_regions TEXT,
     sim          TEXT,
+    squeeze_per_weight REAL,
+    least_squeeze REAL,
+    margin       REAL,
     PRIMARY KEY (mesh_id, rank)
 ) WITHOUT ROWID;
 CREATE INDEX grasps_d_star ON grasps(d_star);
@@ -341,8 +350,30 @@ def _decode_report(row: sqlite3.Row) -> dict[str, Any] | None:
     return None if text is None else dict(json.loads(text))
 
 
+class _StoredGrasp:
+    """What both kinds of stored grasps share: their contacts' count, and equality field by
+    field (arrays compared exactly, through ``to_dict``)."""
+
+    mesh_id: int
+    points: np.ndarray
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts k (2 for a gripper grasp, one per pad)."""
+        return int(self.points.shape[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def __eq__(self, other: object) -> bool:
+        """Field-by-field equality, arrays compared exactly."""
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True, eq=False)
-class GraspRecord:
+class GraspRecord(_StoredGrasp):
     """One stored grasp (a row of ``grasps``), arrays decoded.
 
     Attributes
@@ -372,6 +403,8 @@ class GraspRecord:
     sim : dict or None
         The grasp's simulation label (the ``sim`` object of ``synth sim``), None when the
         build did not simulate (or in a file without the column).
+    squeeze_per_weight, least_squeeze, margin : float or None
+        The hold measures (:mod:`synth.scores.hold`), None where not stored.
     """
 
     mesh_id: int
@@ -392,17 +425,9 @@ class GraspRecord:
     tolerance: float | None = None
     contact_regions: dict[str, Any] | None = None
     sim: dict[str, Any] | None = None
-
-    @property
-    def n_contacts(self) -> int:
-        """Number of contacts k."""
-        return int(self.points.shape[0])
-
-    def __eq__(self, other: object) -> bool:
-        """Field-by-field equality, arrays compared exactly."""
-        if not isinstance(other, GraspRecord):
-            return NotImplemented
-        return self.to_dict() == other.to_dict() and self.mesh_id == other.mesh_id
+    squeeze_per_weight: float | None = None
+    least_squeeze: float | None = None
+    margin: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The grasp in the planner's JSON format (format version 1), plus ``rank``; ``sim``
@@ -417,6 +442,9 @@ class GraspRecord:
             "closure": self.closure,
             "conditioning": self.conditioning,
             "epsilon": self.epsilon,
+            "squeeze_per_weight": self.squeeze_per_weight,
+            "least_squeeze": self.least_squeeze,
+            "margin": self.margin,
             "fingers": {
                 "tip_centers": self.tip_centers.tolist(),
                 "tip_radius": self.tip_radius,
@@ -455,6 +483,8 @@ class GraspRecord:
             tolerance=row["tolerance"] if "tolerance" in keys else None,
             contact_regions=None if regions is None else json.loads(regions),
             sim=_decode_sim(row),
+            **{m: row[m] if m in keys else None
+               for m in ("squeeze_per_weight", "least_squeeze", "margin")},
         )
 
 
@@ -465,7 +495,7 @@ def _decode_sim(row: sqlite3.Row) -> dict[str, Any] | None:
 
 
 @dataclass(frozen=True, eq=False)
-class GripperGraspRecord:
+class GripperGraspRecord(_StoredGrasp):
     """One stored gripper grasp (a row of ``gripper_grasps``), arrays decoded.
 
     Attributes
@@ -498,6 +528,25 @@ class GripperGraspRecord:
     epsilon: float
     d_star: float
     sim: dict[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The grasp in the gripper planner's JSON format (a grasp of a
+        ``synth.gripper_grasps`` document: ``pose``, ``tcp``, ``width``, ``contacts`` with
+        ``point``, ``normal`` and ``touch``, ``measures``), plus ``rank``, ``gripper`` and
+        ``sim`` (the label, or None). The contacts' patch sizes and the worst gravity
+        direction are not stored."""
+        from synth.fingers.jaws import pad_touch
+
+        return {
+            "rank": self.rank, "gripper": self.gripper, "pose": self.pose.tolist(),
+            "tcp": self.tcp.tolist(), "width": self.width,
+            "contacts": [{"point": p.tolist(), "normal": n.tolist(), "touch": t} for p, n, t
+                         in zip(self.points, self.normals, pad_touch(self.pose, self.normals))],
+            "measures": {"margin": self.margin, "least_squeeze": self.least_squeeze,
+                         "squeeze_per_weight": self.squeeze_per_weight, "d_star": self.d_star,
+                         "mu_min": self.mu_min, "epsilon": self.epsilon},
+            "sim": self.sim,
+        }  # fmt: skip
 
     @classmethod
     def from_row(cls, row: sqlite3.Row) -> GripperGraspRecord:
@@ -612,7 +661,9 @@ def schema_version(meta: dict[str, str]) -> int:
 
 
 #: Columns version 4 gained after files of it were written: (table, column, type).
-_LATE_COLUMNS = (("grasps", "sim", "TEXT"), ("gripper_grasps", "sim", "TEXT"))
+_LATE_COLUMNS = (("grasps", "sim", "TEXT"), ("gripper_grasps", "sim", "TEXT"),
+                 ("grasps", "squeeze_per_weight", "REAL"), ("grasps", "least_squeeze", "REAL"),
+                 ("grasps", "margin", "REAL"))
 
 
 def _missing_columns(conn: sqlite3.Connection) -> list[tuple[str, str, str]]:

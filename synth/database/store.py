@@ -31,12 +31,14 @@ from synth.database.schema import (
 from synth.database.worker import PlanOutcome
 from synth.errors import DatabaseError, DatabaseFileError, InputError
 
-__all__ = ["GraspDatabase", "DatabaseInfo", "TOP_ORDERS"]
+__all__ = ["GraspDatabase", "DatabaseInfo", "TOP_ORDERS", "GRIPPER_TOP_ORDERS"]
 
-#: Orders :meth:`GraspDatabase.top` knows.
-#: Orders of :meth:`GraspDatabase.top`: the planner's ranks as stored, or the words of
-#: ``--rank-by`` (:func:`synth.plan.ranking.rank_grasps`).
-TOP_ORDERS = ("rank", "d_star", "conditioning", "epsilon", "tolerance")
+#: Orders of :meth:`GraspDatabase.top` for point-finger grasps: the planner's ranks as stored,
+#: or the words of ``--rank-by`` (:func:`synth.plan.ranking.rank_grasps`).
+TOP_ORDERS = ("rank", "d_star", "conditioning", "epsilon", "tolerance", "margin")
+#: Orders of :meth:`GraspDatabase.top` for gripper grasps: the ranks as stored, or the words of
+#: ``synth plan --gripper --rank-by`` (:func:`synth.plan.gripper.rank_order`).
+GRIPPER_TOP_ORDERS = ("rank", "margin", "d_star", "mu_min", "epsilon")
 
 _BUSY_TIMEOUT_MS = 30_000
 
@@ -62,7 +64,7 @@ class DatabaseInfo:
     planner : str
         ``"module:function"`` of the planner.
     meshes, done, failed, duplicates, pending, grasps : int
-        Row counts (``meshes`` counts every status).
+        Row counts (``meshes`` counts every status; ``grasps`` both kinds of grasps).
     failures : tuple of (str, str, str)
         ``(path, error_kind, error)`` of every failed mesh, by path.
     plan_s : float
@@ -72,6 +74,11 @@ class DatabaseInfo:
     repaired, with_dropped, with_warnings : int
         Of those, the meshes whose report lists repairs, dropped objects or warnings (a
         non-empty ``repairs``, ``dropped`` or ``warnings`` list).
+    gripper_grasps : int
+        Of ``grasps``, the gripper grasps (table ``gripper_grasps``).
+    kind : str
+        ``"gripper"`` for a database of gripper grasps (``synth db build --gripper``),
+        ``"fingers"`` for point-finger grasps.
     """
 
     path: str
@@ -91,12 +98,32 @@ class DatabaseInfo:
     repaired: int = 0
     with_dropped: int = 0
     with_warnings: int = 0
+    gripper_grasps: int = 0
+    kind: str = "fingers"
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (``failures`` as a list of objects)."""
         d = asdict(self)
         d["failures"] = [{"path": p, "kind": k, "error": e} for p, k, e in self.failures]
         return d
+
+
+def _gripper_top(grasps: list[GripperGraspRecord], k: int, rank_by: str
+                 ) -> list[GripperGraspRecord]:
+    """The first ``k`` gripper grasps in ``rank_by`` order (stored ranks break ties)."""
+    if rank_by != "rank" and grasps:
+        import numpy as np
+
+        from synth.plan.gripper import rank_order
+
+        def column(name: str) -> np.ndarray:
+            return np.array([np.inf if getattr(g, name) is None else getattr(g, name)
+                             for g in grasps], float)
+
+        order = rank_order(rank_by, column("squeeze_per_weight"), column("d_star"),
+                           column("mu_min"), column("epsilon"))
+        grasps = [grasps[i] for i in order]
+    return grasps[: int(k)]
 
 
 def _probe(conn: sqlite3.Connection, path: str) -> None:
@@ -265,8 +292,9 @@ class GraspDatabase:
         """Counts, failures and parameters of the database."""
         counts = dict(self._query("SELECT status, count(*) FROM meshes GROUP BY status"))
         n_grasps = self._query("SELECT count(*) FROM grasps")[0][0]
+        n_gripper = 0
         if self.schema_version >= 4:
-            n_grasps += self._query("SELECT count(*) FROM gripper_grasps")[0][0]
+            n_gripper = self._query("SELECT count(*) FROM gripper_grasps")[0][0]
         plan_s = self._query("SELECT total(plan_s) FROM meshes WHERE status = 'done'")[0][0]
         failures = self._query(
             "SELECT path, error_kind, error FROM meshes WHERE status = 'failed' ORDER BY path"
@@ -283,11 +311,24 @@ class GraspDatabase:
             failed=counts.get("failed", 0),
             duplicates=counts.get("duplicate", 0),
             pending=counts.get("pending", 0),
-            grasps=int(n_grasps),
+            grasps=int(n_grasps + n_gripper),
             failures=tuple((r[0], r[1] or "", r[2] or "") for r in failures),
             plan_s=float(plan_s),
             **loading,
+            gripper_grasps=int(n_gripper),
+            kind=self.kind,
         )
+
+    @property
+    def kind(self) -> str:
+        """``"gripper"`` when this database holds gripper grasps (built with ``--gripper``,
+        or with a planner returning ``synth.gripper_grasps`` documents), else
+        ``"fingers"``."""
+        if "gripper" in self.params:
+            return "gripper"
+        if self.schema_version < 4:
+            return "fingers"
+        return "gripper" if self._query("SELECT 1 FROM gripper_grasps LIMIT 1") else "fingers"
 
     def _loading_counts(self) -> dict[str, int]:
         """Meshes with a loading report, and those with repairs, dropped objects or warnings."""
@@ -362,24 +403,48 @@ class GraspDatabase:
         for row in rows:
             yield GripperGraspRecord.from_row(row)
 
-    def top(self, mesh: str | int, k: int = 5, rank_by: str = "rank") -> list[GraspRecord]:
-        """The best ``k`` grasps of a mesh, following duplicates to their original.
+    def top(self, mesh: str | int, k: int = 5, rank_by: str = "rank"
+            ) -> list[GraspRecord] | list[GripperGraspRecord]:
+        """The best ``k`` grasps of a mesh, of either kind, following duplicates to their
+        original: :class:`GraspRecord` for point-finger grasps, :class:`GripperGraspRecord`
+        for gripper grasps.
 
-        ``rank_by``: ``"rank"`` (the planner's order, as built) or a word of ``--rank-by``:
-        ``"d_star"`` (by d* as printed, then conditioning), ``"conditioning"``,
-        ``"epsilon"`` or ``"tolerance"`` (placement tolerance, largest first; grasps without
-        one last), as :func:`synth.plan.ranking.rank_grasps` orders them, then by rank.
+        ``rank_by``: ``"rank"`` (the planner's order, as built) or a word of ``--rank-by``.
+        Point-finger grasps (:data:`TOP_ORDERS`): ``"d_star"`` (by d* as printed, then
+        conditioning), ``"conditioning"``, ``"epsilon"`` or ``"tolerance"`` (placement
+        tolerance, largest first; grasps without one last), as
+        :func:`synth.plan.ranking.rank_grasps` orders them, then by rank. Gripper grasps
+        (:data:`GRIPPER_TOP_ORDERS`): ``"margin"`` (least squeeze per weight first),
+        ``"d_star"``, ``"mu_min"`` (smallest first) or ``"epsilon"``, as
+        :func:`synth.plan.gripper.rank_order` orders them, then by rank.
+
+        Raises
+        ------
+        InputError
+            ``k`` below 1, or ``rank_by`` not an order of the mesh's kind of grasps.
         """
-        from synth.plan.ranking import rank_grasps
-
         if k < 1:
             raise InputError(f"k must be at least 1, got {k}")
-        if rank_by not in TOP_ORDERS:
-            raise InputError(f"rank_by: expected one of {', '.join(TOP_ORDERS)}, got "
+        if rank_by not in TOP_ORDERS + GRIPPER_TOP_ORDERS:
+            raise InputError(f"rank_by: expected one of "
+                             f"{', '.join(dict.fromkeys(TOP_ORDERS + GRIPPER_TOP_ORDERS))}, got "
                              f"{rank_by!r}")
-        rows = self._query("SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank",
-                           (self._grasp_owner(mesh),))
-        grasps = [GraspRecord.from_row(r) for r in rows]
+        owner = self._grasp_owner(mesh)
+        jaws = [] if self.schema_version < 4 else self._query(
+            "SELECT * FROM gripper_grasps WHERE mesh_id = ? ORDER BY rank", (owner,))
+        fingers = [] if jaws else self._query(
+            "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank", (owner,))
+        gripper = bool(jaws) or (not fingers and self.kind == "gripper")
+        orders = GRIPPER_TOP_ORDERS if gripper else TOP_ORDERS
+        if rank_by not in orders:
+            what = "gripper" if gripper else "point-finger"
+            raise InputError(f"rank_by {rank_by!r}: {self.path}: the grasps of mesh {mesh!r} "
+                             f"are {what} grasps, which rank by {', '.join(orders)}")
+        if gripper:
+            return _gripper_top([GripperGraspRecord.from_row(r) for r in jaws], k, rank_by)
+        from synth.plan.ranking import rank_grasps
+
+        grasps = [GraspRecord.from_row(r) for r in fingers]
         if rank_by != "rank":
             grasps = rank_grasps(grasps, rank_by)
         return grasps[: int(k)]

@@ -50,7 +50,8 @@ DEFAULT_PLANNER = "synth.plan:plan_mesh_file"
 _GRASP_COLUMNS = (
     "rank", "d_star", "closure", "conditioning", "epsilon", "n_contacts", "points", "normals",
     "features", "regions", "n_fingers", "tip_centers", "tip_radius", "approach", "body_length",
-    "body_radius", "tolerance", "contact_regions", "sim",
+    "body_radius", "tolerance", "contact_regions", "sim", "squeeze_per_weight",
+    "least_squeeze", "margin",
 )  # fmt: skip
 #: Columns of ``gripper_grasps`` rows, for documents of format ``synth.gripper_grasps``.
 GRIPPER_GRASP_COLUMNS = (
@@ -265,6 +266,8 @@ def _pack_grasp(rank: int, g: dict[str, Any]) -> tuple[Any, ...]:
         None if g.get("tolerance") is None else float(g["tolerance"]),
         None if g.get("contact_regions") is None else canonical_json(g["contact_regions"]),
         _sim_text(g),
+        *(None if g.get(m) is None else float(g[m])
+          for m in ("squeeze_per_weight", "least_squeeze", "margin")),
     )
 
 

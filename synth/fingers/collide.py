@@ -240,6 +240,7 @@ class FingerChecker:
         normals: np.ndarray,
         fingers: Fingers,
         finger_ids: np.ndarray | None = None,
+        depths: bool = True,
     ) -> FingerCheck:
         """Check B grasps; see :func:`check_fingers`."""
         P, N, ids = _validate(points, normals, fingers, finger_ids)
@@ -323,9 +324,10 @@ class FingerChecker:
                     if not tip_checked:
                         tip_checked = True
                         if self._hits(tip, None, centers[b, j]):
-                            depth = self._penetration(centers[b, j], r)
+                            by = (f" by {self._penetration(centers[b, j], r):.3g}" if depths
+                                  else "")
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
-                                 f"penetrates the part by {depth:.3g} (a fingertip may "
+                                 f"penetrates the part{by} (a fingertip may "
                                  f"sink at most {tol:.3g}, the penetration tolerance)")
                             break
                 if not alive[b]:
@@ -478,6 +480,7 @@ def check_fingers(
     normals: np.ndarray,
     fingers: Fingers,
     finger_ids: np.ndarray | None = None,
+    depths: bool = True,
 ) -> FingerCheck:
     """Which of B candidate grasps of ``part`` can physically be made by the fingers.
 
@@ -493,6 +496,9 @@ def check_fingers(
     finger_ids : (k,) or (B, k) int, optional
         Finger of each contact, in [0, k); contacts with the same id share one fingertip.
         Default: one finger per contact.
+    depths : bool
+        Say in ``reasons`` how deep a penetrating tip sinks (a second, costlier FCL query
+        per such tip). False for callers that read only the mask: the verdicts are the same.
 
     Returns
     -------
@@ -509,7 +515,7 @@ def check_fingers(
     >>> check_fingers(box, pts, nrm, Fingers(tip_radius=0.1)).reasons[0]
     'fingers 0 and 1 overlap (tips 0.1 apart, less than 2 r = 0.2)'
     """
-    return checker_for(part).check(points, normals, fingers, finger_ids)
+    return checker_for(part).check(points, normals, fingers, finger_ids, depths)
 
 
 def tip_sinks(part: Any, centers: np.ndarray, tip_radius: float) -> np.ndarray:

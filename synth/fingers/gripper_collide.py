@@ -8,7 +8,10 @@ model, shared with the finger checker, :func:`synth.fingers.checker_for`) and a 
    contains the sweep, so the test is conservative), which also covers the hand at the pose
    with its jaws open;
 2. the fingers at the grasp width, opened by ``clearance`` on each side (the pads touch the
-   part there, so touching is not a collision).
+   part there, so touching is not a collision);
+3. a shape that meets no triangle of the part is wholly inside or wholly outside each closed
+   body: one vertex of it inside a closed body (a finger in a mug's cavity that the mesh fills)
+   is a hit too (FCL's mesh test sees surfaces only).
 
 The table test is exact on the shapes' vertices: every vertex of the swept hulls and of the
 closed fingers must lie on or above the plane.
@@ -72,6 +75,7 @@ class GripperChecker:
             self._swept.append((Vh, self._checker.mesh_object(Vh, Fh)))
         self._fingers = [(s.vertices, self._checker.mesh_object(s.vertices, s.faces))
                          for s in gripper.finger]
+        self._solids = _closed_bodies(part)
 
     def check(self, poses: NDArray[np.float64], widths: NDArray[np.float64]
               ) -> NDArray[np.int64]:
@@ -89,6 +93,8 @@ class GripperChecker:
         (B,) int
         """
         out = np.full(len(poses), CLEAR, np.int64)
+        probes: list[NDArray[np.float64]] = []
+        probed: list[int] = []
         for b, (T, w) in enumerate(zip(poses, widths)):
             R, t = T[:3, :3], T[:3, 3]
             closed = [(Tf, V, obj) for Tf in self.gripper.finger_transforms(
@@ -106,4 +112,44 @@ class GripperChecker:
             if any(self._checker.mesh_hits(obj, R @ Tf[:3, :3], R @ Tf[:3, 3] + t)
                    for Tf, _, obj in closed):
                 out[b] = FINGERS_HIT
+                continue
+            if self._solids:  # one vertex of each shape, tested below for all poses at once
+                probes.append(np.vstack([np.array([V[0] for V, _ in self._swept]),
+                                         [V[0] @ Tf[:3, :3].T + Tf[:3, 3] for Tf, V, _ in closed]])
+                              @ R.T + t)
+                probed.append(b)
+        if probed:  # a shape inside a closed body, touching none of its triangles
+            n_swept = len(self._swept)
+            inside = _inside(self._solids, np.concatenate(probes)).reshape(len(probed), -1)
+            rows = np.array(probed)
+            out[rows[inside[:, n_swept:].any(axis=1)]] = FINGERS_HIT
+            out[rows[inside[:, :n_swept].any(axis=1)]] = APPROACH_HITS
         return out
+
+
+def _closed_bodies(part: Any) -> list[Any]:
+    """The part's closed bodies as watertight trimesh meshes (a plain mesh: itself, when it is
+    watertight)."""
+    import trimesh
+
+    bodies = getattr(part, "bodies", None)
+    if bodies is None:
+        return [part] if getattr(part, "is_watertight", False) else []
+    mesh = part.mesh
+    out = []
+    for b in bodies:
+        if b.closed:
+            sub = mesh.submesh([np.asarray(b.faces)], append=True, repair=False)
+            out.append(sub if isinstance(sub, trimesh.Trimesh) else mesh)
+    return out
+
+
+def _inside(solids: list[Any], points: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which points lie inside one of the closed bodies ``solids``."""
+    out = np.zeros(len(points), bool)
+    for m in solids:
+        lo, hi = m.bounds
+        near = ~out & np.all((points >= lo) & (points <= hi), axis=1)
+        if near.any():
+            out[near] = m.contains(points[near])
+    return out

@@ -47,8 +47,8 @@ from numpy.typing import NDArray
 
 from synth.fingers.gripper import Gripper
 
-__all__ = ["JawContacts", "close_jaws", "LANDED", "MISSES", "TOO_WIDE", "EDGE_TOUCH",
-           "JAW_STATUS"]
+__all__ = ["JawContacts", "close_jaws", "pad_touch", "LANDED", "MISSES", "TOO_WIDE",
+           "EDGE_TOUCH", "JAW_STATUS"]
 
 LANDED, MISSES, TOO_WIDE, EDGE_TOUCH = 0, 1, 2, 3
 #: Words for :attr:`JawContacts.status`.
@@ -59,6 +59,11 @@ JAW_STATUS: dict[int, str] = {LANDED: "landed", MISSES: "a pad misses the part",
                                           "on an edge or vertex at no single normal)"}
 #: A touched face counts as parallel to the pad when its normal is this close to x (1 degree).
 _PARALLEL_COS = float(np.cos(np.radians(1.0)))
+#: A pad touching a concave surface on two opposite sides of its rectangle rests on it (a
+#: contact with the pad's normal) when the surface under its middle lies at most this
+#: fraction of half the span behind the pad: the groove's sides rise at most 1 in 4 on
+#: average (27 degrees at the rims of a circular groove).
+GROOVE_RISE: float = 0.25
 #: Poses per chunk times faces: a chunk's face centres in its poses' frames take about 16
 #: bytes times this, and only the triangles near a pad are transformed whole.
 _CHUNK_ENTRIES = 400_000
@@ -110,6 +115,28 @@ class JawContacts:
                                        "status")))
 
 
+def pad_touch(pose: NDArray[np.float64], normals: NDArray[np.float64]) -> tuple[str, str]:
+    """How each pad of a jaw grasp touches: ``"pad"`` when the contact's normal is the pad's
+    closing direction (its face on the part, or an edge or vertex of the part pressed into
+    it), ``"rim"`` when only the pad's rim rests on a slope (the part's normal).
+
+    Parameters
+    ----------
+    pose : (4, 4) float
+        The gripper's base frame (closing along its x axis).
+    normals : (2, 3) float
+        The inward normals of the contacts, the +x pad's first.
+
+    Examples
+    --------
+    >>> pad_touch(np.eye(4), np.array([[-1.0, 0, 0], [0.6, 0.8, 0]]))
+    ('pad', 'rim')
+    """
+    x = np.asarray(pose, float)[:3, 0]
+    return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
+                 for n, sign in zip(np.asarray(normals, float), (1.0, -1.0)))
+
+
 def _rotate(D: NDArray[np.float64], R: NDArray[np.float64]) -> NDArray[np.float64]:
     """``D @ R`` row by row for ``D`` (..., 3) and rotations ``R`` (..., 3, 3) broadcast
     against it, summed in the order ``einsum`` sums (twice as fast on many small arrays)."""
@@ -127,6 +154,50 @@ def _lo(a: NDArray[np.float64]) -> NDArray[np.float64]:
 def _hi(a: NDArray[np.float64]) -> NDArray[np.float64]:
     """Largest of the three columns of ``a`` (K, 3)."""
     return np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
+
+
+def _heights(Tg: NDArray[np.float64], at: NDArray[np.float64]
+             ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Whether each triangle of ``Tg`` (K, 3, 3), in its pad's frame, covers the point ``at``
+    (K, 2) of the pad plane ``(y, z)``, and its ``x`` there."""
+    p0 = Tg[:, 0, 1:]
+    e1, e2 = Tg[:, 1, 1:] - p0, Tg[:, 2, 1:] - p0
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    ok = np.abs(det) > 1e-300
+    det = np.where(ok, det, 1.0)
+    dy, dz = at[:, 0] - p0[:, 0], at[:, 1] - p0[:, 1]
+    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
+    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
+    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
+    with np.errstate(invalid="ignore"):
+        return ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9), xc
+
+
+def _on_top(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int, at: NDArray[np.float64],
+            sign: float, top: NDArray[np.float64], tol: float, touching: NDArray[np.bool_]
+            ) -> NDArray[np.bool_]:
+    """Whether the point ``at[b]`` (n, 2) of the pad plane, ``(y, z)``, lies on the part where
+    it touches pose ``b``'s pad: inside the projection of a ``touching`` triangle (``Tg``,
+    ``kb`` as for :func:`_extremes`, ``touching`` (K,)) where that triangle reaches the
+    extreme ``top[b]`` (``sign * x``) to within ``tol``."""
+    covers, xc = _heights(Tg, at[kb])
+    with np.errstate(invalid="ignore"):
+        on = touching & covers & (sign * xc >= top[kb] - tol)
+    out = np.zeros(n, bool)
+    np.logical_or.at(out, kb, on)
+    return out
+
+
+def _surface_at(Tg: NDArray[np.float64], kb: NDArray[np.int64], n: int,
+                at: NDArray[np.float64], sign: float, half: float) -> NDArray[np.float64]:
+    """The highest ``sign * x`` of the part at the point ``at[b]`` (n, 2) of pose ``b``'s pad
+    plane, between the open pads (at most ``half``); -inf where no triangle covers it."""
+    covers, xc = _heights(Tg, at[kb])
+    with np.errstate(invalid="ignore"):
+        h = np.where(covers & (sign * xc <= half), sign * xc, -np.inf)
+    out = np.full(n, -np.inf)
+    np.maximum.at(out, kb, h)
+    return out
 
 
 def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.int64],
@@ -207,18 +278,27 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     # where that triangle reaches the extreme; else (a patch of several pieces) the touching
     # point nearest to it stands for the patch
     c = centre[kb]
-    dy, dz = c[:, 0] - p0[:, 0], c[:, 1] - p0[:, 1]
-    u = (dy * e2[:, 1] - dz * e2[:, 0]) / det
-    v = (e1[:, 0] * dz - e1[:, 1] * dy) / det
-    xc = Tg[:, 0, 0] + u * (Tg[:, 1, 0] - Tg[:, 0, 0]) + v * (Tg[:, 2, 0] - Tg[:, 0, 0])
-    on = has & ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9) & (
-        sign * xc >= top[kb] - tol)
-    centred = np.zeros(n, bool)
-    np.logical_or.at(centred, kb, on)
+    centred = _on_top(Tg, kb, n, centre, sign, top, tol, has)
     # a ridge crossing the pad: the patch's middle is inside the rectangle and on the part
     inner = (centre[:, 0] > y0 + tol) & (centre[:, 0] < y1 - tol) & (centre[:, 1] > z0 + tol) \
         & (centre[:, 1] < z1 - tol)
     good |= centred & inner
+    # a pad across a groove (a concave surface, as inside a mug): it touches on two opposite
+    # sides of its rectangle only, and the part falls away between them by at most
+    # GROOVE_RISE of half the span, so the pad rests on both sides and presses along its own
+    # normal; the contact is the part's surface under the middle (``sink`` behind the pad)
+    sink = np.zeros(n)
+    spans_y = (lo_y <= y0 + tol) & (hi_y >= y1 - tol)
+    spans_z = (lo_z <= z0 + tol) & (hi_z >= z1 - tol)
+    across = hit & ~good & ~centred & (spans_y | spans_z)
+    if across.any():
+        with np.errstate(invalid="ignore"):
+            depth = top - _surface_at(Tg, kb, n, centre, sign, half + eps)
+            span = np.where(spans_y, y1 - y0, z1 - z0)
+            groove = across & (depth <= GROOVE_RISE * span / 2)
+        good |= groove
+        centred |= groove
+        sink = np.where(groove, depth, 0.0)
     off = has & ~centred[kb]
     if off.any():
         d2 = np.where(touch, (P[..., 1] - c[:, None, 0]) ** 2 + (P[..., 2] - c[:, None, 1]) ** 2,
@@ -287,7 +367,26 @@ def _extremes(Tg: NDArray[np.float64], FNg: NDArray[np.float64], kb: NDArray[np.
     # such as across a groove, has no single contact
     rim &= centred & (flat | edge) & ~buried & (sign * face_n[:, 0] > 0)  # False where NaN
     return x, centre, np.where(hit, diag, 0.0), good & hit, rim, face_n, np.where(
-        np.isfinite(top_all), sign * top_all, np.nan)
+        np.isfinite(top_all), sign * top_all, np.nan), np.stack([lo_y, hi_y, lo_z, hi_z],
+                                                                axis=1), has, sink
+
+
+def _aligned(box_a: NDArray[np.float64], box_b: NDArray[np.float64], at_b: NDArray[np.float64],
+             patch_b: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Where a pad lying flat on the part (its touched patch's bounding box ``box_a``, (n, 4):
+    ``y`` and ``z`` ranges in the pad plane) presses straight across from the other pad:
+    the middle of the two patches' overlap when the other also lies flat (``patch_b``, its box
+    ``box_b``), else the point of ``box_a`` nearest the other's contact ``at_b`` (n, 2). A
+    patch transmits its normal force anywhere within it, so the squeeze passes along the
+    closing axis where the pads' contacts face each other."""
+    lo = np.stack([box_a[:, 0], box_a[:, 2]], axis=1)
+    hi = np.stack([box_a[:, 1], box_a[:, 3]], axis=1)
+    both_lo = np.maximum(lo, np.stack([box_b[:, 0], box_b[:, 2]], axis=1))
+    both_hi = np.minimum(hi, np.stack([box_b[:, 1], box_b[:, 3]], axis=1))
+    with np.errstate(invalid="ignore"):
+        overlap = patch_b[:, None] & (both_lo <= both_hi)
+        target = np.where(overlap, 0.5 * (both_lo + both_hi), at_b)
+    return np.clip(target, lo, hi)
 
 
 def close_jaws(
@@ -364,7 +463,7 @@ def close_jaws(
             zc = pz + gripper.rise(w)
             zk = zc[kb0]
             near = (yhi >= -reach) & (ylo <= reach) & (zhi >= zk - ph / 2) & (zlo <= zk + ph / 2)
-            found = []
+            found, pads = [], []
             for rect, sign, far in ((plus_rect, 1.0, xhi), (minus_rect, -1.0, -xlo)):
                 # a vertex inside the pad's rectangle bounds the extreme from below: triangles
                 # lying wholly behind it cannot reach it
@@ -379,7 +478,9 @@ def close_jaws(
                                         axis=1)[:, None, :]  # pad centre at z = 0
                 found.append(_extremes(Tg, _rotate(FN[kf0[sel]], Rk[sel]), kb, n, rect, sign,
                                        touch_tol, half))
-            (xp, cp, dp, gp, rp, np_, xp_all), (xm, cm, dm, gm, rm, nm, xm_all) = found
+                pads.append((Tg, kb))
+            ((xp, cp, dp, gp, rp, np_, xp_all, bp, hp, sp),
+             (xm, cm, dm, gm, rm, nm, xm_all, bm, hm, sm)) = found
             # pads that see no gap between them (both inside a part wider than the opening):
             # the width is the part's, over the whole prisms
             inside = (xp - xm <= 0) & (xp_all - xm_all > 0)
@@ -394,6 +495,17 @@ def close_jaws(
         wide = hit & (w > gripper.max_opening)
         edge = hit & ~wide & ~((gp | rp) & (gm | rm))
         ok = hit & ~wide & ~edge
+        # a pad lying flat presses where the other pad's contact faces it (on its patch)
+        flat_p, flat_m = ok & gp & (sp == 0), ok & gm & (sm == 0)
+        targets = [np.where(flat[:, None], _aligned(box, other_box, at, other), mid)
+                   for flat, mid, box, at, other, other_box in (
+                       (flat_p, cp, bp, cm, flat_m, bm), (flat_m, cm, bm, cp, flat_p, bp))]
+        for mid, want, sign, (Tg, kb), x, has in ((cp, targets[0], 1.0, pads[0], xp, hp),
+                                                 (cm, targets[1], -1.0, pads[1], xm, hm)):
+            moved = np.any(want != mid, axis=1)
+            if moved.any():
+                good_at = moved & _on_top(Tg, kb, n, want, sign, sign * x, touch_tol, has)
+                mid[good_at] = want[good_at]
         width[idx[hit]] = w[hit]
         status[idx[wide]] = TOO_WIDE
         status[idx[edge]] = EDGE_TOUCH
@@ -401,8 +513,8 @@ def close_jaws(
         status[idx[ok]] = LANDED
         shift = 0.5 * (xp + xm)
         out_pose[idx[ok], :3, 3] = t[ok] + R[ok, :, 0] * shift[ok, None]
-        cg = np.stack([np.column_stack([xp, cp[:, 0], cp[:, 1] + zc]),
-                       np.column_stack([xm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
+        cg = np.stack([np.column_stack([xp - sp, cp[:, 0], cp[:, 1] + zc]),
+                       np.column_stack([xm + sm, cm[:, 0], cm[:, 1] + zc])], axis=1)  # (n, 2, 3)
         points[idx[ok]] = (np.einsum("bij,bkj->bki", R, cg) + t[:, None])[ok]
         # the pad's closing direction, or on a rim contact the face's inward normal
         face = -np.einsum("bij,bkj->bki", R, np.stack([np_, nm], axis=1))

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from synth.errors import MeshError
+from synth.errors import InputError, MeshError
 from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
@@ -157,8 +157,9 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
         raise _fail(name, "no triangles")
     if n_faces > MAX_FACES:
         raise _fail(name, f"{n_faces:,} triangles, more than the {MAX_FACES:,} synth loads (a "
-                    f"1.3M-triangle mesh takes about 30 s and 3 GB); decimate it first, e.g. "
-                    f"with trimesh's simplify_quadric_decimation or Blender's Decimate")
+                    f"1.3M-triangle mesh takes about 30 s and 3 GB); decimate it on loading "
+                    f"(Python: load_part(path, decimate=N); the surface error is reported) or "
+                    f"first, e.g. with Blender's Decimate")
     if not np.isfinite(allv).all():
         bad = int((~np.isfinite(allv).all(axis=1)).sum())
         raise _fail(name, f"{bad} vertices have NaN or infinite coordinates")
@@ -304,6 +305,29 @@ def _choose(groups: list[list[int]], bodies: list[tuple[str, trimesh.Trimesh, bo
     return groups[k], dropped, None
 
 
+def _decimated(raw: list[tuple[str, trimesh.Trimesh]], target: object, name: str,
+               repairs: list[str]) -> list[tuple[str, trimesh.Trimesh]]:
+    """The raw meshes as one mesh of ``target`` triangles when they have more (the error is
+    reported in ``repairs``); unchanged otherwise."""
+    from synth.part.decimate import decimate_mesh
+
+    if not (isinstance(target, (int, np.integer)) and not isinstance(target, bool)
+            and 4 <= target <= MAX_FACES):
+        raise MeshError(f"decimate: expected a face count from 4 to {MAX_FACES:,}, got "
+                        f"{target!r}")
+    if sum(len(m.faces) for _, m in raw) <= target:
+        return raw
+    offsets = np.cumsum([0] + [len(m.vertices) for _, m in raw])
+    v = np.concatenate([np.asarray(m.vertices, float) for _, m in raw])
+    f = np.concatenate([np.asarray(m.faces, np.int64) + o for (_, m), o in zip(raw, offsets)])
+    try:
+        d = decimate_mesh(v, f, int(target))
+    except InputError as e:
+        raise MeshError(f"{name}: {e}") from e
+    repairs.append(d.describe(float(np.linalg.norm(np.ptp(v, axis=0)))))
+    return [("decimated", d.mesh)]
+
+
 def length_unit(unit: object) -> str | None:
     """The unit name trimesh reads for ``unit`` (an alias such as ``mm`` resolved, see
     ``UNIT_ALIASES``), or None when it is not a length unit trimesh knows."""
@@ -331,6 +355,7 @@ def load_part(
     *,
     body: int | str = "largest",
     sharp_angle: float = tol.SHARP_ANGLE,
+    decimate: int | None = None,
 ) -> Part:
     """Load and clean a mesh into a :class:`Part`.
 
@@ -348,6 +373,11 @@ def load_part(
         touch or overlap are always one object (one rigid part).
     sharp_angle : float
         Dihedral threshold in radians for sharp edges, in (0, pi).
+    decimate : int, optional
+        Decimate a mesh of more triangles than this to this many (from 4 to ``MAX_FACES``)
+        before anything else (:mod:`synth.part.decimate`; needs fast-simplification); the
+        surface error is measured and reported in ``Part.repairs``. A mesh above
+        ``MAX_FACES`` is refused without it.
 
     Returns
     -------
@@ -387,6 +417,8 @@ def load_part(
         warnings.append(f"{UNIT_UNKNOWN}: the file does not say it; give it with --units "
                         "(Python: units=), e.g. mm, cm, m or in")
     soup = path is not None and Path(path).suffix.lower() == ".stl"
+    if decimate is not None:
+        raw, soup = _decimated(raw, decimate, name, repairs), False
     pieces, precision, length = _pieces(raw, name, repairs, soup)
     bodies = _repair_bodies(pieces, name, repairs, warnings)
     groups, crashes = group_bodies([b[1] for b in bodies], [b[2] for b in bodies],

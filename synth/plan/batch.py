@@ -23,6 +23,7 @@ results can depend on how it is split, and the same seed must give the same gras
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -31,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.fingers import Fingers, tip_centers
+from synth.fingers import Fingers, default_fingers, tip_centers
 from synth.plan.params import PlanParams
 from synth.scores import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
@@ -39,7 +40,7 @@ from synth.scores.hold import stiff_hold_batch
 from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
 from synth.scores.surface import differs, readings
 
-__all__ = ["GraspBatch", "Scorer", "distinct_top"]
+__all__ = ["GraspBatch", "Scorer", "distinct_top", "admitted_d_star", "admission_key"]
 
 _CHUNK = 4096
 _FIELDS = ("points", "normals", "smooth", "faces", "regions", "d", "fit", "finger")
@@ -215,7 +216,7 @@ class Scorer:
             tips, present = P - self.r * N, np.ones(P.shape[:2], bool)
         else:
             tips, present, _, _ = tip_centers(P, N, self.r, finger)
-        iu = np.triu_indices(P.shape[1], 1)
+        iu = _pairs(P.shape[1])
         gap = np.where(present[:, iu[0]] & present[:, iu[1]],
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
@@ -227,6 +228,16 @@ class Scorer:
         k = b.finger.shape[1]
         own = bool((b.finger == np.arange(k)).all())  # one fingertip per contact
         b.d, b.fit = self(b.points, b.normals, b.smooth, None if own else b.finger)
+
+
+@functools.lru_cache(maxsize=None)
+def _pairs(k: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``np.triu_indices(k, 1)``, kept (it costs about 0.1 ms, and the scorer asks for it
+    on every chunk)."""
+    iu = np.triu_indices(k, 1)
+    for a in iu:
+        a.flags.writeable = False
+    return iu
 
 
 def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:
@@ -245,3 +256,48 @@ def distinct_top(b: GraspBatch, n: int, scale: float) -> NDArray[np.int64]:
         if len(out) == n:
             break
     return np.array(out, dtype=np.int64)
+
+
+def admitted_d_star(part: Any, points: NDArray[np.float64], normals: NDArray[np.float64],
+                    smooth: NDArray[np.float64], params: PlanParams | None = None,
+                    fingers: Fingers | None = None) -> NDArray[np.float64]:
+    """d* of each grasp where the planner admits it, else -1: the planner's own rules
+    (:class:`Scorer`, whatever they are now: closure and the floor under every reading of the
+    surface model, fingertips apart), for benchmarks and references that must follow them.
+
+    Parameters
+    ----------
+    part : synth.Part
+    points, normals, smooth : (B, k, 3) float
+        Contacts, the mesh's inward normals and the smooth reading's.
+    params : PlanParams, optional
+        The rules' parameters (surface model, friction, floor); default ``PlanParams()``.
+    fingers : Fingers, optional
+        Default :func:`synth.default_fingers` of the part.
+
+    Returns
+    -------
+    d : (B,) float
+        The d* the planner reports where admitted, -1 elsewhere.
+    """
+    prm = params or PlanParams()
+    fg = fingers or default_fingers(part)
+    _, fit = Scorer(part, prm, fg)(np.asarray(points, float), np.asarray(normals, float),
+                                   np.asarray(smooth, float))
+    return np.where(fit > 0, fit, -1.0)
+
+
+def admission_key(params: PlanParams | None = None) -> str:
+    """A short fingerprint of the admission rules: the source of the scorer (this module) and
+    the parameters that are not search effort. A stored reference whose key differs was
+    computed under other rules and must be scored again."""
+    import hashlib
+    import inspect
+    import sys
+    from dataclasses import asdict
+
+    prm = asdict(params or PlanParams())
+    for effort in ("evals", "time", "seed", "top", "rank_by", "regions", "diversity"):
+        prm.pop(effort, None)
+    text = inspect.getsource(sys.modules[__name__]) + repr(sorted(prm.items()))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]

@@ -45,10 +45,12 @@ from numpy.typing import NDArray
 
 from synth.errors import InputError
 from synth.fingers.gripper import Gripper, load_gripper
-from synth.fingers.gripper_collide import CLEAR, GRIPPER_STATUS, GripperChecker
-from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws
+from synth.fingers.gripper_collide import CLEAR, GripperChecker
+from synth.fingers.jaws import (EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws,
+                                 pad_touch)
 from synth.plan.gripper_params import APPROACHES, GRIPPER_RANK_BY, GripperParams
 from synth.plan.gripper_refine import Scored, refine
+from synth.plan.result import describe_part, new_run_id
 from synth.scores.cones import cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.gravity import GRAVITY, gravity_hold_batch
@@ -57,7 +59,7 @@ from synth.scores.quality import epsilon_quality
 
 __all__ = ["APPROACHES", "DISTINCT_RTOL", "GRIPPER_RANK_BY", "GripperParams", "GripperGrasp",
            "GripperPlan", "plan_gripper", "plan_gripper_file", "PREGRASP_M", "TORSION_M",
-           "grasp_results", "rank_order", "part_mass", "unit_scale"]
+           "grasp_results", "loaded_with", "rank_order", "part_mass", "unit_scale"]
 
 #: Contact pairs of two returned grasps are at least this fraction of the part's size apart.
 DISTINCT_RTOL: float = 0.05
@@ -73,6 +75,10 @@ SHORTLIST: int = 2
 SCREEN: int = 4
 #: The best grasps refined by small moves of the pose (:mod:`synth.plan.gripper_refine`).
 REFINE_TOP: int = 10
+#: Surface points are drawn until this share of ``samples`` pairs fits the open jaws ...
+FIT_SHARE: float = 0.5
+#: ... or this many draws of ``samples`` points were made.
+MAX_DRAWS: int = 8
 
 
 @dataclass(frozen=True)
@@ -128,9 +134,7 @@ class GripperGrasp:
     def touch(self) -> tuple[str, str]:
         """How each pad touches: ``"pad"`` (its face on the part: the normal is the pad's
         closing direction) or ``"rim"`` (only its rim on a slope: the normal is the part's)."""
-        x = self.pose[:3, 0]
-        return tuple("pad" if np.allclose(n, -sign * x, atol=1e-9) else "rim"  # type: ignore
-                     for n, sign in zip(self.normals, (1.0, -1.0)))
+        return pad_touch(self.pose, self.normals)
 
     def to_json(self) -> dict[str, Any]:
         """The grasp as a JSON object."""
@@ -173,6 +177,13 @@ class GripperPlan:
     seconds : float
     length : float
         The part's characteristic length (bounding-box diagonal), in ``units``.
+    mesh : dict
+        Where the part came from and what loading did to it
+        (:func:`synth.plan.result.describe_part`: ``path``, ``sha256``, ``units``,
+        ``length``, ``repairs``, ...), as a point-finger plan records it.
+    run_id : str
+        Name of the run (:func:`synth.plan.result.new_run_id`), written into its JSON, PNG
+        and GLB files.
     """
 
     gripper: Gripper
@@ -186,6 +197,8 @@ class GripperPlan:
     narrowest: float | None
     seconds: float
     length: float = 0.0
+    mesh: dict[str, Any] = field(default_factory=dict)
+    run_id: str = field(default_factory=new_run_id)
 
     def to_json(self) -> dict[str, Any]:
         """The ``synth.gripper_grasps`` document."""
@@ -195,7 +208,8 @@ class GripperPlan:
 
         p = self.params
         return {"format": "synth.gripper_grasps", "version": 1, "synth_version": __version__,
-                "units": self.units, "mesh": {"units": self.units, "length": self.length},
+                "run_id": self.run_id, "units": self.units,
+                "mesh": {**self.mesh, "units": self.units, "length": self.length},
                 "params": asdict(p), "timing": {"total_s": self.seconds},
                 "gripper": self.gripper.to_json(),
                 "model": {"mu": p.mu, "torsion": self.gripper.unit_scale * TORSION_M
@@ -231,9 +245,12 @@ def part_mass(part: Any, params: GripperParams, scale: float) -> float | None:
     return float(params.density) * float(part.volume) / scale**3
 
 
-def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Antipodal pairs: points p, their ray's far hit q along the inward normal, axis x."""
+def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator,
+                  focus: NDArray[np.bool_] | None = None, with_faces: bool = False
+                  ) -> tuple[NDArray[np.float64], ...]:
+    """Antipodal pairs: points p, their ray's far hit q along the inward normal, axis x
+    (and, ``with_faces``, the face of each p). ``focus`` (f,) restricts the draw to those
+    faces (by area)."""
     import trimesh
 
     mesh = part.mesh
@@ -242,16 +259,18 @@ def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
     per_region = np.bincount(np.maximum(region, 0), weights=area)
     balanced = np.where(region >= 0, area / np.maximum(per_region[np.maximum(region, 0)],
                                                        1e-300), 0.0)
+    weights = ((n - n // 2, area), (n // 2, balanced)) if focus is None else (
+        (n, area * focus),)
     draws = [trimesh.sample.sample_surface(mesh, k, face_weight=w,
                                            seed=int(rng.integers(2**31)))
-             for k, w in ((n - n // 2, area), (n // 2, balanced)) if k and w.sum() > 0]
+             for k, w in weights if k and w.sum() > 0]
     if not draws:
-        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        return (np.zeros((0, 3)),) * 3 + ((np.zeros(0, np.int64),) if with_faces else ())
     pts = np.concatenate([d[0] for d in draws])
     faces = np.concatenate([d[1] for d in draws])
     out = np.asarray(mesh.face_normals, float)[faces]
     keep = part.exposed(pts, -out)
-    pts, out = pts[keep], out[keep]
+    pts, out, faces = pts[keep], out[keep], faces[keep]
     reach = 2.0 * part.length
     origins = pts - out * reach  # from beyond the part, back towards p along -out
     hit = mesh.ray.intersects_first(origins, out)
@@ -267,13 +286,14 @@ def _sample_pairs(part: Any, n: int, mu: float, rng: np.random.Generator
     line = pts - q
     ln = np.linalg.norm(line, axis=1)
     good = np.isfinite(s) & (norm > 1e-9) & (ln > part.feature_tolerance)
-    pts, q, out, n_q, axis, line, ln = (a[good] for a in (pts, q, out, n_q, axis, line, ln))
+    pts, q, out, n_q, axis, line, ln, faces = (a[good] for a in (pts, q, out, n_q, axis, line,
+                                                                  ln, faces[ok]))
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     u = line / ln[:, None]
     cos_cone = 1.0 / math.sqrt(1.0 + mu * mu)
     inside = (np.einsum("ij,ij->i", u, out) > cos_cone) & (-np.einsum("ij,ij->i", u, n_q)
                                                             > cos_cone)
-    return pts[inside], q[inside], axis[inside]
+    return (pts[inside], q[inside], axis[inside]) + ((faces[inside],) if with_faces else ())
 
 
 def _poses(p: NDArray[np.float64], q: NDArray[np.float64], axis: NDArray[np.float64],
@@ -385,7 +405,8 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     cone = cone_name(params.edges, gamma > 0)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
-                       counts, narrowest, time.perf_counter() - t0, float(part.length))
+                       counts, narrowest, time.perf_counter() - t0, float(part.length),
+                       describe_part(part))
 
 
 def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperParams,
@@ -397,7 +418,7 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
     without a clear pose at the next, and so on (the measures depend on the contacts only;
     the refinement turns the best poses about their closing axis again)."""
     rng = np.random.default_rng(params.seed)
-    p, q, axis = _sample_pairs(part, params.samples, params.mu, rng)
+    p, q, axis, wide = _fitting_pairs(part, gripper, params, rng, counts)
     poses = _poses(p, q, axis, gripper.tcp, APPROACHES).reshape(len(p), APPROACHES, 4, 4)
     mesh = part.mesh
     touch = part.surface_tolerance  # follows the part's size and coordinate precision
@@ -405,7 +426,7 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
     pending = np.arange(len(p))
     found: list[JawContacts] = []
     tried = landed_n = too_wide = edge = 0
-    narrowest = np.inf
+    narrowest = wide
     for a in range(APPROACHES):
         if not len(pending):
             break
@@ -424,12 +445,49 @@ def _land(part: Any, gripper: Gripper, checker: GripperChecker, params: GripperP
         pending = pending[keep]
     jaws = JawContacts.concatenate(found) if found else close_jaws(V, F, FN, poses[:0, 0],
                                                                      gripper, touch)
-    counts.update(pairs=len(p), poses=tried, landed=landed_n, too_wide=too_wide,
-                  edge_touch=edge, collision_free=len(jaws.status))
+    counts.update(poses=tried, landed=landed_n, too_wide=too_wide, edge_touch=edge,
+                  collision_free=len(jaws.status))
     # poses landing on the same contacts (to DEDUPE_RTOL of the part's size) are scored once
     clear = _unique_contacts(jaws.points, DEDUPE_RTOL * part.length)
     counts["distinct_contacts"] = len(clear)
     return jaws, clear, float(narrowest) if np.isfinite(narrowest) else None
+
+
+def _fitting_pairs(part: Any, gripper: Gripper, params: GripperParams,
+                   rng: np.random.Generator, counts: dict[str, int]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                              float]:
+    """Step 1: antipodal pairs that may fit between the open jaws, and the narrowest extent
+    along the closing axis of those that cannot (inf if none).
+
+    A pair whose points lie further apart along its closing axis than the gripper opens
+    cannot be grasped there, so it is dropped before any jaw closes; surface points are drawn
+    ``params.samples`` at a time until at least ``FIT_SHARE`` of that many pairs fit or
+    ``MAX_DRAWS`` draws were made (a part much larger than the hand, graspable only at thin
+    features, gets more draws; one that fits gets the first draw only)."""
+    found, wide, drawn = [], np.inf, 0
+    n = 0
+    region = np.asarray(part.face_region)
+    focus = None
+    for _ in range(MAX_DRAWS):
+        p, q, axis, faces = _sample_pairs(part, params.samples, params.mu, rng, focus,
+                                          with_faces=True)
+        drawn += params.samples
+        extent = np.abs(np.einsum("ij,ij->i", p - q, axis))
+        fits = extent <= gripper.max_opening
+        if (~fits).any():
+            wide = min(wide, float(extent[~fits].min()))
+        found.append((p[fits], q[fits], axis[fits]))
+        n += int(fits.sum())
+        if n >= FIT_SHARE * params.samples:
+            break
+        # the next draws on the face regions where pairs fit: thin features of a large part
+        seen = np.unique(region[faces[fits]])
+        if len(seen) and (focus is None or not np.isin(region[focus], seen).all()):
+            focus = np.isin(region, seen) if focus is None else focus | np.isin(region, seen)
+    p, q, axis = (np.concatenate([f[i] for f in found]) for i in range(3))
+    counts.update(drawn=drawn, pairs=len(p))
+    return p, q, axis, wide
 
 
 def _score(part: Any, jaws: Any, clear: NDArray[np.int64], params: GripperParams,
@@ -496,16 +554,29 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     """Load a mesh file and plan gripper grasps; the ``synth.gripper_grasps`` document.
 
     The planner ``synth db build --gripper`` calls for every mesh: ``params`` holds
-    :class:`GripperParams` fields and ``units``, the unit of meshes whose file does not say.
+    :class:`GripperParams` fields and the mesh options :data:`synth.plan.LOAD_KEYS`
+    (``units``, the unit of meshes whose file does not say; ``body``; ``sharp_angle`` in
+    degrees).
     """
     from synth.part import load_part
+    from synth.plan import LOAD_KEYS, load_options
 
     prm = dict(params)
-    units = prm.pop("units", None)
+    load = {k: prm.pop(k) for k in LOAD_KEYS if k in prm}
     if isinstance(prm.get("gravity"), list):
         prm["gravity"] = tuple(prm["gravity"])
-    part = load_part(path, units=units)
-    return plan_gripper(part, GripperParams(**prm)).to_json()
+    part = load_part(path, **load_options(load))
+    doc = plan_gripper(part, GripperParams(**prm)).to_json()
+    doc["mesh"].update(loaded_with(load))
+    return doc
+
+
+def loaded_with(load: dict[str, Any]) -> dict[str, Any]:
+    """How a part was loaded, for a gripper document's ``mesh`` object (``body`` and
+    ``sharp_angle`` in degrees), so that a consumer loads the same part: ``load`` holds the
+    mesh options :data:`synth.plan.LOAD_KEYS` given (absent: the defaults)."""
+    return {"body": load.get("body", "largest"),
+            "sharp_angle": float(load.get("sharp_angle", 30.0))}
 
 
 def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperParams,
@@ -539,6 +610,9 @@ def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperPara
 
 def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int],
              narrowest: float | None, mass: float | None, units: str) -> str:
+    """The sentence of a plan: what was found, or why nothing was, in words (the counts stay
+    in the document's ``counts``): for a part the hand cannot grasp, the narrowest width the
+    jaws found across it and the hand's opening."""
     mm = 1000.0 / gripper.unit_scale  # part units -> millimetres
     if grasps:
         g = grasps[0]
@@ -547,10 +621,26 @@ def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int
             f"; best needs a squeeze of {g.squeeze_per_weight:.3g} times the part's weight")
         return (f"{len(grasps)} {gripper.title} grasps ({counts['collision_free']} "
                 f"collision-free of {counts['poses']} poses){hold}")
-    if counts["landed"] == 0 and counts["too_wide"] > 0 and narrowest is not None:
-        return (f"no grasp: the part is too large for the {gripper.title}'s "
-                f"{gripper.max_opening * mm:.0f} mm opening (the narrowest width found is "
-                f"{narrowest * mm:.0f} mm)")
-    why = ", ".join(f"{v} {GRIPPER_STATUS.get(k, k) if isinstance(k, int) else k}"
-                    for k, v in counts.items())
-    return f"no {gripper.title} grasp found ({why})"
+    opening = f"{gripper.max_opening * mm:.0f} mm opening"
+    width = ("" if narrowest is None else
+             f"the narrowest width found is {narrowest * mm:.0f} mm")
+    if counts["landed"] == 0 and narrowest is not None and narrowest > gripper.max_opening:
+        return f"no grasp: the part is too large for the {gripper.title}'s {opening} ({width})"
+    if counts["pairs"] == 0:
+        return ("no grasp: no two points of the part face each other within the friction "
+                "cones (mu = the pads' friction) among the surface points drawn; try more "
+                "--samples or a larger --mu")
+    if counts["landed"] == 0:
+        return (f"no grasp: the {gripper.title}'s pads never both rest on the part "
+                f"({counts['poses']} poses: a pad misses the part, or touches it with its rim "
+                f"where it cannot rest)" + (f"; {width}" if width else ""))
+    if counts["collision_free"] == 0:
+        return (f"no grasp: where the {gripper.title}'s {opening} fits across the part "
+                f"({counts['landed']} of {counts['poses']} poses; {width}), its palm or "
+                f"fingers hit the part or the table: the part is too large around those "
+                f"places")
+    if counts["closure"] == 0:
+        return (f"no grasp: none of the {counts['distinct_contacts']} distinct collision-free "
+                f"jaw grasps closes (the line between the pads leaves a friction cone)")
+    return (f"no grasp: none of the {counts['closure']} closing jaw grasps holds the part "
+            f"against gravity with a finite squeeze")

@@ -40,7 +40,7 @@ RANK_BY: tuple[str, ...] = ("d_star", "conditioning", "epsilon", "tolerance", "m
 #: The physical floor: a grasp whose fingers must each press with more than this many times
 #: the part's weight to hold it in every orientation (:mod:`synth.scores.hold`) is not
 #: returned. Chosen by measurement (``scripts/bench_sim.py``; the README's "What holds").
-MAX_SQUEEZE: float = 2.5
+MAX_SQUEEZE: float = 4.0
 #: The wall-clock cap of each mesh's plan in a database build (``synth db build --time``):
 #: far above a normal plan's, so that the evaluation budget (not the machine's speed) decides
 #: the result.

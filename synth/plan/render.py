@@ -17,7 +17,7 @@ import trimesh
 from synth.files import write_atomic
 from synth.plan.result import Plan
 
-__all__ = ["render_png", "export_glb"]
+__all__ = ["render_png", "export_glb", "run_title", "save_png", "scene_extras"]
 
 _COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
                      [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
@@ -43,23 +43,38 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool
     -------
     Path
     """
-    import matplotlib.pyplot as plt
-
     from synth.plan.picture import GraspPicture, draw_grasps
 
     rows = [GraspPicture(_finger_hand(g, 1e-3 * part.length), f"#{i}  " + _measures(g),
                          _finger_ends(g)) for i, g in enumerate(plan.grasps[:panels], 1)]
-    name = Path(plan.mesh.get("path") or "part").name
     surface = plan.params.get("surface")
-    fig = draw_grasps(part, rows, f"synth: {name}   run {plan.run_id}"
+    fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id)
                       + (f"   normals: {surface}" if surface else ""), plan.message)
-    out = Path(path)
+    return save_png(fig, path, plan.mesh, plan.run_id, atomic)
+
+
+def run_title(mesh: dict, run_id: str, what: str = "") -> str:
+    """The title of a plan's picture: the mesh file's name and the run id (``what``: words
+    after the name, such as the gripper's grasps)."""
+    name = Path(mesh.get("path") or "part").name
+    return f"synth: {name}{what}   run {run_id}"
+
+
+def save_png(fig, path: str | Path, mesh: dict, run_id: str,  # type: ignore[no-untyped-def]
+             atomic: bool = True) -> Path:
+    """Save a plan's matplotlib figure as a PNG whose text chunks name the run (``Title``,
+    ``synth.run_id``) and the mesh (``synth.mesh_sha256``), then close the figure."""
+    import matplotlib.pyplot as plt
+
     from synth import __version__
+
+    out = Path(path)
+    name = Path(mesh.get("path") or "part").name
 
     def save(target: Path) -> None:
         fig.savefig(target, format="png", metadata={
-            "Title": f"synth: {name}, run {plan.run_id}", "Software": f"synth {__version__}",
-            "synth.run_id": plan.run_id})
+            "Title": f"synth: {name}, run {run_id}", "Software": f"synth {__version__}",
+            "synth.run_id": run_id, "synth.mesh_sha256": str(mesh.get("sha256"))})
 
     try:
         if atomic:
@@ -69,6 +84,12 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool
     finally:
         plt.close(fig)
     return out
+
+
+def scene_extras(mesh: dict, run_id: str, params: dict, **more: object) -> dict:
+    """The ``synth`` extras of a plan's GLB scene: the run id, the mesh's SHA-256 and the
+    parameters, and ``more`` (the grasp shown)."""
+    return {"run_id": run_id, "mesh_sha256": mesh.get("sha256"), "params": params, **more}
 
 
 def _measures(g) -> str:  # type: ignore[no-untyped-def]
@@ -152,9 +173,8 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
     Path
     """
     scene = trimesh.Scene()
-    scene.metadata["synth"] = {"run_id": plan.run_id, "grasp_rank": grasp + 1 if plan.grasps
-                               else None, "mesh_sha256": plan.mesh.get("sha256"),
-                               "params": plan.params}
+    scene.metadata["synth"] = scene_extras(plan.mesh, plan.run_id, plan.params,
+                                           grasp_rank=grasp + 1 if plan.grasps else None)
     body = part.mesh.copy()
     body.visual.face_colors = [190, 195, 205, 255]
     scene.add_geometry(body, geom_name="part")

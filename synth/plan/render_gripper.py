@@ -4,7 +4,8 @@ The GLB holds the part (``part``) and the posed gripper's collision shapes at th
 (``gripper_0``, ``gripper_1``, ... in the order of :meth:`synth.fingers.Gripper.meshes_at`:
 palm shapes, then the +x finger's, then the -x finger's), each already placed in the part's
 frame, so a reader can check them against the JSON's ``pose`` and ``width``; the scene's
-extras hold the grasp's pose and width.
+extras hold the run id, the mesh's SHA-256, the parameters and the grasp's pose and width. The
+PNG names the run in its title and text chunks, as a point-finger plan's does.
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import trimesh
+
+from synth.plan.render import run_title, save_png, scene_extras
 
 __all__ = ["export_gripper_glb", "render_gripper_png", "posed_gripper"]
 
@@ -27,15 +30,23 @@ def posed_gripper(plan: Any, grasp: int = 0) -> list[trimesh.Trimesh]:
 
 
 def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -> Path:
-    """Write the part and grasp ``grasp``'s posed gripper as a GLB scene."""
+    """Write the part and grasp ``grasp``'s posed gripper as a GLB scene (with no grasp, the
+    part alone); the scene's extras name the run, the mesh and the parameters as a point-
+    finger plan's do (:func:`synth.plan.render.scene_extras`), and the grasp's pose and
+    width."""
+    from dataclasses import asdict
+
     scene = trimesh.Scene()
+    shown = {"grasp_rank": None}
+    if plan.grasps:
+        g = plan.grasps[grasp]
+        shown = {"grasp_rank": grasp + 1, "pose": g.pose.tolist(), "width": g.width}
+    scene.metadata["synth"] = scene_extras(plan.mesh, plan.run_id, asdict(plan.params),
+                                           gripper=plan.gripper.name, **shown)
     body = part.mesh.copy()
     body.visual.face_colors = [190, 195, 205, 255]
     scene.add_geometry(body, geom_name="part")
     if plan.grasps:
-        g = plan.grasps[grasp]
-        scene.metadata["synth"] = {"gripper": plan.gripper.name, "grasp_rank": grasp + 1,
-                                   "pose": g.pose.tolist(), "width": g.width}
         for i, m in enumerate(posed_gripper(plan, grasp)):
             m.visual.face_colors = [70, 110, 200, 200]
             scene.add_geometry(m, geom_name=f"gripper_{i}")
@@ -47,8 +58,6 @@ def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 3) 
     """Draw up to ``panels`` of the best posed grippers, one row each, from the two or three
     sides that show their contacts (:mod:`synth.plan.picture`); widths in millimetres, as
     the table gives them."""
-    import matplotlib.pyplot as plt
-
     from synth.plan.picture import GraspPicture, Hand, draw_grasps
 
     mm = 1000.0 / plan.gripper.unit_scale  # part units -> millimetres
@@ -64,12 +73,9 @@ def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 3) 
                                  f"{g.mu_min:.2g}, d* {g.d_star:.3f}",
                                  _fingers(shapes, plan.gripper), _side_views(g),
                                  face_on=False))
-    fig = draw_grasps(part, rows, f"synth: {plan.gripper.title} grasps", plan.message)
-    try:
-        fig.savefig(path, format="png")
-    finally:
-        plt.close(fig)
-    return Path(path)
+    fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id,
+                                            f": {plan.gripper.title} grasps"), plan.message)
+    return save_png(fig, path, plan.mesh, plan.run_id, atomic=False)
 
 
 #: Colours of the gripper and of its two contacts (the +x pad's first).

@@ -29,6 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
+from threadpoolctl import threadpool_limits
 
 from synth.contacts import Contacts, sample_contacts
 from synth.errors import InputError, InternalError
@@ -53,21 +54,32 @@ from synth.scores.quality import conditioning, epsilon_quality
 from synth.scores.surface import surface_scores, worst_reading
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
-           "PLACEMENT_SHARE", "SWAP_COST"]
+           "PLACEMENT_SHARE", "PLACEMENT_SEED_SHARE", "SWAP_COST"]
 
 Progress = Callable[[float, str], None]
 
 #: Contacts sampled for the pool (those a finger cannot make are then dropped), and the share
 #: of them drawn region by region rather than by area (a small facet's normal matters to
 #: closure as much as a large one's: the rim facets of a can).
-_POOL = 3000
+_POOL = 2500
 REGION_SHARE = 1 / 2
 #: Shares of the evaluation budget for the seeds, the pool climb and the surface climb. The
 #: swap climb (7 contacts without friction) takes the pool climb's place and climbs one seed per
 #: ``SWAP_COST`` evaluations of that share.
-SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.3, 0.5, 0.12
-#: With ``--fingers``, the placement climb's share (it has no separate surface climb).
-PLACEMENT_SHARE = 0.65
+#:
+#: Chosen for a default plan of at most 0.5 s of one core (issue 31). Against the earlier
+#: pool of 3,000 and shares 0.3 / 0.5 / 0.12 with 6 surface climbers, on 11 corpus parts
+#: (every 4th from the second) x seeds 0-3, run interleaved in one process (CPU seconds of a
+#: 2-core VM under a load of 6 to 9): pool 2,000 and seeds 0.15 took the median plan from
+#: 0.77 to 0.62 s for a mean first-grasp d* of 0.8946 -> 0.8888; 9 surface climbers 0.61 ->
+#: 0.57 s (0.8881); a surface share of 0.08 0.61 -> 0.52 s (0.8834). Each cut costs about
+#: as much d* as the others for the time it saves (sweeps 6 -> 4: 0.54 s, 0.8811; pool
+#: 1,600: 0.56 s, 0.8808).
+SEED_SHARE, POOL_SHARE, SURFACE_SHARE = 0.15, 0.5, 0.08
+#: With ``--fingers``: the placement pool, the seeds' share and the placement climb's share (it
+#: has no separate surface climb); as before the cuts above, which were measured on the
+#: contact search only.
+_PLACEMENT_POOL, PLACEMENT_SEED_SHARE, PLACEMENT_SHARE = 3000, 0.3, 0.65
 SWAP_COST = 250
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40
@@ -124,7 +136,13 @@ def plan_part(part: Part, params: PlanParams | None = None,
         overrides["support_plane"] = ((0.0, 0.0, prm.support_z), (0.0, 0.0, 1.0))
     fingers = default_fingers(part, **overrides)
     try:
-        return _search(part, prm, fingers, progress or (lambda f, m: None), t0)
+        # BLAS on one thread: the search's matrices are small (stacks of 6 x 7, products of a
+        # few thousand columns) and OpenBLAS's threads only spin on them (a default plan on a
+        # 2-core VM: 1.20 s of CPU with 2 threads, 0.80 s with one; with the other core busy,
+        # 3.6 s of wall time against 2.2 s); and the results do not depend on how a library
+        # splits its work between threads
+        with threadpool_limits(limits=1, user_api="blas"):
+            return _search(part, prm, fingers, progress or (lambda f, m: None), t0)
     except InputError as e:  # everything the user gave was accepted above
         raise InternalError(f"the planner failed on {part.source or 'a part'} it accepted: "
                             f"{e}") from e
@@ -183,27 +201,28 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif rejected:
         message = (f"{sum(rejected.values())} closure grasps were found but none was kept: "
                    f"{_dropped(rejected, prm)}")
-    elif score.above_floor and not (archive.fit > 0).any():
-        message = (f"{score.above_floor} closure grasps were found, but none within the "
-                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
-                   f"weight per finger to hold it in every orientation, above --max-squeeze "
-                   f"{prm.floor:g}" + (f"; a budget above --evals {prm.evals} may find one that "
-                                       "holds" if prm.evals < PlanParams().evals else "")
-                   + "; --max-squeeze 0 returns them anyway")
     elif not stopped_by_time and len(archive) and not (
             (archive.fit > _OVERLAP) & (archive.d > 0)).any() and (
             (archive.d > 0).any() or not (archive.fit > _OVERLAP).any()):
         message = _crowded(archive, prm, fingers, L)
+    elif score.above_floor and not (archive.fit > 0).any():
+        escape = _why_none(archive, prm, score)
+        message = (f"{score.above_floor} closure grasps were found, but none within the "
+                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
+                   f"weight per finger to hold it in every orientation, above --max-squeeze "
+                   f"{prm.floor:g}" + (f"; the best candidate is {escape}" if escape else "")
+                   + _revolution_note(prm, escape)
+                   + ((f"; {'if it is not, ' if _revolution_note(prm, escape) else ''}a budget "
+                       f"above --evals {prm.evals} may find one that holds")
+                      if prm.evals < PlanParams().evals else "")
+                   + "; --max-squeeze 0 returns them anyway")
     else:
         escape = _why_none(archive, prm, score)
         kind = "with friction mu = %g" % prm.mu if prm.mu > 0 else "without friction"
         message = f"no {k}-contact closure grasp {kind} was found" + (
             f"; the best candidate is {escape}" if escape else "")
+        message += _revolution_note(prm, escape)
         turn = prm.mu == 0 and escape and "rotate about" in escape
-        if turn:
-            message += (". If the part is a surface of revolution (sphere, cylinder, torus), no "
-                        "number of frictionless contacts stops that turn: try mu > 0 with 3 or "
-                        "4 contacts")
         if prm.evals < PlanParams().evals:
             message += (f"; {'if it is not, ' if turn else ''}a budget above --evals "
                         f"{prm.evals} may find one")
@@ -223,7 +242,8 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
     L = float(part.length)
     deadline = t0 + prm.time
     say(0.0, "sampling finger placements")
-    pool = placement_pool(part, fingers, rng, _POOL, _POOL // 3, _POOL // 10)
+    pool = placement_pool(part, fingers, rng, _PLACEMENT_POOL, _PLACEMENT_POOL // 3,
+                          _PLACEMENT_POOL // 10)
     need = 7 if prm.mu == 0 else 3
     most = int(pool.count.max()) if len(pool) else 1
     counts = list(range(2, AUTO_MAX_FINGERS + 1)) if prm.fingers == "auto" else [
@@ -236,7 +256,7 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
         if score.out_of_time():
             break
         tried.append(F)
-        n_seed = max(_MIN_SEEDS, int(SEED_SHARE * budget))
+        n_seed = max(_MIN_SEEDS, int(PLACEMENT_SEED_SHARE * budget))
         archives: dict[int, list[GraspBatch]] = {}
         chosen, fit = np.zeros((0, F), np.int64), np.zeros(0)
         for s in range(0, n_seed, _SEED_CHUNK):  # the best _KEEP seeds, a chunk at a time
@@ -302,6 +322,14 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
 #: The key of ``_select``'s rejection counts for grasps below ``--min-tolerance``.
 _LOW_TOLERANCE = "placement tolerance below --min-tolerance"
 _ABOVE_FLOOR = "needs more squeeze than --max-squeeze"
+
+
+def _revolution_note(prm: PlanParams, escape: str | None) -> str:
+    """The hint for a frictionless search whose best candidate (nearly) turns freely."""
+    if prm.mu == 0 and escape and "rotate about" in escape:
+        return (". If the part is a surface of revolution (sphere, cylinder, torus), no number "
+                "of frictionless contacts stops that turn: try mu > 0 with 3 or 4 contacts")
+    return ""
 
 
 def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:

@@ -39,6 +39,13 @@ the response is not fixed by the stiffnesses alone; the measure is then the leas
 to ``F``, a certified bound over every orientation), which can only be lower than a fixed
 preload's.
 
+The weight is not all a grasp must bear: a part's centre of mass is rarely known exactly, and
+a grasp that resists a turn about it only barely (a tessellated sphere's) holds its weight and
+nothing else. So the loads are the weight in any direction plus any moment up to
+``COM_RTOL`` times weight times size (the weight acting that far from the centre of mass):
+with ``T = (W^+)[:, 3:]`` (moments scaled by the size), finger ``i``'s force ranges over
+``p_i -+ m g (|A_i| + COM_RTOL |T_i|)``, and ``|A_i|`` above reads ``|A_i| + COM_RTOL |T_i|``.
+
 The number ``F'`` is the grasp's *squeeze per weight*: a grip of ``F`` newtons per finger holds
 a part of weight ``m g`` in every orientation when ``F >= F' m g``; its *margin* is
 ``F / (F' m g)``.
@@ -56,10 +63,16 @@ from synth.errors import SolverError
 from synth.scores.cones import check_contacts_batch
 from synth.scores.quality import scaled_wrenches
 
-__all__ = ["FingerHold", "finger_hold_batch", "stiff_hold_batch", "internal_squeeze", "HOLD_MODELS"]
+__all__ = ["FingerHold", "finger_hold_batch", "stiff_hold_batch", "internal_squeeze",
+           "HOLD_MODELS", "COM_RTOL"]
 
 #: The hand models a :class:`FingerHold` may describe.
 HOLD_MODELS = ("stiff", "any")
+#: The measure holds the weight plus any moment up to this many times weight times size:
+#: the weight acting up to this far from the centre of mass (a part's mass distribution is
+#: rarely known exactly), or a small push off its centre. It also keeps out grasps that
+#: resist a turn about the centre of mass only barely (a tessellated sphere's).
+COM_RTOL: float = 0.02
 #: Relative size of the smallest singular value of the scaled wrench matrix below which it is
 #: treated as rank deficient (the part has a free motion: no squeeze holds it).
 _RANK_RTOL = 1e-9
@@ -83,12 +96,16 @@ class FingerHold:
     model : str
         ``"stiff"`` (equal-stiffness fingers from a fixed balanced squeeze, exact) or
         ``"any"`` (each finger free to press with any force, a certified LP bound).
+    torque_response : (B, k, 3) float
+        Per unit moment (over weight times size) about each axis, contact ``i``'s normal
+        force changes by ``-T_i . m`` (``stiff`` model; zeros under ``any``).
     """
 
     squeeze_per_weight: NDArray[np.float64]
     preload: NDArray[np.float64]
     response: NDArray[np.float64]
     model: str
+    torque_response: NDArray[np.float64] | None = None
 
     def margin(self, grip: float, weight: float) -> NDArray[np.float64]:
         """Grip force over the least force that holds a part of ``weight`` (same unit)."""
@@ -125,8 +142,9 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
     spw = np.full(B, np.inf)
     pre = np.zeros((B, k))
     A = np.zeros((B, k, 3))
+    T = np.zeros((B, k, 3))
     if B == 0 or k < 7:
-        return FingerHold(spw, pre, A, "stiff")
+        return FingerHold(spw, pre, A, "stiff", T)
     W = scaled_wrenches(P, N, np.asarray(center_mass, float), float(length))  # (B, 6, k)
     rest = np.arange(B)
     if k == 7:  # certified full rank: W^+ = W^T G^-1 and the null vector from G = W W^T
@@ -136,21 +154,22 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         rows = np.flatnonzero(cert)
         if len(rows):
             Wc, Xc = W[rows], X[rows]
-            Ginv3 = np.einsum("bji,bjk->bik", Xc, Xc[:, :, :3])  # (G^-1)[:, :3]
-            A[rows] = np.einsum("bji,bjk->bik", Wc, Ginv3)
-            _closed_form(A[rows], null_vector_m1(Wc, Xc), rows, pre, spw)
+            Ginv = np.einsum("bji,bjk->bik", Xc, Xc)  # G^-1
+            pinv = np.einsum("bji,bjk->bik", Wc, Ginv)  # W^+ = W^T G^-1, (b, 7, 6)
+            A[rows], T[rows] = pinv[:, :, :3], pinv[:, :, 3:]
+            _closed_form(_reach(A[rows], T[rows]), null_vector_m1(Wc, Xc), rows, pre, spw)
         rest = np.flatnonzero(~cert)
     if len(rest):
         U, s, Vt = np.linalg.svd(W[rest])
         full = s[:, -1] > _RANK_RTOL * s[:, 0]
         with np.errstate(divide="ignore", invalid="ignore"):
             pinv = np.einsum("bji,bj,bkj->bik", Vt[:, :6], 1.0 / s, U)  # (b, k, 6)
-        A[rest[full]] = pinv[full, :, :3]
+        A[rest[full]], T[rest[full]] = pinv[full, :, :3], pinv[full, :, 3:]
         Z = np.swapaxes(Vt[:, 6:], 1, 2)  # (b, k, k - 6) null-space basis
+        r = _reach(A, T)
         if k == 7:
-            _closed_form(A[rest[full]], Z[full, :, 0], rest[full], pre, spw)
+            _closed_form(r[rest[full]], Z[full, :, 0], rest[full], pre, spw)
         else:
-            r = np.linalg.norm(A, axis=2)
             for j in np.flatnonzero(full):
                 b = rest[j]
                 got = _stiff_lp(Z[j], r[b])
@@ -158,14 +177,21 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
                     pre[b] = got
                     spw[b] = float(np.max(got + r[b]))
     A[~np.isfinite(spw)] = 0.0
-    return FingerHold(spw, pre, A, "stiff")
+    T[~np.isfinite(spw)] = 0.0
+    return FingerHold(spw, pre, A, "stiff", T)
 
 
-def _closed_form(A: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[np.int64],
+def _reach(A: NDArray[np.float64], T: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The most each finger's force changes, per unit weight, over the loads the measure
+    covers: the weight in any direction (``|A_i|``) and any moment up to ``COM_RTOL`` times
+    weight times size (``COM_RTOL |T_i|``, moments scaled by the size). (b, k)."""
+    return np.linalg.norm(A, axis=2) + COM_RTOL * np.linalg.norm(T, axis=2)
+
+
+def _closed_form(r: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[np.int64],
                  pre: NDArray[np.float64], spw: NDArray[np.float64]) -> None:
-    """The seven-contact answer (module notes) for the grasps ``rows``, whose responses are
-    ``A`` (b, 7, 3) and null vectors ``c`` (b, 7), written into ``pre`` and ``spw``."""
-    r = np.linalg.norm(A, axis=2)
+    """The seven-contact answer (module notes) for the grasps ``rows``, whose reaches are
+    ``r`` (b, 7) and null vectors ``c`` (b, 7), written into ``pre`` and ``spw``."""
     c = c * np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
     ok = c.min(axis=1) > 0
     with np.errstate(divide="ignore", invalid="ignore"):

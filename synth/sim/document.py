@@ -71,8 +71,8 @@ class GraspFile:
     path : str
         Where it was read from (for messages).
     mesh_path : pathlib.Path
-        The mesh file, resolved: as written if absolute or found from the current folder,
-        else relative to the grasp file's folder.
+        The mesh file, resolved as :func:`synth.paths.resolve_mesh_path` does (a relative
+        path is relative to the grasp file's folder).
     sha256 : str or None
         The mesh file's digest as planned.
     length : float
@@ -192,13 +192,11 @@ def _grasp(g: Any, i: int, name: str) -> SimGrasp:
 
 
 def _mesh_path(text: Any, name: str) -> Path:
-    if not isinstance(text, str) or not text:
-        raise InputError(f"{_where(name, 'mesh.path')}: expected the mesh file's path, got "
-                         f"{shown(text)}")
-    p = Path(text)
-    if p.is_absolute() or p.exists():
-        return p
-    return Path(name).parent / p
+    """The mesh file of ``mesh.path`` (:func:`synth.paths.resolve_mesh_path`: relative to the
+    grasp file's folder; ``name`` in angle brackets is no file)."""
+    from synth.paths import resolve_mesh_path
+
+    return resolve_mesh_path(text, None if name.startswith("<") else name)
 
 
 def check_document(doc: Any, name: str = "<document>") -> GraspFile:

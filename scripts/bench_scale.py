@@ -1,0 +1,102 @@
+"""Benchmark: loading and planning at 10^4 to 10^6 faces, beside trimesh's own load and merge.
+
+A closed blob (an icosphere whose radius varies smoothly with direction, so that it has no
+axis of revolution and can be held without friction) is written as a binary STL at four
+sizes: 20,480, 81,920, 327,680 and 1,310,720 faces (icosphere subdivisions 5 to 8). For each
+file, in separate fresh processes, so that each peak memory is that step's alone:
+
+* ``trimesh``: ``trimesh.load(path)`` and ``merge_vertices()``, the baseline;
+* ``load``: ``synth.load_part(path)``;
+* ``plan``: ``load_part`` then ``plan_part`` at the defaults (seed 0, top 1).
+
+Columns: CPU seconds of the process's work (``time.process_time``, so other load on the
+machine does not count; imports excluded), its peak resident memory (``ru_maxrss``, imports
+included), the plan's evaluations and first d*, and the ratios to trimesh's time and memory
+(the targets at 1.3M faces: load and plan within 2x the time and 1.5x the peak memory).
+
+    python scripts/bench_scale.py [--sizes 5 6 7 8] [--keep DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+__all__ = ["blob", "main"]
+
+_STEP = r"""
+import json, os, resource, sys, time
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np, trimesh
+from synth import PlanParams, load_part, plan_part
+path, what = sys.argv[1], sys.argv[2]
+out = {}
+c0 = time.process_time()
+if what == "trimesh":
+    m = trimesh.load(path, process=False)
+    m.merge_vertices()
+    out["faces"] = len(m.faces)
+else:
+    part = load_part(path)
+    out["faces"] = len(part.mesh.faces)
+    out["load"] = time.process_time() - c0
+    if what == "plan":
+        c1 = time.process_time()
+        plan = plan_part(part, PlanParams(seed=0, top=1))
+        out["search"] = time.process_time() - c1
+        out["evals"] = plan.evaluations
+        out["d"] = plan.grasps[0].d_star if plan.grasps else 0.0
+        out["cut"] = plan.stopped_by_time
+out["cpu"] = time.process_time() - c0
+out["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(json.dumps(out))
+"""
+
+
+def blob(subdivisions: int) -> trimesh.Trimesh:
+    """A closed, smooth, lumpy sphere of ``20 * 4**subdivisions`` faces (fixed shape)."""
+    m = trimesh.creation.icosphere(subdivisions=subdivisions)
+    v = np.asarray(m.vertices)
+    x, y, z = v.T
+    r = 1.0 + 0.25 * x * y + 0.2 * np.sin(2.0 * z + 0.5) * x + 0.15 * y * z * z + 0.3 * x
+    return trimesh.Trimesh(v * r[:, None] * [1.0, 0.8, 0.6], m.faces, process=False)
+
+
+def _run(path: Path, what: str) -> dict[str, float]:
+    res = subprocess.run([sys.executable, "-c", _STEP, str(path), what], capture_output=True,
+                         text=True, check=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[5, 6, 7, 8],
+                    help="icosphere subdivisions (5: 20k faces ... 8: 1.3M)")
+    ap.add_argument("--keep", default=None, help="folder to keep the STL files in")
+    args = ap.parse_args()
+    folder = Path(args.keep or tempfile.mkdtemp(prefix="synth-scale-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    print("CPU seconds (time.process_time) and peak RSS of one fresh process per step")
+    print(f"{'faces':>9} {'trimesh s':>9} {'MB':>6} {'load s':>7} {'MB':>6} {'plan s':>7} "
+          f"{'search s':>8} {'MB':>6} {'evals':>6} {'d*':>6} {'x time':>6} {'x mem':>6}")
+    for s in args.sizes:
+        path = folder / f"blob{s}.stl"
+        if not path.exists():
+            blob(s).export(path)
+        t, ld, pl = _run(path, "trimesh"), _run(path, "load"), _run(path, "plan")
+        print(f"{pl['faces']:>9,} {t['cpu']:>9.2f} {t['rss'] / 1e6:>6.0f} {ld['cpu']:>7.2f} "
+              f"{ld['rss'] / 1e6:>6.0f} {pl['cpu']:>7.2f} {pl['search']:>8.2f} "
+              f"{pl['rss'] / 1e6:>6.0f} {pl['evals']:>6} {pl['d']:>6.3f} "
+              f"{pl['cpu'] / t['cpu']:>6.1f} {pl['rss'] / t['rss']:>6.2f}"
+              f"{'  (cut by the time cap)' if pl['cut'] else ''}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

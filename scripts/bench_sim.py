@@ -98,9 +98,22 @@ def roc_auc(score: np.ndarray, held: np.ndarray, group: np.ndarray | None = None
     return (wins / pairs if pairs else float("nan")), int(pairs)
 
 
-def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
-    from tests.sim_independent import simulate as independent
+def _independent(doc: dict, path: Path) -> list[bool | None]:
+    """The independent simulation's labels of a plan's grasps (None each if it failed)."""
+    from tests.sim_independent import simulate
 
+    with tempfile.TemporaryDirectory() as tmp:
+        gf = Path(tmp) / "g.json"
+        gf.write_text(json.dumps(doc))
+        try:
+            return list(simulate(gf, path))
+        except Exception as e:  # noqa: BLE001 - reported, the benchmark goes on
+            print(f"{path.name}: the independent simulation failed: {type(e).__name__}: {e}",
+                  flush=True)
+            return [None] * len(doc["grasps"])
+
+
+def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
     part = load_part(path, units=entry.get("units"))
     rows = []
     free = plan_part(part, PlanParams(top=args.auc_top, max_squeeze=None)).to_json()
@@ -124,10 +137,7 @@ def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
     labels = simulate_file(f, st, part=part).labels
     half = simulate_file(f, replace(st, timestep=st.dt / 2), part=part).labels
     iters = simulate_file(f, replace(st, iterations=2 * st.iterations), part=part).labels
-    with tempfile.TemporaryDirectory() as tmp:
-        gf = Path(tmp) / "g.json"
-        gf.write_text(json.dumps(doc))
-        other = independent(gf, path)
+    other = _independent(doc, path)
     for g, a, b, c, o in zip(doc["grasps"], labels, half, iters, other, strict=True):
         rows.append({"file": path.name, "hand": "points", "set": "defaults", "held": a.held,
                      "failed_at": a.failed_at, "half_dt": b.held, "iterations": c.held,
@@ -139,7 +149,6 @@ def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
 def _jaws(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
     from synth.plan.gripper import GripperParams, plan_gripper
     from synth.sim.jaws import simulate_jaw_document
-    from tests.sim_independent import simulate as independent
 
     if entry.get("units") is None:
         return []
@@ -154,10 +163,7 @@ def _jaws(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
     labels = simulate_jaw_document(doc, part, st)["grasps"]
     half = simulate_jaw_document(doc, part, replace(st, timestep=st.dt / 2))["grasps"]
     iters = simulate_jaw_document(doc, part, replace(st, iterations=2 * st.iterations))["grasps"]
-    with tempfile.TemporaryDirectory() as tmp:
-        gf = Path(tmp) / "g.json"
-        gf.write_text(json.dumps(doc))
-        other = independent(gf, path)
+    other = _independent(doc, path)
     rows = []
     for g, a, b, c, o in zip(doc["grasps"], labels, half, iters, other, strict=True):
         m = g["measures"]
@@ -243,6 +249,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dump", default=None, metavar="JSON", help="write the rows here")
     ap.add_argument("--merge", nargs="+", default=None, metavar="JSON",
                     help="print the summary of dumped rows")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the rows of --dump's file and run only the files it lacks")
     args = ap.parse_args(argv)
     if args.merge:
         rows = [r for f in args.merge for r in json.loads(Path(f).read_text())]
@@ -250,6 +258,11 @@ def main(argv: list[str] | None = None) -> int:
         i, n = (int(x) for x in args.part.split("/"))
         names = sorted(args.files or ENTRIES)[i - 1 :: n]
         rows = []
+        if args.resume and args.dump and Path(args.dump).exists():
+            rows = json.loads(Path(args.dump).read_text())
+            done = {r["file"] for r in rows}
+            rows = [r for r in rows if r["file"] in done]
+            names = [m for m in names if m not in done]
         t0 = time.perf_counter()
         for name in names:
             path = CORPUS / name if (CORPUS / name).exists() else Path(name)
@@ -262,7 +275,8 @@ def main(argv: list[str] | None = None) -> int:
                 top = [r for r in got if r["set"] == "defaults"]
                 if top:
                     print(f"{path.name}: {hand}: {sum(r['held'] is True for r in top)} of "
-                          f"{len(top)} held; independent {sum(r['independent'] for r in top)}; "
+                          f"{len(top)} held; independent "
+                          f"{sum(r['independent'] is True for r in top)}; "
                           f"{time.perf_counter() - t0:.0f} s", flush=True)
             if args.dump:
                 Path(args.dump).write_text(json.dumps(rows))

@@ -113,8 +113,15 @@ class Pieces:
                 trimesh.repair.fix_normals(p)
                 self.closed.append(p)
         self._unit_surface = unit(self.surface)
-        top = float(np.abs(self.surface.vertices).max())
-        self.tol = 1e-6 * self.length + 1e-9 * top + _decimal_quantum(path)
+        v = np.asarray(self.surface.vertices, float)
+        top = float(np.abs(v).max())
+        # on the surface, and on a face, an edge or a corner, within what the file's numbers
+        # can tell apart: coordinates written with d decimals are off by up to half the last
+        # one each, float32 ones by half an ulp of the largest, so a point two of those from
+        # an edge may lie on it (synth's documented feature tolerance is four halves too)
+        f32 = bool(np.all(v.astype(np.float32).astype(np.float64) == v))
+        ulp = 2.0**-23 * top if f32 else 0.0
+        self.tol = 1e-6 * self.length + 1e-9 * top + 2.0 * max(_decimal_quantum(path), ulp)
         self.normals = np.asarray(self.surface.face_normals, float)
         self.tri = np.asarray(self.surface.triangles, float)
         # trimesh's kernel can misjudge points near triangles of area below ~1e-6 (absolute)

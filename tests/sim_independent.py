@@ -79,10 +79,13 @@ def _pieces(convex: list[np.ndarray], tris: np.ndarray, near: np.ndarray, reach:
 
 
 def _closed_inertia(mesh_path: Path, com: np.ndarray) -> np.ndarray:
+    """Inertia of the closed pieces about ``com``, per unit density (of the hull of every
+    vertex when no piece is closed)."""
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
     loaded.merge_vertices()
+    bodies = loaded.split(only_watertight=True) or [loaded.convex_hull]
     I = np.zeros((3, 3))
-    for b in loaded.split(only_watertight=True):
+    for b in bodies:
         d = b.center_mass - com
         I += b.moment_inertia + b.volume * (d @ d * np.eye(3) - np.outer(d, d))
     return I
@@ -96,7 +99,8 @@ def _part_xml(pieces, com, R, pos, scale, mass, inertia, condim, friction, solre
               ) -> tuple[str, str]:
     assets, geoms = [], []
     for i, v in enumerate(pieces):
-        assets.append(f'<mesh name="m{i}" vertex="{_fmt(((v - com) @ R) * scale)}"/>')
+        assets.append(f'<mesh name="m{i}" inertia="shell" '
+                      f'vertex="{_fmt(((v - com) @ R) * scale)}"/>')
         geoms.append(f'<geom type="mesh" mesh="m{i}" contype="1" conaffinity="2" '
                      f'condim="{condim}" friction="{_fmt(friction)}" solref="{_fmt(solref)}"/>')
     I = R.T @ inertia @ R

@@ -20,11 +20,11 @@ def synth(*args, cwd=None):
 
 
 def test_plan_writes_json_png_glb(tmp_path, capsys):
-    proc = synth("plan", MESHES / "bracket.stl", "--evals", "3000", "--top", "3", cwd=tmp_path)
+    proc = synth("plan", MESHES / "bracket.stl", "--evals", "10000", "--top", "3", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "form" in proc.stdout and "d*" in proc.stdout
     doc = json.loads((tmp_path / "bracket.grasps.json").read_text())
-    assert len(doc["grasps"]) == 3 and doc["params"]["evals"] == 3000
+    assert len(doc["grasps"]) == 3 and doc["params"]["evals"] == 10000
     png = (tmp_path / "bracket.grasps.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
     scene = trimesh.load(tmp_path / "bracket.grasps.glb")

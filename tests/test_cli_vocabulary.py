@@ -53,7 +53,7 @@ def test_shared_options_have_one_help_text() -> None:
     assert len({h.replace(" (the document --out writes)", "") for h in helps["--json"]}) == 1, \
         helps["--json"]
     for name in ("--edges", "--table", "--grip", "--mass", "--density", "--sim-grip",
-                 "--sim-seed", "--surface"):
+                 "--surface"):
         assert len({h.replace("candidate ", "grasp ") for h in helps[name]}) == 1, \
             (name, helps[name])
     for h in helps["--mu"]:  # one meaning, a default that depends on the command

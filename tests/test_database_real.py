@@ -22,7 +22,7 @@ from synth.plan import plan_mesh_file
 from synth.plan.ranking import shown_d_star
 
 REAL_PLANNER = "synth.plan:plan_mesh_file"
-PARAMS = {"evals": 2000, "top": 3, "seed": 0}  # small budget; still 3 grasps on GOOD meshes
+PARAMS = {"evals": 10_000, "top": 3, "seed": 0}  # a small budget; 3 grasps on GOOD meshes
 GOOD = ("cube.stl", "prism.stl", "bracket.stl")
 NO_GRASP = "sphere.stl"  # smooth everywhere: no frictionless form closure exists
 BROKEN = {"empty.stl": "file is empty", "random.stl": "not a complete binary STL"}

@@ -103,7 +103,9 @@ def test_surface_models_on_a_tessellated_cylinder():
         own /= np.linalg.norm(own, axis=1, keepdims=True)
         d, rank = lp_d_star(g.points, own)
         assert rank == 6 and d == pytest.approx(g.d_star, abs=1e-6)
-        assert g.d_star_mesh == g.d_star
+        # the same LP solved in the search's batch and again for the report: equal to the
+        # last bits, which depend on how the batch was split (synth.plan.batch)
+        assert g.d_star_mesh == pytest.approx(g.d_star, abs=1e-12)
         ds, rank_s = lp_d_star(g.points, g.smooth_normals)
         assert rank_s < 6 and g.d_star_smooth == pytest.approx(ds, abs=1e-6)
     for surface in ("both", "smooth"):
@@ -113,7 +115,7 @@ def test_surface_models_on_a_tessellated_cylinder():
 
 @pytest.mark.parametrize("name", SAMPLES)
 def test_every_grasp_verifies_from_json(name):
-    doc = plan_mesh_file(MESHES / name, {"evals": 3000, "top": 5, "seed": 3})
+    doc = plan_mesh_file(MESHES / name, {"evals": 10_000, "top": 5, "seed": 3})
     part = load_part(MESHES / name)
     L = part.length
     assert doc["format"] == "synth.grasps" and doc["version"] == 1

@@ -204,10 +204,10 @@ def test_regions_grown_by_a_fifth_break(planned):
 def test_plan_ranks_and_filters_by_tolerance():
     part = synth.load_part("meshes/bracket.stl", units="dm")
     # a time cap far above the work: the budget and the seed decide, whatever the machine's load
-    plan = synth.plan_part(part, synth.PlanParams(top=4, seed=0, rank_by="tolerance", time=600,
+    plan = synth.plan_part(part, synth.PlanParams(top=3, seed=0, rank_by="tolerance", time=600,
                                                   evals=10_000))
     tol = [g.tolerance for g in plan.grasps]
-    assert tol == sorted(tol, reverse=True) and len(tol) == 4
+    assert tol == sorted(tol, reverse=True) and len(tol) == 3
     doc = plan.to_json()["grasps"][0]
     assert doc["tolerance"] == pytest.approx(tol[0])
     assert doc["tolerance_ratio"] == pytest.approx(tol[0] / doc["fingers"]["tip_radius"])

@@ -198,7 +198,8 @@ def test_plan_sim_stores_a_label_per_grasp(tmp_path, capsys):
     assert main(["plan", str(mesh), "--sim", "--top", "1", "--evals", "2000", "--quiet",
                  "--out", str(out), "--sim-shake", "0"]) == 0
     doc = json.loads(out.read_text())
-    assert doc["mesh"]["load"] == {"units": None, "body": "largest", "sharp_angle": 30.0}
+    assert doc["mesh"]["load"] == {"units": None, "body": "largest", "sharp_angle": 30.0,
+                                   "decimate": None}
     assert all("sim" in g for g in doc["grasps"]) and doc["sim"]["held"] >= 1
     assert "grasps held" in capsys.readouterr().out
 

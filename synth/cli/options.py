@@ -20,6 +20,7 @@ from synth.cli.checks import integer, real
 from synth.cli.vocabulary import add_top, check_top
 from synth.errors import OptionError
 from synth.limits import (AUTO_MAX_FINGERS, DEFAULT_SURFACE, MAX_CONTACTS, MAX_EDGES, MAX_EVALS,
+                          MAX_FACES,
                           MAX_FINGERS, MAX_LENGTH, MAX_MU, MAX_SEED, MIN_EDGES,
                           MIN_EVALS, SURFACES)
 from synth.plan.params import RANK_BY, PlanParams
@@ -32,7 +33,7 @@ __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_plannin
 
 def add_part_options(p: argparse.ArgumentParser) -> None:
     """How the mesh is loaded and read: ``--units``, ``--body``, ``--sharp-angle``,
-    ``--surface``."""
+    ``--decimate``, ``--surface``."""
     g = p.add_argument_group("mesh")
     g.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of the mesh when the file does not say (STL never does): "
@@ -47,6 +48,10 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--sharp-angle", type=float, default=30.0, metavar="DEG",
                    help="dihedral angle above which an edge is sharp, in (0, 180) degrees "
                    "(default 30)")
+    g.add_argument("--decimate", type=int, default=None, metavar="N",
+                   help=f"reduce the mesh to about N faces on loading, 4 to {MAX_FACES:,} (quadric "
+                   "decimation with fast-simplification; the surface error it makes is "
+                   "reported): for meshes too large to plan, above that limit (default: no)")
     g.add_argument("--surface", choices=SURFACES, default=DEFAULT_SURFACE,
                    help="which normals a grasp must hold with: 'both' (default) the mesh's "
                    "own facets and the smooth surface they may approximate, d* the smaller; "
@@ -187,6 +192,7 @@ def check_weight_options(args: argparse.Namespace) -> None:
 def check_part_options(args: argparse.Namespace) -> None:
     """The mesh options (see :func:`add_part_options`)."""
     real("--sharp-angle", args.sharp_angle, 0, 180, open_lo=True, open_hi=True, unit=" degrees")
+    integer("--decimate", getattr(args, "decimate", None), 4, MAX_FACES)
 
 
 def check_finger_options(args: argparse.Namespace) -> None:
@@ -248,6 +254,7 @@ def planning_params(args: argparse.Namespace) -> dict[str, Any]:
         "grip": args.grip,
         "mass": getattr(args, "mass", None), "density": getattr(args, "density", None),
         "units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
+        "decimate": args.decimate,
     }  # fmt: skip
 
 

@@ -65,7 +65,7 @@ MESH_EXTENSIONS = MESH_FORMATS
 #: :class:`synth.sim.SimSettings` fields every grasp found is simulated with (by the worker;
 #: the planner never sees it).
 DEFAULT_PARAMS: dict[str, Any] = {**PlanParams().to_dict(), "time": BUILD_TIME, "units": None,
-                                  "body": "largest", "sharp_angle": 30.0}
+                                  "body": "largest", "sharp_angle": 30.0, "decimate": None}
 #: What a parameter was before it existed, for databases built then: before ``surface``, grasps
 #: were scored with the smooth reading of the normals (:mod:`synth.scores.surface`); before
 #: ``max_squeeze`` there was no physical floor. Any other

@@ -445,4 +445,4 @@ def load_part(
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,
                 warnings=warnings, source=path, sha256=digest, body_names=names,
                 dropped=dropped, precision=precision, face_source=np.concatenate(sources),
-                body=body, convex_inputs=convex_inputs)
+                body=body, convex_inputs=convex_inputs, decimate=decimate)

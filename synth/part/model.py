@@ -66,9 +66,11 @@ class Part:
         Dihedral angle (radians) above which an edge is sharp.
     body : int or str
         Which object of the file the loader kept (``load_part``'s ``body``).
+    decimate : int or None
+        The face count the file was decimated to on loading (``load_part``'s ``decimate``).
     load_options : dict
         How to load the same part again: :func:`synth.load_part` keywords (``units``,
-        ``body``, ``sharp_angle`` in radians).
+        ``body``, ``sharp_angle`` in radians, ``decimate``).
 
     Parameters
     ----------
@@ -110,6 +112,7 @@ class Part:
         face_source: np.ndarray | None = None,
         body: int | str = "largest",
         convex_inputs: dict[int, np.ndarray] | None = None,
+        decimate: int | None = None,
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
@@ -120,6 +123,7 @@ class Part:
         self.units = units
         self.sharp_angle = sharp_angle
         self.body = body
+        self.decimate = decimate
         self.repairs = tuple(repairs)
         self.warnings = tuple(warnings)
         self.dropped = tuple(dropped)
@@ -196,7 +200,8 @@ class Part:
     @property
     def load_options(self) -> dict[str, Any]:
         """:func:`synth.load_part` keywords that load this part again from its file."""
-        return {"units": self.units, "body": self.body, "sharp_angle": self.sharp_angle}
+        return {"units": self.units, "body": self.body, "sharp_angle": self.sharp_angle,
+                "decimate": self.decimate}
 
     # tolerances -----------------------------------------------------------------------
     @property

@@ -46,7 +46,7 @@ __all__ = [
 
 #: Keys of a planner parameter dict that say how to load the mesh (:func:`synth.load_part`;
 #: ``sharp_angle`` in degrees); the others are :class:`PlanParams` fields.
-LOAD_KEYS = ("units", "body", "sharp_angle")
+LOAD_KEYS = ("units", "body", "sharp_angle", "decimate")
 
 
 def load_options(params: dict[str, Any]) -> dict[str, Any]:
@@ -57,7 +57,8 @@ def load_options(params: dict[str, Any]) -> dict[str, Any]:
     if isinstance(body, str) and body.strip().lstrip("-").isdigit():
         body = int(body)
     return {"units": params.get("units"), "body": body,
-            "sharp_angle": math.radians(float(params.get("sharp_angle", 30.0)))}
+            "sharp_angle": math.radians(float(params.get("sharp_angle", 30.0))),
+            "decimate": params.get("decimate")}
 
 
 def plan_mesh_file(path: str | Path, params: dict[str, Any] | None = None) -> dict[str, Any]:

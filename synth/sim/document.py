@@ -280,7 +280,13 @@ def _load(mesh: dict[str, Any], name: str) -> dict[str, Any]:
     if angle >= 180:
         raise InputError(f"{_where(name, 'mesh.load.sharp_angle')}: expected degrees in "
                          f"(0, 180), got {shown(angle)}")
-    return load_options({"units": units, "body": body, "sharp_angle": angle})
+    decimate = load.get("decimate")
+    if decimate is not None and (isinstance(decimate, bool) or not isinstance(decimate, int)
+                                 or decimate < 4):
+        raise InputError(f"{_where(name, 'mesh.load.decimate')}: expected a face count or "
+                         f"null, got {shown(decimate)}")
+    return load_options({"units": units, "body": body, "sharp_angle": angle,
+                         "decimate": decimate})
 
 
 JAW_FORMAT = "synth.gripper_grasps"

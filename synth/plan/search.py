@@ -210,7 +210,7 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     elif score.above_floor and not (archive.fit > 0).any():
         escape = _why_none(archive, prm, score)
         message = (f"{score.above_floor} closure grasps were found, but none within the "
-                   f"physical floor: the best needs {score.least_above:.3g} times the part's "
+                   f"physical floor: the best needs {score.least_above:.2f} times the part's "
                    f"weight per finger to hold it in every orientation, above --max-squeeze "
                    f"{prm.floor:g}" + (f"; the best candidate is {escape}" if escape else "")
                    + _revolution_note(prm, escape)

@@ -57,6 +57,7 @@ class Block:
 
     @property
     def runs(self) -> bool:
+        """Whether the tests run this block (bash or python, not marked illustrative)."""
         return self.lang in ("bash", "python") and self.mark != "illustrative"
 
 

@@ -155,3 +155,21 @@ def test_the_figure_has_a_row_per_grasp_and_at_least_two_views(cube):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_a_long_title_stays_inside_the_figure(cube):
+    """A gripper plan's title (mesh name, hand, run id) is wider than one view: it wraps, the
+    run id stays whole on one line, and every line's drawn extent is within the figure."""
+    run = "run\u00a020261126T043215Z-2ce0a0c4"
+    title = "synth: a_long_mesh_file_name.stl: Franka Hand (Franka Emika Panda) grasps   " + run
+    fig = draw_grasps(cube, [], title, "no grasp")
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    head = next(t for t in fig.axes[0].texts if "Franka" in t.get_text())
+    assert head.get_text().count("\n") >= 2 and run in head.get_text()
+    box = head.get_window_extent(renderer)
+    width = fig.get_size_inches()[0] * fig.dpi
+    assert 0 <= box.x0 and box.x1 <= width
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -313,7 +313,11 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     W = cols * size + (cols + 1) * _GAP
     titles = [_wrap(row.title, W // 7) for row, _, _ in plans]  # 9-point characters
     heights = [_ROW_TITLE + 14 * t.count("\n") + _VIEW_TITLE + size + _GAP for t in titles]
-    H = _HEAD + sum(heights)
+    scale = unit if part.units else "the file's units (unknown)"
+    head = _wrap(title, W // 9) + (  # 10-point characters
+        f"\nsolid: in view; faded, dashed: behind the part; scale bar in {scale}")
+    head_height = _HEAD + 16 * (head.count("\n") - 1)
+    H = head_height + sum(heights)
     canvas = np.ones((H, W, 3))
     dpi = 110
     fig = plt.figure(figsize=(W / dpi, H / dpi), dpi=dpi)
@@ -322,7 +326,7 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     ax.set_zorder(1)
     texts = []
     for r, (row, views, seen) in enumerate(plans):
-        top = _HEAD + sum(heights[:r])
+        top = head_height + sum(heights[:r])
         lines = titles[r].count("\n")
         texts.append((W / 2, top + (_ROW_TITLE + 14 * lines) / 2, titles[r], 9))
         for c, j in enumerate(views):
@@ -341,9 +345,7 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     fig.figimage(canvas, origin="upper", zorder=0)  # pixel for pixel: no resampling
     for x, y, text, font in texts:
         ax.text(x, y, text, ha="center", va="center", fontsize=font)
-    scale = unit if part.units else "the file's units (unknown)"
-    ax.text(W / 2, _HEAD / 2, title + "\nsolid: in view; faded, dashed: behind the part; "
-            f"scale bar in {scale}", ha="center", va="center", fontsize=10)
+    ax.text(W / 2, head_height / 2, head, ha="center", va="center", fontsize=10)
     ax.set_xlim(0, W)
     ax.set_ylim(H, 0)
     ax.set_axis_off()
@@ -354,4 +356,4 @@ def _wrap(text: str, width: int = 90) -> str:
     """``text`` in lines of at most ``width`` characters."""
     import textwrap
 
-    return "\n".join(textwrap.wrap(text, width))
+    return "\n".join(textwrap.wrap(text, width, break_on_hyphens=False))

@@ -58,7 +58,7 @@ def run_title(mesh: dict, run_id: str, what: str = "") -> str:
     """The title of a plan's picture: the mesh file's name and the run id (``what``: words
     after the name, such as the gripper's grasps)."""
     name = Path(mesh.get("path") or "part").name
-    return f"synth: {name}{what}   run {run_id}"
+    return f"synth: {name}{what}   run\u00a0{run_id}"  # "run" and its id stay on one line
 
 
 def save_png(fig, path: str | Path, mesh: dict, run_id: str,  # type: ignore[no-untyped-def]

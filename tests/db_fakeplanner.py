@@ -107,6 +107,7 @@ def plan_mesh_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
                 "closure": "form closure",
                 "conditioning": float(conditioning[i]),
                 "epsilon": 0.0,
+                "squeeze_per_weight": float(1.0 / conditioning[i]),  # a stand-in, stored as is
                 "fingers": {
                     "tip_centers": tips.tolist(),
                     "tip_radius": radius,

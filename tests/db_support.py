@@ -60,8 +60,11 @@ def snapshot(
 ) -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
     """Everything stored except timings: mesh rows and grasps (as the planner's dicts).
 
-    ``report=False`` leaves the loading reports out (to compare with a schema-1 copy).
+    ``report=False`` leaves out what a schema-1 copy cannot hold (to compare with one): the
+    loading reports and the late hold measures (``squeeze_per_weight``, ``least_squeeze``,
+    ``margin``).
     """
+    late = () if report else ("squeeze_per_weight", "least_squeeze", "margin")
     with GraspDatabase(path) as db:
         meshes = [
             (m.id, m.path, m.name, m.sha256, m.size, m.status, m.error_kind, m.error,
@@ -69,7 +72,8 @@ def snapshot(
             + ((m.report,) if report else ())
             for m in db.meshes()
         ]  # fmt: skip
-        grasps = [(g.mesh_id, g.rank, g.to_dict()) for g in db.grasps()]
+        grasps = [(g.mesh_id, g.rank, {k: v for k, v in g.to_dict().items() if k not in late})
+                  for g in db.grasps()]
     return meshes, grasps
 
 

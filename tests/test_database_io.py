@@ -227,6 +227,13 @@ def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> 
     assert "failures:" in r.stdout and "empty.stl" in r.stdout
     r = _cli("top", str(out), "ico", "-k", "2")
     assert r.returncode == 0 and r.stdout.count("form closure") == 2
+    # the least squeeze per weight, as stored, in its column
+    with GraspDatabase(out) as db:
+        stored = [g.squeeze_per_weight for g in db.top("ico", 2)]
+    head, *rows = r.stdout.splitlines()[1:3 + 1]
+    column = head.split().index("N/weight")
+    assert None not in stored
+    assert [float(row.split()[column]) for row in rows] == pytest.approx(stored, abs=5e-4)
     r = _cli("top", str(out), "random.stl", "--json")  # a failed mesh says so, as the table does
     top = json.loads(r.stdout)
     assert (top["status"], top["error_kind"], top["grasps"]) == ("failed", "mesh", [])

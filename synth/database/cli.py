@@ -293,7 +293,8 @@ def _top(args: argparse.Namespace) -> int:
     # a mesh's grasps are of one kind: gripper grasps, or point-finger grasps
     jaws = [g for g in grasps if isinstance(g, GripperGraspRecord)]
     points = [g for g in grasps if isinstance(g, GraspRecord)]
-    what = f"{jaws[0].gripper} gripper grasps" if jaws else "grasps"
+    what = (f"{jaws[0].gripper} gripper " if jaws else "") + ("grasp" if len(grasps) == 1
+                                                              else "grasps")
     print(f"{mesh.path} [{mesh.status}]{note}: {len(grasps)} {what}")
     if jaws:
         import trimesh
@@ -306,19 +307,39 @@ def _top(args: argparse.Namespace) -> int:
         mm = float(trimesh.units.unit_conversion(mesh.units, "millimeters"))
         print(format_gripper_table(jaws, mm, [g.sim for g in jaws], [g.rank for g in jaws]))
     elif points:
-        show = any(g.tolerance is not None for g in points)
-        sim = any(g.sim is not None for g in points)
-        print(f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
-              + (f"{'tolerance':>10}  " if show else "")
-              + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "closure")
-        for g in points:
-            tol = "-" if g.tolerance is None else f"{g.tolerance:.3g}"
-            held = "" if not sim else (f"{'-':<4}  {'-':<9}  " if g.sim is None else
-                                       f"{'yes' if g.sim['held'] else 'no':<4}  "
-                                       f"{g.sim['failed_at'] or '-':<9}  ")
-            print(f"{g.rank:>4}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
-                  + (f"{tol:>10}  " if show else "") + held + g.closure)
+        print(_point_table(points))
     return 0
+
+
+def _point_table(points: list[Any]) -> str:
+    """``db top``'s table of point-finger grasps (:class:`synth.database.schema.GraspRecord`):
+    the closure measures, the least squeeze per weight and the margin where stored, the
+    tolerance where measured, the simulation's label where simulated."""
+    weight = any(g.squeeze_per_weight is not None for g in points)
+    margin = any(g.margin is not None for g in points)
+    show = any(g.tolerance is not None for g in points)
+    sim = any(g.sim is not None for g in points)
+
+    def value(x: float | None, spec: str) -> str:
+        return "-" if x is None else format(x, spec)
+
+    def label(g: Any) -> str:
+        if g.sim is None:
+            return f"{'-':<5}  {'-':<9}  "
+        held = {True: "yes", False: "no", None: "error"}[g.sim.get("held")]
+        return f"{held:<5}  {g.sim.get('failed_at') or '-':<9}  "
+
+    lines = [f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
+             + (f"{'N/weight':>8}  " if weight else "") + (f"{'margin':>8}  " if margin else "")
+             + (f"{'tolerance':>10}  " if show else "")
+             + (f"{'held':<5}  {'failed at':<9}  " if sim else "") + "closure"]
+    for g in points:
+        lines.append(f"{g.rank:>4}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
+                     + (f"{value(g.squeeze_per_weight, '.3f'):>8}  " if weight else "")
+                     + (f"{value(g.margin, '.2f'):>8}  " if margin else "")
+                     + (f"{value(g.tolerance, '.3g'):>10}  " if show else "")
+                     + (label(g) if sim else "") + g.closure)
+    return "\n".join(lines)
 
 
 def _export(args: argparse.Namespace) -> int:

@@ -151,6 +151,29 @@ def test_table_and_rank_orders():
     assert mus == sorted(mus)
 
 
+def test_the_margin_floor_keeps_what_the_hand_can_hold():
+    """With the part's mass, a grasp whose least squeeze exceeds the rated force over
+    ``min_margin`` is not returned: the floored plan is the unfloored plan's grasps of margin
+    at least ``min_margin``; a part too heavy for every grasp is told so with the least
+    squeeze; without a mass, or with ``min_margin`` None, nothing is refused."""
+    part = load_part(CORPUS / "robosuite_bread.stl", units="m")
+    base = dict(samples=120, top=50)
+    free = plan_gripper(part, GripperParams(**base, mass=1.0, min_margin=None))
+    margins = np.array([g.margin for g in free.grasps])
+    assert len(margins) > 5 and margins.min() < 2 <= margins.max()
+    floored = plan_gripper(part, GripperParams(**base, mass=1.0, min_margin=2.0))
+    assert [g.margin for g in floored.grasps] == [m for m in margins if m >= 2.0]
+    F = free.gripper.grip_force
+    best = free.grasps[0].least_squeeze
+    light = plan_gripper(part, GripperParams(**base, mass=0.99 * F / best))
+    assert light.grasps and light.grasps[0].margin >= 1.0
+    heavy = plan_gripper(part, GripperParams(**base, mass=1.01 * F / best))
+    assert not heavy.grasps
+    assert "too heavy for the Franka Hand" in heavy.message
+    assert f"needs a squeeze of {1.01 * F:.3g} N" in heavy.message
+    assert plan_gripper(part, GripperParams(samples=120, top=3)).grasps  # no mass: no floor
+
+
 def test_the_independent_check_catches_broken_grasps():
     path = CORPUS / "robosuite_bread.stl"
     part = load_part(path, units="meters")

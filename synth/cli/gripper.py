@@ -18,9 +18,11 @@ from synth.limits import MAX_LENGTH
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
            "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
 
-_ONLY_GRIPPER = ("gravity", "torsion", "samples")
+_ONLY_GRIPPER = ("gravity", "torsion", "samples", "min_margin")
 #: Most surface points a gripper plan may draw (``--samples``).
 MAX_SAMPLES = 1_000_000
+#: Largest ``--min-margin``.
+MAX_MARGIN = 1000.0
 
 
 def add_hold_options(g: argparse._ArgumentGroup) -> None:
@@ -46,6 +48,11 @@ def add_gripper_options(p: argparse.ArgumentParser) -> None:
                    "or a JSON description (see synth/fingers/grippers/README.md); needs the "
                    "part's unit (--units)")
     add_hold_options(g)
+    g.add_argument("--min-margin", type=float, default=None, metavar="X",
+                   help="with the part's mass (--mass or --density), return only grasps whose "
+                   "least squeeze is within the gripper's rated force divided by X (a margin "
+                   f"of at least X), 0 to {MAX_MARGIN:g} (default {d.min_margin:g}; 0: "
+                   "no floor)")
     g.add_argument("--samples", type=int, default=None, metavar="N",
                    help=f"surface points drawn, each an antipodal pair tried at {APPROACHES} "
                    f"approach angles, 1 to {MAX_SAMPLES:,} (default {d.samples})")
@@ -67,7 +74,8 @@ def refuse_gripper_options(args: argparse.Namespace) -> None:
 
     for name in _ONLY_GRIPPER:
         if getattr(args, name) is not None:
-            raise OptionError(f"--{name} applies to gripper grasps: add --gripper NAME|FILE")
+            raise OptionError(f"--{name.replace('_', '-')} applies to gripper grasps: add "
+                              "--gripper NAME|FILE")
     if args.rank_by is not None and args.rank_by not in lim.RANK_BY:
         raise OptionError(f"--rank-by {args.rank_by} applies to gripper grasps; point-finger "
                          f"plans rank by {', '.join(lim.RANK_BY)}")
@@ -91,7 +99,7 @@ def refuse_finger_options(args: argparse.Namespace, time: float) -> None:
             raise OptionError(f"{option} applies to point-finger grasps, not to --gripper "
                               "(a gripper plan's options: --mu, --edges, --top, --seed, "
                               "--rank-by, --table, --samples, --torsion, --mass, --density, "
-                              "--gravity and the mesh options)")
+                              "--gravity, --min-margin and the mesh options)")
 
 
 def _gravity(text: str | None) -> tuple[float, float, float] | None:
@@ -150,6 +158,9 @@ def gripper_params(args: argparse.Namespace) -> Any:
     check_weight_options(args)
     samples = GripperParams().samples if args.samples is None else args.samples
     integer("--samples", samples, 1, MAX_SAMPLES)
+    given = getattr(args, "min_margin", None)  # a plan's and a build's, not rank's
+    real("--min-margin", given, 0, MAX_MARGIN)
+    min_margin = GripperParams().min_margin if given is None else (given or None)
     rank_by = args.rank_by or "margin"
     if rank_by not in GRIPPER_RANK_BY:
         raise OptionError(f"--rank-by {rank_by}: gripper grasps rank by "
@@ -157,7 +168,7 @@ def gripper_params(args: argparse.Namespace) -> Any:
     return GripperParams(gripper=args.gripper, mu=mu, torsion=args.torsion, mass=args.mass,
                          density=args.density, gravity=_gravity(args.gravity), top=args.top,
                          samples=samples, seed=args.seed, rank_by=rank_by, table=args.table,
-                         edges=args.edges)
+                         edges=args.edges, min_margin=min_margin)
 
 
 def run_gripper(args: argparse.Namespace) -> int:

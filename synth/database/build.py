@@ -268,8 +268,8 @@ def resume_defaults(params: dict[str, Any]) -> dict[str, Any]:
     """What a parameter missing from a stored set means, for a build of ``params`` (a point-
     finger or a gripper build): its default, or what it was before it existed
     (:data:`PARAMS_BEFORE`)."""
-    if "gripper" in params:
-        return gripper_defaults()
+    if "gripper" in params:  # before min_margin, no grasp was refused for its squeeze
+        return {**gripper_defaults(), "min_margin": None}
     return {**DEFAULT_PARAMS, **PARAMS_BEFORE}
 
 

@@ -389,6 +389,7 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     jaws, clear, narrowest = _land(part, gripper, checker, params, counts)
     pool = _score(part, jaws, clear, params, gamma, counts)
     grasps: list[GripperGrasp] = []
+    heavy = None  # the least squeeze of all, in N, when the floor leaves no grasp
     if len(pool.spw):
         size = DISTINCT_RTOL * part.length
         ranked = np.arange(len(pool.spw))
@@ -399,9 +400,23 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
             pool = Scored(*(np.concatenate([getattr(moved, f), getattr(pool, f)])
                             for f in Scored.__dataclass_fields__))
             ranked = np.argsort(pool.spw, kind="stable")
-        best = pool.take(_distinct(pool.points, ranked, size, params.top))
-        grasps = grasp_results(best, part, gripper, params, gamma, mass)
+        if mass is not None and params.min_margin:  # the floor: a squeeze within the grip
+            within = pool.spw[ranked] * mass * GRAVITY * params.min_margin <= gripper.grip_force
+            counts["within_grip"] = int(within.sum())
+            if not within.any():
+                heavy = float(pool.spw.min()) * mass * GRAVITY
+            ranked = ranked[within]
+        if len(ranked):
+            best = pool.take(_distinct(pool.points, ranked, size, params.top))
+            grasps = grasp_results(best, part, gripper, params, gamma, mass)
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
+    if heavy is not None:
+        message = (f"no grasp: the part ({mass:.4g} kg) is too heavy for the "
+                   f"{gripper.title}'s rated {gripper.grip_force:g} N: of "
+                   f"{counts['closure']} closing grasps, the best needs a squeeze of "
+                   f"{heavy:.3g} N to hold it in every orientation"
+                   f" (margin {gripper.grip_force / heavy:.2f}, below --min-margin "
+                   f"{params.min_margin:g}); --min-margin 0 returns them anyway")
     cone = cone_name(params.edges, gamma > 0)
     return GripperPlan(gripper, tuple(grasps), message, params, str(part.units), mass, cone,
                        counts, narrowest, time.perf_counter() - t0, float(part.length),

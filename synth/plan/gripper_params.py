@@ -44,6 +44,10 @@ class GripperParams:
         Support plane z = table in the part's frame.
     edges : int
         Cone edges of the linearised contacts.
+    min_margin : float or None
+        When the part's mass is known, only grasps whose least squeeze is within the
+        gripper's rated force divided by this are returned (a margin of at least
+        ``min_margin``); None: no such floor. Without a mass it does nothing.
     """
 
     gripper: str = "franka"
@@ -58,3 +62,4 @@ class GripperParams:
     rank_by: str = "margin"
     table: float | None = None
     edges: int = 8
+    min_margin: float | None = 1.0

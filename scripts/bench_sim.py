@@ -9,8 +9,10 @@ For every mesh of ``meshes/corpus`` (``--files`` to choose), point fingers and j
   and what the physical floor costs, the top ``--auc-top`` grasps of the same plan without
   the floor (``max_squeeze=None``), simulated the same way;
 * **jaws**: the Franka hand's top ``--top`` grasps (``synth plan --gripper franka`` at its
-  defaults) on every part whose unit is known and that fits the hand, simulated with the
-  hand's pads at its rated force, the part at its real size and 1000 kg/m^3.
+  defaults, given the mass the simulation weighs: 1000 kg/m^3 times the part's volume, so
+  its margin floor applies) on every part whose unit is known and that fits the hand,
+  simulated with the hand's pads at its rated force and the part at its real size; and the
+  top ``--auc-top`` grasps of the same plan without the floor (``min_margin=None``).
 
 Printed (not asserted), for each hand:
 
@@ -21,11 +23,11 @@ Printed (not asserted), for each hand:
 * where the others failed (start, close, squeeze, gravity, shake, diverged, error);
 * the ROC AUC of each measure against the labels (the probability that a held grasp ranks
   above a fallen one), pooled over all grasps and within parts (pairs of grasps of the same
-  part only: what ranking one part's grasps needs), on the grasps planned without the floor
-  (point fingers) or on the top grasps (jaws). Measures where smaller is better (the least
+  part only: what ranking one part's grasps needs), on the grasps planned without the
+  floor. Measures where smaller is better (the least
   squeeze per weight, mu_min) are ranked smallest first;
-* what the floor costs: parts with no grasp, grasps fewer than ``--top``, and the best d* with
-  and without it;
+* what the floor costs: parts with no grasp, grasps fewer than ``--top``, and (point
+  fingers) the best d* with and without it;
 * convergence: the share of labels that change at half the time step, and at twice the solver
   iterations;
 * agreement with an independent simulation (``tests/sim_independent.py``: its own MJCF, its
@@ -38,8 +40,8 @@ Usage:
     python scripts/bench_sim.py --part 2/2 --dump b.json
     python scripts/bench_sim.py --merge a.json b.json
 
-Convex decompositions are cached (see ``synth.sim.cache_dir``); the first run decomposes
-every non-convex body with CoACD, which takes minutes.
+``--resume`` keeps the rows of ``--dump``'s file and runs only the files it lacks. A run
+of both hands over the corpus takes about an hour in two processes on a 2-core machine.
 """
 
 from __future__ import annotations
@@ -147,24 +149,36 @@ def _points(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
 
 
 def _jaws(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
-    from synth.plan.gripper import GripperParams, plan_gripper
-    from synth.sim.jaws import simulate_jaw_document
+    from synth.plan.gripper import GripperParams, plan_gripper, unit_scale
+    from synth.sim.jaws import jaw_mass, simulate_jaw_document
 
     if entry.get("units") is None:
         return []
     part = load_part(path, units=entry["units"])
-    plan = plan_gripper(part, GripperParams(gripper="franka", top=args.top))
+    st = SimSettings()
+    mass = jaw_mass({}, part, unit_scale(part), st)  # what the simulation weighs
+    free = plan_gripper(part, GripperParams(gripper="franka", top=args.auc_top, mass=mass,
+                                            min_margin=None)).to_json()
+    plan = plan_gripper(part, GripperParams(gripper="franka", top=args.top, mass=mass))
     doc = plan.to_json()
-    doc["mesh"].update(body="largest", sharp_angle=30.0)
+    rows = []
+    if free["grasps"]:
+        for g in simulate_jaw_document(free, part, st)["grasps"]:
+            m = g["measures"]
+            rows.append({"file": path.name, "hand": "jaws", "set": "no floor",
+                         "held": g["sim"]["held"], "failed_at": g["sim"]["failed_at"],
+                         "seconds": g["sim"]["seconds"],
+                         **{k: m.get(k) for k in MEASURES["jaws"]}})
+    rows.append({"file": path.name, "hand": "jaws", "set": "cost",
+                 "grasps": len(doc["grasps"]), "grasps_free": len(free["grasps"][:args.top]),
+                 "best": None, "best_free": None})
     if not doc["grasps"]:
         print(f"{path.name}: jaws: no grasp ({plan.message})", flush=True)
-        return []
-    st = SimSettings()
+        return rows
     labels = simulate_jaw_document(doc, part, st)["grasps"]
     half = simulate_jaw_document(doc, part, replace(st, timestep=st.dt / 2))["grasps"]
     iters = simulate_jaw_document(doc, part, replace(st, iterations=2 * st.iterations))["grasps"]
     other = _independent(doc, path)
-    rows = []
     for g, a, b, c, o in zip(doc["grasps"], labels, half, iters, other, strict=True):
         m = g["measures"]
         rows.append({"file": path.name, "hand": "jaws", "set": "defaults",
@@ -230,9 +244,9 @@ def _summary(all_rows: list[dict], hand: str) -> None:
         both = [r for r in cost if r["best"] is not None and r["best_free"] is not None]
         ratio = np.array([r["best"] / r["best_free"] for r in both])
         print(f"  what the floor costs: {len(none)} parts lose every grasp "
-              f"({', '.join(none) or 'none'}); {fewer} of {len(cost)} get fewer grasps; best "
-              f"d* with the floor over without: median {np.median(ratio):.3f}, min "
-              f"{ratio.min():.3f} ({len(both)} parts)")
+              f"({', '.join(none) or 'none'}); {fewer} of {len(cost)} get fewer grasps"
+              + (f"; best d* with the floor over without: median {np.median(ratio):.3f}, min "
+                 f"{ratio.min():.3f} ({len(both)} parts)" if both else ""))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -156,7 +156,7 @@ def _jaws(path: Path, entry: dict, args: argparse.Namespace) -> list[dict]:
         return []
     part = load_part(path, units=entry["units"])
     st = SimSettings()
-    mass = jaw_mass({}, part, unit_scale(part), st)  # what the simulation weighs
+    mass = jaw_mass({}, part, 1.0 / unit_scale(part), st)  # what the simulation weighs
     free = plan_gripper(part, GripperParams(gripper="franka", top=args.auc_top, mass=mass,
                                             min_margin=None)).to_json()
     plan = plan_gripper(part, GripperParams(gripper="franka", top=args.top, mass=mass))

@@ -214,7 +214,9 @@ def simulate_points(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool
     condim = 1 if mu == 0 else 3
     solref = [2 * DT, 1.0]
     convex, tris = _bodies(mesh_path)
-    volume = float(mesh["volume"])
+    volume = float(mesh.get("volume") or 0.0)
+    if volume <= 0:  # no closed body: weigh the hull, as the inertia does
+        volume = trimesh.load(mesh_path, force="mesh", process=True).convex_hull.volume
     mass = DENSITY * volume * s**3
     inertia = _closed_inertia(mesh_path, com) * DENSITY * s**5
     out = []

@@ -214,3 +214,50 @@ def test_fields_the_simulation_does_not_read_are_left_alone(tmp_path, capsys):
     assert main(["sim", str(path), "--sim-shake", "0", "--quiet"]) == 0
     assert "grasps held" in capsys.readouterr().out
     assert json.loads(path.read_text())["grasps"][0]["measures"] == "x"
+
+
+def test_a_ranking_of_poses_from_elsewhere_is_simulated(tmp_path, capsys):
+    """``synth rank --gripper`` of a plan's own poses, then ``synth sim`` of the ranking: the
+    candidates that landed get the labels the plan's grasps get, in place; the others none."""
+    mesh = ROOT / "meshes" / "cube.stl"
+    plan = tmp_path / "plan.json"
+    assert main(["plan", str(mesh), "--units", "cm", "--gripper", "franka", "--samples", "60",
+                 "--top", "2", "--out", str(plan), "--quiet"]) == 0
+    ranked = tmp_path / "ranked.json"
+    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "cm",
+                 "--out", str(ranked), "--quiet"]) == 0
+    doc = json.loads(ranked.read_text())
+    doc["candidates"].append({**doc["candidates"][0], "status": "collision", "index": 2})
+    ranked.write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["sim", str(plan), "--sim-shake", "0", "--quiet"]) == 0
+    assert main(["sim", str(ranked), "--sim-shake", "0", "--quiet"]) == 0
+    assert "2 of 2 grasps held" in capsys.readouterr().out
+    want = [g["sim"] for g in json.loads(plan.read_text())["grasps"]]
+    got = json.loads(ranked.read_text())
+    assert got["sim"]["settings"] == json.loads(plan.read_text())["sim"]["settings"]
+    for c in got["candidates"][:2]:
+        w = want[c["index"]]
+        assert (c["sim"]["held"], c["sim"]["failed_at"], c["sim"]["gravity_held"]) == (
+            w["held"], w["failed_at"], w["gravity_held"])
+    assert "sim" not in got["candidates"][2]
+
+
+def test_a_ranking_without_a_unit_takes_its_scale_and_one_with_no_landing_is_refused():
+    from synth.sim.document import ranking_as_jaw_document
+
+    contact = {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0]}
+    ok = {"status": "ok", "contacts": [contact, contact], "measures": {"d_star": 1.0}}
+    doc = {"format": "synth.ranked_gripper", "version": 1,
+           "mesh": {"path": "m.obj", "units": None, "metres_per_unit": 0.00025, "length": 600.0,
+                    "load": {"units": None, "body": "largest", "sharp_angle": 30.0,
+                             "decimate": None}},
+           "gripper": {"name": "franka"}, "model": {"mu": 0.5, "torsion": 20.0},
+           "candidates": [{"status": "collision"}, ok]}
+    jaws, rows = ranking_as_jaw_document(doc, "r.json")
+    assert rows == [1] and jaws["grasps"] == [ok]
+    assert jaws["mesh"]["units"] == jaws["mesh"]["load"]["units"] == "0.00025*m"
+    assert doc["mesh"]["units"] is None  # the ranking itself is left as it was
+    doc["candidates"] = [{"status": "collision"}]
+    with pytest.raises(ValueError, match="none of its 1 candidates landed"):
+        ranking_as_jaw_document(doc, "r.json")

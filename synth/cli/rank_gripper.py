@@ -117,11 +117,13 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     rows = list(ranking.rows)
     p = params
     from synth.paths import stored_mesh_path
+    from synth.plan.result import load_record
 
     doc = {"format": "synth.ranked_gripper", "version": 1,
            "mesh": {"path": stored_mesh_path(part.source, out), "sha256": part.sha256,
                     "units": part.units,
-                    "metres_per_unit": where.metres_per_unit, "length": part.length},
+                    "metres_per_unit": where.metres_per_unit, "length": part.length,
+                    "load": load_record(part)},
            "poses": {"path": poses.path, "format": poses.format, "unit": poses.unit_name,
                      "object_scale": poses.object_scale, "object_file": poses.object_file,
                      "label": poses.label_name, "applied": where.applied},

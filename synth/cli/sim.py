@@ -76,7 +76,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         help="simulate the grasps of a grasp file in MuJoCo: held or not, where it failed, "
         "how the part moved",
         description="Simulate every grasp of a grasp file (written by 'synth plan --out', "
-        "point fingers or --gripper) in MuJoCo on the part that was planned (the mesh "
+        "point fingers or --gripper; or a ranking of gripper poses from elsewhere, 'synth rank "
+        "--gripper --out', whose candidates that landed are simulated) in MuJoCo on the part "
+        "that was planned (the mesh "
         "loaded again with the plan's options): the fingers close onto the part and squeeze "
         "it, then the part's weight pulls along +-x, +-y, +-z of the hand in turn, then the "
         "hand is shaken. Point fingers press with the grasp's balanced squeeze, each "
@@ -89,7 +91,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
             "also when mujoco is not installed"),
     )
     p.add_argument("grasps", metavar="GRASPS.json",
-                   help="grasp file written by synth plan (point fingers or --gripper)")
+                   help="grasp file written by synth plan (point fingers or --gripper), or "
+                   "a ranking written by synth rank --gripper")
     p.add_argument("--mesh", default=None, metavar="MESH",
                    help="the mesh file, when it is no longer where the grasp file's mesh.path "
                    "says (it must have the same content)")
@@ -154,7 +157,13 @@ def run(args: argparse.Namespace) -> int:
     from synth.filetype import GRASPS, MESH, read_json, require
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
-    from synth.sim.document import JAW_FORMAT, check_document, check_jaw_document
+    from synth.sim.document import (
+        JAW_FORMAT,
+        RANKED_JAW_FORMAT,
+        check_document,
+        check_jaw_document,
+        ranking_as_jaw_document,
+    )
 
     real("--mu", args.mu, 0, MAX_MU)
     settings = settings_from_args(args)
@@ -163,7 +172,18 @@ def run(args: argparse.Namespace) -> int:
         require(args.mesh, MESH)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
-        return _run_jaws(args, check_jaw_document(doc, str(args.grasps)), settings, out)
+        labelled = _simulate_jaws(args, check_jaw_document(doc, str(args.grasps)), settings)
+        _write(args, labelled, out)
+        return 0
+    if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
+        # a ranking of poses from elsewhere: the candidates that landed get their labels
+        jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
+        labelled = _simulate_jaws(args, jaws, settings)
+        for i, g in zip(rows, labelled["grasps"], strict=True):
+            doc["candidates"][i]["sim"] = g["sim"]
+        doc["sim"] = labelled["sim"]
+        _write(args, doc, out, shown=labelled)
+        return 0
     file = check_document(doc, str(args.grasps))
     if args.mesh is not None:
         file = replace(file, mesh_path=Path(args.mesh))
@@ -182,9 +202,11 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | None) -> int:
-    """``synth sim`` of a gripper grasp file: its pads, as :func:`synth.sim.
-    simulate_jaw_document` builds them, on the mesh the file names (or ``--mesh``)."""
+def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> dict:
+    """``synth sim`` of a gripper grasp document: its pads, as :func:`synth.sim.
+    simulate_jaw_document` builds them, on the mesh the file names (or ``--mesh``), loaded
+    as its ``mesh.load`` says (else its ``units``, ``body`` and ``sharp_angle``); the
+    labelled document."""
     import numpy as np
 
     from synth.cli.progress import LineProgress
@@ -215,9 +237,14 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
                     "were planned")
             raise InputError(f"{what} (sha256 {digest[:12]}..., the file says "
                              f"{mesh['sha256'][:12]}...)")
-    part = load_part(path, **load_options({"units": mesh["units"],
-                                           "body": mesh.get("body", "largest"),
-                                           "sharp_angle": mesh.get("sharp_angle", 30.0)}))
+    if "load" in mesh:
+        from synth.sim.document import load_keywords
+
+        part = load_part(path, **load_keywords(mesh, str(args.grasps)))
+    else:  # a file of an older synth
+        part = load_part(path, **load_options({"units": mesh["units"],
+                                               "body": mesh.get("body", "largest"),
+                                               "sharp_angle": mesh.get("sharp_angle", 30.0)}))
     planned = float(mesh["length"])
     if abs(part.length - planned) > 1e-6 * planned:
         raise InputError(f"{path}: not the mesh these grasps were planned on (its size "
@@ -240,12 +267,13 @@ def _run_jaws(args: argparse.Namespace, doc: dict, settings: Any, out: Path | No
                                          progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
-    _write(args, labelled, out)
-    return 0
+    return labelled
 
 
-def _write(args: argparse.Namespace, doc: dict, out: Path | None) -> None:
-    """Write the labelled document to ``out`` and print the table (or the JSON)."""
+def _write(args: argparse.Namespace, doc: dict, out: Path | None,
+           shown: dict | None = None) -> None:
+    """Write the labelled document to ``out`` and print the table of ``shown`` (default
+    ``doc``), or the JSON."""
     from synth.files import write_atomic
 
     text = json.dumps(doc, indent=1) + "\n"
@@ -254,7 +282,7 @@ def _write(args: argparse.Namespace, doc: dict, out: Path | None) -> None:
     if args.json:
         print(text, end="")
     else:
-        print(format_sim_table(doc))
-        print(summary(doc))
+        print(format_sim_table(shown or doc))
+        print(summary(shown or doc))
         if out is not None and not args.quiet:
             print(f"wrote {out}")

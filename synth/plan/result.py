@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part", "new_run_id",
-           "scene_run_id"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "PlannedGrasp", "Plan", "describe_part", "load_record",
+           "new_run_id", "scene_run_id"]
 
 FORMAT = "synth.grasps"
 FORMAT_VERSION = 1
@@ -62,6 +62,15 @@ def new_run_id() -> str:
     return f"{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}-{uuid.uuid4().hex[:8]}"
 
 
+def load_record(part: Any) -> dict[str, Any]:
+    """How to load ``part`` again, for a document's ``mesh.load``: ``units``, ``body``,
+    ``sharp_angle`` in degrees and ``decimate``, as :func:`synth.plan.load_options` reads
+    them."""
+    return {"units": part.units, "body": part.body,
+            "sharp_angle": float(f"{math.degrees(part.sharp_angle):.12g}"),
+            "decimate": part.decimate}
+
+
 def describe_part(part: Any) -> dict[str, Any]:
     """The ``mesh`` object of a grasp file: where the part came from and what was done to it.
 
@@ -76,9 +85,7 @@ def describe_part(part: Any) -> dict[str, Any]:
         "path": part.source,
         "sha256": part.sha256,
         "units": part.units,
-        "load": {"units": part.units, "body": part.body,
-                 "sharp_angle": float(f"{math.degrees(part.sharp_angle):.12g}"),
-                 "decimate": part.decimate},
+        "load": load_record(part),
         "length": float(part.length),
         "precision": float(part.precision),
         "center_mass": np.asarray(part.center_mass, float).tolist(),

@@ -22,7 +22,8 @@ from synth.errors import InputError, shown
 from synth.filetype import read_json
 
 __all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "read_json", "check_document",
-           "check_jaw_document", "JAW_FORMAT"]
+           "check_jaw_document", "JAW_FORMAT", "RANKED_JAW_FORMAT", "ranking_as_jaw_document",
+           "load_keywords"]
 
 #: The format and version the simulation reads (see the README's "Output file format").
 FORMAT, VERSION = "synth.grasps", 1
@@ -255,11 +256,12 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
                          f"{type(grasps).__name__}")
     return GraspFile(name, mesh_path, sha, length, com, volume, mu,
                      tuple(_grasp(g, i, name) for i, g in enumerate(grasps)), doc,
-                     _load(mesh, name))
+                     load_keywords(mesh, name))
 
 
-def _load(mesh: dict[str, Any], name: str) -> dict[str, Any]:
-    """:func:`synth.load_part` keywords from a document's ``mesh`` object."""
+def load_keywords(mesh: dict[str, Any], name: str) -> dict[str, Any]:
+    """:func:`synth.load_part` keywords from a document's ``mesh`` object (its ``load``,
+    else its ``units``), checked; ``name`` names the file in errors."""
     from synth.part.load import length_unit
     from synth.plan import load_options
 
@@ -357,6 +359,54 @@ def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
         _number(_get(_get(g, "measures", where, name), "d_star", f"{where}.measures", name),
                 f"{where}.measures.d_star", name)
     return doc
+
+
+RANKED_JAW_FORMAT = "synth.ranked_gripper"
+
+
+def ranking_as_jaw_document(doc: Any, name: str = "<document>") -> tuple[dict[str, Any],
+                                                                         list[int]]:
+    """The gripper grasp document (``synth.gripper_grasps``) of a ranking of gripper poses
+    (``synth rank --gripper``, ``synth.ranked_gripper``): its candidates that landed (status
+    ``ok``) as grasps, its mesh with a length unit (the pose file's object scale, as
+    ``metres_per_unit``, when the mesh's unit was unknown), its gripper and contact model.
+
+    Returns
+    -------
+    doc : dict
+        The jaw document, checked by :func:`check_jaw_document`.
+    rows : list of int
+        For each of its grasps, the index of the candidate it is in ``doc["candidates"]``.
+
+    Raises
+    ------
+    InputError
+        The ranking is malformed, or no candidate landed.
+    """
+    version = _get(doc, "version", "", name)
+    if isinstance(version, bool) or version != 1:
+        raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
+                         "from another version of synth)")
+    candidates = _get(doc, "candidates", "", name)
+    if not isinstance(candidates, list):
+        raise InputError(f"{_where(name, 'candidates')}: expected a list, got "
+                         f"{shown(candidates)}")
+    rows = [i for i, c in enumerate(candidates)
+            if isinstance(c, dict) and c.get("status") == "ok"]
+    if not rows:
+        raise InputError(f"{name}: none of its {len(candidates)} candidates landed on the part "
+                         "(status ok), so there is nothing to simulate")
+    mesh = dict(_get(doc, "mesh", "", name))
+    if mesh.get("units") is None:
+        scale = _number(_get(mesh, "metres_per_unit", "mesh", name), "mesh.metres_per_unit",
+                        name, 0.0, True)
+        mesh["units"] = "meters" if scale == 1.0 else f"{scale!r}*m"
+        if isinstance(mesh.get("load"), dict):
+            mesh["load"] = {**mesh["load"], "units": mesh["units"]}
+    jaws = {"format": JAW_FORMAT, "version": 1, "mesh": mesh,
+            "gripper": _get(doc, "gripper", "", name), "model": _get(doc, "model", "", name),
+            "grasps": [candidates[i] for i in rows]}
+    return check_jaw_document(jaws, name), rows
 
 
 def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:

@@ -48,7 +48,7 @@ from synth.plan.placements import (
     placement_pool,
     placement_seeds,
 )
-from synth.plan.ranking import rank_grasps
+from synth.plan.ranking import rank_grasps, shown_d_star
 from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
@@ -94,6 +94,10 @@ _SWEEPS = 6
 _KEEP = 400
 #: Ranking by conditioning or epsilon chooses among this many times ``top`` of the best grasps.
 _CHOICE = 4
+#: Ranking by d*: grasps whose shown d* ties with the last of the ``top`` best still compete
+#: for their places (ties break by conditioning), up to this many more, so that the first
+#: grasps do not depend on ``top`` (a part of flat faces has many grasps of d* 0.5).
+_TIES = 32
 #: Seeds drawn and scored at a time: bounds the memory of the seed stage whatever ``evals``.
 _SEED_CHUNK = 32_768
 #: Share of ``PlanParams.time`` the search may use; the finger checks of the selection have
@@ -537,7 +541,9 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
 
     Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
-    that ranking by conditioning or epsilon chooses among the best grasps, not among all.
+    that ranking by conditioning or epsilon chooses among the best grasps, not among all;
+    ranking by d*, ``top`` of them and up to ``_TIES`` more whose shown d* ties with the last
+    (ties break by conditioning, among all the tied grasps gathered).
     Candidates are checked 64 at a time; after ``deadline`` (a ``time.perf_counter()``
     value) no further block is started, and no further candidate is taken once one grasp is
     chosen, but the first block is always checked, so a search the clock cut still returns
@@ -550,6 +556,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     rejected: dict[str, int] = {}
     min_gap = prm.diversity * part.length
     want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
+    tie: float | None = None  # the shown d* of the last of the top grasps, once they are in
 
     def conditioning_of(P: NDArray[np.float64], n: NDArray[np.float64]) -> float:
         return float(conditioning(score.matrix(P, n)))
@@ -570,6 +577,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
         for j, i in enumerate(block.tolist()):
             if chosen and time.perf_counter() > deadline:
                 break
+            if tie is not None and shown_d_star(float(archive.d[i])) < tie:
+                return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(
                     ch.isdigit() for ch in w)).split("(")[0].strip()
@@ -607,7 +616,9 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                        float(both.d_mesh[0]), float(both.d_smooth[0]),
                                        spw, model, least, margin))
             picked.append(P)
-            if len(chosen) == want:
+            if len(chosen) == want and prm.rank_by == "d_star":
+                tie = shown_d_star(float(archive.d[i]))
+            if len(chosen) == want + (_TIES if prm.rank_by == "d_star" else 0):
                 return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
     return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
 

@@ -298,13 +298,17 @@ def test_planner_never_uses_the_compiled_simplex(monkeypatch):
     assert plan.grasps and plan.grasps[0].d_star > 0
 
 
-@pytest.mark.parametrize("name", ["bracket.stl", "tee.stl"])
-def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for(name):
-    """Parts of flat faces have many grasps of d* 0.5; ties break by conditioning among all
-    of them the search found, so asking for fewer grasps gives the first rows of a longer
-    list, not others."""
+@pytest.mark.parametrize("name, mu, ties", [("bracket.stl", 0.0, 0.5), ("tee.stl", 0.0, 0.5),
+                                             ("cube.stl", 0.5, 1.0)])
+def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for(name, mu, ties):
+    """Parts of flat faces have many frictionless grasps of d* 0.5, and with friction nearly
+    every grasp has d* 1; ties break by conditioning among all the grasps the search found,
+    so asking for fewer grasps gives the first rows of a longer list, not others."""
     part = load_part(MESHES / name, units="dm")
     rows = {top: [(shown_d_star(g.d_star), g.conditioning, g.points.tolist())
-                  for g in plan_part(part, PlanParams(top=top)).grasps] for top in (1, 2, 10)}
-    assert sum(d == 0.5 for d, _, _ in rows[10]) >= 3  # the ties this is about
-    assert rows[1] == rows[10][:1] and rows[2] == rows[10][:2]
+                  for g in plan_part(part, PlanParams(top=top, mu=mu,
+                                                      contacts=7 if mu == 0 else 4)).grasps]
+            for top in (1, 2, 10, 30)}
+    assert sum(d == ties for d, _, _ in rows[30]) >= 3  # the ties this is about
+    for top in (1, 2, 10):
+        assert rows[top] == rows[30][:top]

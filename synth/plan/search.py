@@ -53,7 +53,7 @@ from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
 from synth.scores.quality import conditioning, epsilon_quality
-from synth.scores.surface import surface_scores, worst_reading
+from synth.scores.surface import differs, readings, surface_scores, worst_reading
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
            "PLACEMENT_SHARE", "PLACEMENT_SEED_SHARE", "SWAP_COST"]
@@ -94,10 +94,6 @@ _SWEEPS = 6
 _KEEP = 400
 #: Ranking by conditioning or epsilon chooses among this many times ``top`` of the best grasps.
 _CHOICE = 4
-#: Ranking by d*: grasps whose shown d* ties with the last of the ``top`` best still compete
-#: for their places (ties break by conditioning), up to this many more, so that the first
-#: grasps do not depend on ``top`` (a part of flat faces has many grasps of d* 0.5).
-_TIES = 32
 #: Seeds drawn and scored at a time: bounds the memory of the seed stage whatever ``evals``.
 _SEED_CHUNK = 32_768
 #: Share of ``PlanParams.time`` the search may use; the finger checks of the selection have
@@ -535,28 +531,49 @@ def part_weight(part: Part, prm: PlanParams) -> float | None:
     return prm.density * part.volume * metres**3 * GRAVITY
 
 
+def _conditionings(score: Scorer, archive: GraspBatch, rows: NDArray[np.int64],
+                   surface: str) -> NDArray[np.float64]:
+    """The reported conditioning (the weaker reading's, as :func:`worst_reading` takes it) of
+    the archive's grasps ``rows``, computed as one batch."""
+    P, N, S = archive.points[rows], archive.normals[rows], archive.smooth[rows]
+    sets = readings(N, S, surface)
+    out = np.asarray(conditioning(score.matrix(P, sets[0])), float).reshape(len(rows))
+    if len(sets) == 2:
+        other = np.asarray(conditioning(score.matrix(P, sets[1])), float).reshape(len(rows))
+        two = differs(N, S)
+        out = np.where(two, np.minimum(out, other), out)
+    return out
+
+
 def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
             deadline: float) -> tuple[list[PlannedGrasp], dict[str, int]]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
     ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
 
-    Up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then ranked, so
-    that ranking by conditioning or epsilon chooses among the best grasps, not among all;
-    ranking by d*, ``top`` of them and up to ``_TIES`` more whose shown d* ties with the last
-    (ties break by conditioning, among all the tied grasps gathered).
+    Ranking by d*, candidates are taken in the order of the ranking itself (shown d*, ties
+    by conditioning, computed for all at once), so the first grasps do not depend on
+    ``top``: asking for fewer gives the first rows of a longer list. Ranking by another
+    measure, up to ``_CHOICE`` times ``top`` such grasps are gathered in order of d*, then
+    ranked, so that it chooses among the best grasps, not among all.
     Candidates are checked 64 at a time; after ``deadline`` (a ``time.perf_counter()``
     value) no further block is started, and no further candidate is taken once one grasp is
     chosen, but the first block is always checked, so a search the clock cut still returns
     the best grasp it found when one of the 64 best passes the finger checks."""
     valid = np.flatnonzero((archive.fit > 0) & (archive.fit >= prm.min_d_star))
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
+    ranked_cond: dict[int, float] = {}  # ranking by d*: each candidate's conditioning
+    if prm.rank_by == "d_star" and len(order):
+        cond_all = _conditionings(score, archive, order, prm.surface)
+        shown = np.array([shown_d_star(float(d)) for d in archive.d[order]])
+        perm = np.lexsort((-cond_all, -shown))  # the ranking's own order, stable
+        order, cond_all = order[perm], cond_all[perm]
+        ranked_cond = dict(zip(order.tolist(), cond_all.tolist(), strict=True))
     weight = part_weight(part, prm)
     chosen: list[PlannedGrasp] = []
     picked: list[NDArray[np.float64]] = []
     rejected: dict[str, int] = {}
     min_gap = prm.diversity * part.length
     want = prm.top * (_CHOICE if prm.rank_by != "d_star" else 1)
-    tie: float | None = None  # the shown d* of the last of the top grasps, once they are in
 
     def conditioning_of(P: NDArray[np.float64], n: NDArray[np.float64]) -> float:
         return float(conditioning(score.matrix(P, n)))
@@ -577,8 +594,6 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
         for j, i in enumerate(block.tolist()):
             if chosen and time.perf_counter() > deadline:
                 break
-            if tie is not None and shown_d_star(float(archive.d[i])) < tie:
-                return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(
                     ch.isdigit() for ch in w)).split("(")[0].strip()
@@ -595,7 +610,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                           .max(initial=0.0))
             both = surface_scores(P[None], N[None], S[None], prm.surface, score.center,
                                   score.length, prm.mu, prm.edges, compiled=False)
-            cond = worst_reading(partial(conditioning_of, P), N, S, prm.surface)
+            cond = ranked_cond[i] if ranked_cond else worst_reading(
+                partial(conditioning_of, P), N, S, prm.surface)
             closure = "form" if prm.mu == 0 else "frictional form"
             eps = worst_reading(partial(epsilon_of, P), N, S, prm.surface)
             robust = contact_regions(part, P, N, mu=prm.mu, edges=prm.edges,
@@ -616,9 +632,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                        float(both.d_mesh[0]), float(both.d_smooth[0]),
                                        spw, model, least, margin))
             picked.append(P)
-            if len(chosen) == want and prm.rank_by == "d_star":
-                tie = shown_d_star(float(archive.d[i]))
-            if len(chosen) == want + (_TIES if prm.rank_by == "d_star" else 0):
+            if len(chosen) == want:
                 return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
     return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
 

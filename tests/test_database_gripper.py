@@ -259,3 +259,15 @@ def test_db_build_gripper_takes_its_rank_keys_and_resumes(meshes: Path, tmp_path
         assert db.params["rank_by"] == "mu_min"
         assert [g.pose.tolist() for g in db.top("cube", 5)] == [g["pose"] for g in
                                                                  doc["grasps"]]
+
+
+def test_a_gripper_build_checks_min_margin_as_the_command_line_does():
+    from synth.database.build import normalize_params
+
+    base = {"gripper": "franka", "units": "m"}
+    assert normalize_params({**base, "min_margin": 0})["min_margin"] is None  # 0: no floor
+    assert normalize_params({**base, "min_margin": 2})["min_margin"] == 2.0
+    assert normalize_params(base)["min_margin"] == 1.0
+    for bad in ("2", -1, float("nan"), True):
+        with pytest.raises(ValueError, match="min_margin"):
+            normalize_params({**base, "min_margin": bad})

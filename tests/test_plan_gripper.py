@@ -167,6 +167,9 @@ def test_the_margin_floor_keeps_what_the_hand_can_hold():
     best = free.grasps[0].least_squeeze
     light = plan_gripper(part, GripperParams(**base, mass=0.99 * F / best))
     assert light.grasps and light.grasps[0].margin >= 1.0
+    for rank_by in ("d_star", "mu_min", "epsilon"):  # the verdict does not follow the order
+        other = plan_gripper(part, GripperParams(**base, mass=0.99 * F / best, rank_by=rank_by))
+        assert other.grasps and min(g.margin for g in other.grasps) >= 1.0
     heavy = plan_gripper(part, GripperParams(**base, mass=1.01 * F / best))
     assert not heavy.grasps
     assert "too heavy for the Franka Hand" in heavy.message

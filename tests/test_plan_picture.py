@@ -161,7 +161,8 @@ def test_a_long_title_stays_inside_the_figure(cube):
     """A gripper plan's title (mesh name, hand, run id) is wider than one view: it wraps, the
     run id stays whole on one line, and every line's drawn extent is within the figure."""
     run = "run\u00a020261126T043215Z-2ce0a0c4"
-    title = "synth: a_long_mesh_file_name.stl: Franka Hand (Franka Emika Panda) grasps   " + run
+    title = ("synth: A_LONG_MESH_NAME_IN_CAPITALS_MMMWWW_0123456789.STL: Franka Hand (Franka "
+             "Emika Panda) grasps   " + run)  # capitals and digits: the widest characters
     fig = draw_grasps(cube, [], title, "no grasp")
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()

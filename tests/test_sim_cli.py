@@ -247,17 +247,25 @@ def test_a_ranking_without_a_unit_takes_its_scale_and_one_with_no_landing_is_ref
     from synth.sim.document import ranking_as_jaw_document
 
     contact = {"point": [0.0, 0.0, 0.0], "normal": [1.0, 0.0, 0.0]}
-    ok = {"status": "ok", "contacts": [contact, contact], "measures": {"d_star": 1.0}}
+    ok = {"status": "ok", "pose": [[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]],
+          "width": 40.0, "contacts": [contact, contact], "measures": {"d_star": 1.0}}
     doc = {"format": "synth.ranked_gripper", "version": 1,
            "mesh": {"path": "m.obj", "units": None, "metres_per_unit": 0.00025, "length": 600.0,
                     "load": {"units": None, "body": "largest", "sharp_angle": 30.0,
                              "decimate": None}},
-           "gripper": {"name": "franka"}, "model": {"mu": 0.5, "torsion": 20.0},
+           "gripper": {"name": "franka", "source": "franka"},
+           "model": {"mu": 0.5, "torsion": 20.0},
            "candidates": [{"status": "collision"}, ok]}
     jaws, rows = ranking_as_jaw_document(doc, "r.json")
     assert rows == [1] and jaws["grasps"] == [ok]
     assert jaws["mesh"]["units"] == jaws["mesh"]["load"]["units"] == "0.00025*m"
     assert doc["mesh"]["units"] is None  # the ranking itself is left as it was
+    doc["candidates"] = [{"status": "collision"}, {**ok, "pose": [[1.0, 2.0]]}]
+    with pytest.raises(ValueError, match=r"candidates\[1\]\.pose: expected a 4 x 4 matrix"):
+        ranking_as_jaw_document(doc, "r.json")  # named by its place among the candidates
     doc["candidates"] = [{"status": "collision"}]
     with pytest.raises(ValueError, match="none of its 1 candidates landed"):
+        ranking_as_jaw_document(doc, "r.json")
+    doc["candidates"], doc["mesh"] = [ok], "m.obj"
+    with pytest.raises(ValueError, match="field mesh: expected an object"):
         ranking_as_jaw_document(doc, "r.json")

@@ -296,6 +296,13 @@ def _gripper_params(params: dict[str, Any]) -> dict[str, Any]:
     if isinstance(out["mu"], bool) or not isinstance(out["mu"], (int, float)) or not (
             0 < out["mu"] < float("inf")):
         raise InputError(f"planner parameter 'mu' must be a number > 0, got {out['mu']!r}")
+    margin = out["min_margin"]
+    if margin is not None:
+        if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not (
+                0 <= margin < float("inf")):
+            raise InputError("planner parameter 'min_margin' must be a number >= 0 or None, "
+                             f"got {margin!r}")
+        out["min_margin"] = float(margin) or None  # 0: no floor, stored as the CLI stores it
     return out
 
 

@@ -393,13 +393,20 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     if len(pool.spw):
         size = DISTINCT_RTOL * part.length
         ranked = np.arange(len(pool.spw))
-        if params.rank_by == "margin":  # refine the best; the originals stay in the pool
-            head = pool.take(_distinct(pool.points, ranked, size, REFINE_TOP))
+        floor = mass is not None and bool(params.min_margin)
+        if params.rank_by == "margin" or floor:  # refine the least squeezes; originals stay
+            least = ranked if params.rank_by == "margin" else np.argsort(pool.spw,
+                                                                         kind="stable")
+            head = pool.take(_distinct(pool.points, least, size, REFINE_TOP))
             moved = refine(head, part, gripper, checker, params.mu, gamma, params.gravity,
                            params.edges)
-            pool = Scored(*(np.concatenate([getattr(moved, f), getattr(pool, f)])
-                            for f in Scored.__dataclass_fields__))
-            ranked = np.argsort(pool.spw, kind="stable")
+            if params.rank_by == "margin":
+                pool = _joined(moved, pool)
+                ranked = np.argsort(pool.spw, kind="stable")
+            else:  # ranked by another measure: the refined poses count for the floor only,
+                # after the originals (so a part is called too heavy on its least squeeze)
+                pool = _joined(pool, moved)
+                ranked = np.arange(len(pool.spw))
         if mass is not None and params.min_margin:  # the floor: a squeeze within the grip
             within = pool.spw[ranked] * mass * GRAVITY * params.min_margin <= gripper.grip_force
             counts["within_grip"] = int(within.sum())
@@ -411,10 +418,12 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
             grasps = grasp_results(best, part, gripper, params, gamma, mass)
     message = _message(gripper, grasps, counts, narrowest, mass, part.units)
     if heavy is not None:
+        where = ("in every orientation" if params.gravity is None else
+                 "against gravity along --gravity")
         message = (f"no grasp: the part ({mass:.4g} kg) is too heavy for the "
                    f"{gripper.title}'s rated {gripper.grip_force:g} N: of "
                    f"{counts['closure']} closing grasps, the best needs a squeeze of "
-                   f"{heavy:.3g} N to hold it in every orientation"
+                   f"{heavy:.3g} N to hold it {where}"
                    f" (margin {gripper.grip_force / heavy:.2f}, below --min-margin "
                    f"{params.min_margin:g}); --min-margin 0 returns them anyway")
     cone = cone_name(params.edges, gamma > 0)
@@ -620,6 +629,12 @@ def grasp_results(best: Scored, part: Any, gripper: Gripper, params: GripperPara
             worst_gravity=best.worst[j], least_squeeze=least,
             margin=None if least is None else gripper.grip_force / least))
     return out
+
+
+def _joined(first: Scored, then: Scored) -> Scored:
+    """The rows of ``first``, then those of ``then``."""
+    return Scored(*(np.concatenate([getattr(first, f), getattr(then, f)])
+                    for f in Scored.__dataclass_fields__))
 
 
 def _message(gripper: Gripper, grasps: list[GripperGrasp], counts: dict[str, int],

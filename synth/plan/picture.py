@@ -314,7 +314,7 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     titles = [_wrap(row.title, W // 7) for row, _, _ in plans]  # 9-point characters
     heights = [_ROW_TITLE + 14 * t.count("\n") + _VIEW_TITLE + size + _GAP for t in titles]
     scale = unit if part.units else "the file's units (unknown)"
-    head = _wrap(title, W // 9) + (  # 10-point characters
+    head = _wrap(title, W // 11) + (  # 10-point characters, capitals and digits included
         f"\nsolid: in view; faded, dashed: behind the part; scale bar in {scale}")
     head_height = _HEAD + 16 * (head.count("\n") - 1)
     H = head_height + sum(heights)

@@ -294,12 +294,14 @@ def load_keywords(mesh: dict[str, Any], name: str) -> dict[str, Any]:
 JAW_FORMAT = "synth.gripper_grasps"
 
 
-def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
+def check_jaw_document(doc: Any, name: str = "<document>",
+                       labels: list[str] | None = None) -> dict[str, Any]:
     """Check that a gripper grasp document (``synth.gripper_grasps``, version 1) has what
     the simulation reads: ``mesh.units`` and ``mesh.length`` (and ``mesh.body`` and
-    ``mesh.sharp_angle`` where written), ``model.mu`` (> 0: soft contacts need friction) and
-    ``model.torsion``, and per grasp two contacts (``point``, unit ``normal``) and
-    ``measures.d_star``.
+    ``mesh.sharp_angle`` where written), ``gripper.source``, ``model.mu`` (> 0: soft contacts
+    need friction) and ``model.torsion``, and per grasp its ``pose`` (4 x 4), ``width``, two
+    contacts (``point``, unit ``normal``) and ``measures.d_star``. ``labels`` names each
+    grasp in messages (default ``grasps[i]``).
 
     Returns
     -------
@@ -319,6 +321,15 @@ def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
         raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
                          "from another version of synth)")
     mesh = _get(doc, "mesh", "", name)
+    if not isinstance(mesh, dict):
+        raise InputError(f"{_where(name, 'mesh')}: expected an object, got {shown(mesh)}")
+    gripper = doc.get("gripper")
+    params = doc.get("params")
+    source = (gripper.get("source") if isinstance(gripper, dict) else None) or (
+        params.get("gripper") if isinstance(params, dict) else None)
+    if not isinstance(source, str) or not source:
+        raise InputError(f"{_where(name, 'gripper.source')}: expected the gripper's name or "
+                         f"description file, got {shown(source)}")
     units = _get(mesh, "units", "mesh", name)
     from synth.part.load import length_unit
 
@@ -347,7 +358,16 @@ def check_jaw_document(doc: Any, name: str = "<document>") -> dict[str, Any]:
         raise InputError(f"{_where(name, 'grasps')}: expected a list of at least one grasp, "
                          f"got {shown(grasps)}")
     for i, g in enumerate(grasps):
-        where = f"grasps[{i}]"
+        where = labels[i] if labels is not None else f"grasps[{i}]"
+        pose = _get(g, "pose", where, name)
+        try:
+            T = np.asarray(pose, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            T = np.zeros(0)
+        if T.shape != (4, 4) or not np.isfinite(T).all():
+            raise InputError(f"{_where(name, f'{where}.pose')}: expected a 4 x 4 matrix of "
+                             f"finite numbers, got {shown(pose)}")
+        _number(_get(g, "width", where, name), f"{where}.width", name, 0.0)
         contacts = _get(g, "contacts", where, name)
         if not isinstance(contacts, list) or len(contacts) != 2:
             raise InputError(f"{_where(name, f'{where}.contacts')}: expected two contacts, got "
@@ -396,7 +416,10 @@ def ranking_as_jaw_document(doc: Any, name: str = "<document>") -> tuple[dict[st
     if not rows:
         raise InputError(f"{name}: none of its {len(candidates)} candidates landed on the part "
                          "(status ok), so there is nothing to simulate")
-    mesh = dict(_get(doc, "mesh", "", name))
+    mesh = _get(doc, "mesh", "", name)
+    if not isinstance(mesh, dict):
+        raise InputError(f"{_where(name, 'mesh')}: expected an object, got {shown(mesh)}")
+    mesh = dict(mesh)
     if mesh.get("units") is None:
         scale = _number(_get(mesh, "metres_per_unit", "mesh", name), "mesh.metres_per_unit",
                         name, 0.0, True)
@@ -406,7 +429,7 @@ def ranking_as_jaw_document(doc: Any, name: str = "<document>") -> tuple[dict[st
     jaws = {"format": JAW_FORMAT, "version": 1, "mesh": mesh,
             "gripper": _get(doc, "gripper", "", name), "model": _get(doc, "model", "", name),
             "grasps": [candidates[i] for i in rows]}
-    return check_jaw_document(jaws, name), rows
+    return check_jaw_document(jaws, name, [f"candidates[{i}]" for i in rows]), rows
 
 
 def read_grasp_file(path: str | os.PathLike[str]) -> GraspFile:

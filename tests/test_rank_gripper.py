@@ -144,3 +144,36 @@ def test_a_pad_resting_on_its_rim_says_so_in_the_json():
     assert [c["touch"] for c in contacts] == ["rim", "pad"]
     assert np.allclose(contacts[0]["normal"], [-np.cos(a), -np.sin(a), 0.0], atol=1e-9)
     assert np.allclose(contacts[1]["normal"], [1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_an_acronym_file_gives_its_object_mass_unless_mass_is_given(tmp_path, capsys):
+    """ACRONYM stores the object's mass (``object/mass``): ranking its poses weighs the part
+    with it, as ACRONYM's own simulation did; ``--mass`` overrides it, and a NaN (synth's
+    export of a build without a mass) is no mass."""
+    h5py = pytest.importorskip("h5py")
+    from pathlib import Path
+
+    mesh = Path(__file__).resolve().parents[1] / "meshes" / "corpus" / "robosuite_bread.stl"
+    part = load_part(mesh, units="m")
+    plan = plan_gripper(part, GripperParams(top=3, samples=100))
+    poses = np.array([g.pose for g in plan.grasps])
+    g = 9.80665
+    for stored, given, want in ((0.25, None, 0.25), (0.25, "0.5", 0.5), (np.nan, None, None)):
+        h5 = tmp_path / "obj.h5"
+        with h5py.File(h5, "w") as f:
+            f["grasps/transforms"] = poses
+            f["object/scale"] = 1.0
+            f["object/mass"] = stored
+        out = tmp_path / "r.json"
+        args = ["rank", str(mesh), str(h5), "--gripper", "franka", "--units", "m", "--out",
+                str(out), "--quiet"] + (["--mass", given] if given else [])
+        assert main(args) == 0
+        capsys.readouterr()
+        doc = json.loads(out.read_text())
+        assert doc["model"]["mass"] == want
+        for c in doc["candidates"]:
+            m = c["measures"]
+            if want is None:
+                assert m["least_squeeze"] is None
+            else:
+                assert m["least_squeeze"] == pytest.approx(m["squeeze_per_weight"] * want * g)

@@ -102,6 +102,13 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
         more = f" (and {len(poses.errors) - 1} more malformed)" if len(poses.errors) > 1 else ""
         first = poses.errors[0][1] if poses.errors else f"{args.candidates}: no poses"
         raise InputError(f"no candidate could be used: {first}{more}")
+    if params.mass is None and params.density is None and poses.object_mass is not None:
+        from dataclasses import replace
+
+        params = replace(params, mass=poses.object_mass)  # the file's own object mass
+        if not args.quiet:
+            print(f"mass: {poses.object_mass:.6g} kg, the pose file's object mass (--mass "
+                  "overrides it)", file=sys.stderr)
     part = load_part_from_args(args)
     metres = None if part.units is None else float(
         trimesh.units.unit_conversion(part.units, "meters"))
@@ -126,6 +133,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                     "load": load_record(part)},
            "poses": {"path": poses.path, "format": poses.format, "unit": poses.unit_name,
                      "object_scale": poses.object_scale, "object_file": poses.object_file,
+                     "object_mass": poses.object_mass,
                      "label": poses.label_name, "applied": where.applied},
            "gripper": ranking.gripper.to_json(),
            "model": {"mu": p.mu, "torsion": ranking.torsion, "mass": ranking.mass,

@@ -101,8 +101,13 @@ def read_acronym(path: str | Path) -> GripperPoses:
             raise InputError(f"{where}: dataset 'grasps/widths' has shape {widths.shape}, "
                              f"expected ({len(T)},)")
         obj = _text(f["object/file"][()]) if "object/file" in f else None
+        mass = None
+        if "object/mass" in f:  # NaN where synth's own export had no mass: none
+            m = np.asarray(f["object/mass"][()], float).reshape(-1)
+            mass = float(m[0]) if m.size == 1 and np.isfinite(m[0]) and m[0] > 0 else None
     poses = GripperPoses(where, "acronym", T, tuple(str(i) for i in range(len(T))), 1.0, "m",
-                         scale, obj, widths, labels, LABEL if labels is not None else None)
+                         scale, obj, widths, labels, LABEL if labels is not None else None,
+                         object_mass=mass)
     return poses.with_checks("grasps/transforms[{i}]")
 
 

@@ -159,6 +159,8 @@ class GripperPoses:
         The file's own verdict or confidence per pose.
     label_name : str or None
         Where ``labels`` come from (``grasps/qualities/flex/object_in_gripper``, ...).
+    object_mass : float or None
+        The object's mass in kg, when the file gives one (ACRONYM's ``object/mass``).
     errors : tuple of (int, str)
         ``(index, message)`` of every malformed pose; the message names the file and the field.
     """
@@ -175,6 +177,7 @@ class GripperPoses:
     labels: NDArray[np.float64] | None = field(default=None, repr=False)
     label_name: str | None = None
     errors: tuple[tuple[int, str], ...] = ()
+    object_mass: float | None = None
 
     def with_checks(self, pose_field: str) -> GripperPoses:
         """The same poses with every malformed pose (:func:`check_poses`) in ``errors``,

@@ -145,11 +145,25 @@ def test_synth_sim_finds_the_planned_mesh_from_any_folder(tmp_path, capsys, monk
     assert main(["plan", "cube.stl", "--units", "cm", "--gripper", "franka", "--top", "1",
                  "--samples", "40", "--out", "plans/g.json", "--quiet"]) == 0
     monkeypatch.chdir(tmp_path / "elsewhere")
+    (tmp_path / "elsewhere" / "copies").mkdir()
     for name in ("p.json", "g.json"):
         capsys.readouterr()
         assert main(["sim", f"../plans/{name}", "--sim-shake", "0", "--no-files",
                      "--quiet"]) == 0, capsys.readouterr().err
         assert "1 of 1 grasps held" in capsys.readouterr().out
+        # a labelled copy written into another folder names the mesh from there
+        assert main(["sim", f"../plans/{name}", "--sim-shake", "0", "--quiet",
+                     "--out", f"copies/{name}"]) == 0
+        stored = json.loads((tmp_path / "elsewhere" / "copies" / name).read_text())
+        assert (tmp_path / "elsewhere" / "copies" / stored["mesh"]["path"]).resolve() == \
+            mesh.resolve()
+    # a mesh that moved is named, with the option that finds it
+    mesh.rename(tmp_path / "moved.stl")
+    for name in ("p.json", "g.json"):
+        capsys.readouterr()
+        assert main(["sim", f"../plans/{name}", "--no-files"]) == 2
+        err = _one_line(capsys.readouterr().err)
+        assert "no such file" in err and "--mesh" in err
 
 
 @pytest.mark.parametrize("split", ["normal", "uv"])

@@ -172,17 +172,18 @@ def run(args: argparse.Namespace) -> int:
         require(args.mesh, MESH)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
-        labelled = _simulate_jaws(args, check_jaw_document(doc, str(args.grasps)), settings)
-        _write(args, labelled, out)
+        labelled, mesh = _simulate_jaws(args, check_jaw_document(doc, str(args.grasps)),
+                                        settings)
+        _write(args, labelled, out, mesh)
         return 0
     if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
         # a ranking of poses from elsewhere: the candidates that landed get their labels
         jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
-        labelled = _simulate_jaws(args, jaws, settings)
+        labelled, mesh = _simulate_jaws(args, jaws, settings)
         for i, g in zip(rows, labelled["grasps"], strict=True):
             doc["candidates"][i]["sim"] = g["sim"]
         doc["sim"] = labelled["sim"]
-        _write(args, doc, out, shown=labelled)
+        _write(args, doc, out, mesh, shown=labelled)
         return 0
     file = check_document(doc, str(args.grasps))
     if args.mesh is not None:
@@ -198,15 +199,15 @@ def run(args: argparse.Namespace) -> int:
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
-    _write(args, labelled_document(file, report), out)
+    _write(args, labelled_document(file, report), out, file.mesh_path)
     return 0
 
 
-def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> dict:
+def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> tuple[dict, Path]:
     """``synth sim`` of a gripper grasp document: its pads, as :func:`synth.sim.
     simulate_jaw_document` builds them, on the mesh the file names (or ``--mesh``), loaded
     as its ``mesh.load`` says (else its ``units``, ``body`` and ``sharp_angle``); the
-    labelled document."""
+    labelled document, and the mesh file simulated."""
     import numpy as np
 
     from synth.cli.progress import LineProgress
@@ -223,6 +224,9 @@ def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> dict:
     if path is None:
         raise InputError(f"{args.grasps}: a gripper grasp file of an older synth does not "
                          "record its mesh's path: name the mesh it was planned on with --mesh")
+    if args.mesh is None and not Path(path).is_file():
+        raise InputError(f"{path}: no such file (the mesh {args.grasps} names; --mesh gives "
+                         "its new place)")
     if args.mu is not None and args.mu <= 0:
         raise InputError(f"--mu: a gripper's soft contacts need friction: expected mu > 0, got "
                          f"{args.mu:g}")
@@ -267,14 +271,20 @@ def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> dict:
                                          progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
-    return labelled
+    return labelled, Path(path)
 
 
-def _write(args: argparse.Namespace, doc: dict, out: Path | None,
+def _write(args: argparse.Namespace, doc: dict, out: Path | None, mesh: Path,
            shown: dict | None = None) -> None:
     """Write the labelled document to ``out`` and print the table of ``shown`` (default
-    ``doc``), or the JSON."""
+    ``doc``), or the JSON. The written file names ``mesh``, the mesh simulated, relative to
+    its own folder (:func:`synth.paths.stored_mesh_path`), so that it resolves wherever the
+    file was written."""
     from synth.files import write_atomic
+    from synth.paths import stored_mesh_path
+
+    if out is not None and isinstance(doc.get("mesh"), dict):
+        doc["mesh"]["path"] = stored_mesh_path(mesh, out)
 
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:

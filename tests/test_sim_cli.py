@@ -187,6 +187,7 @@ def test_split_vertex_obj_files_are_labelled_as_their_welded_copy(tmp_path, caps
 def test_a_simulation_synth_cannot_run_keeps_the_plan(tmp_path, capsys, monkeypatch):
     # synth's own failure (here a MuJoCo compile's) is never bad input and never loses the
     # plan: the files are written and each grasp's label says why it was not simulated
+    import synth.sim.jaws  # noqa: F401  (imported first, it keeps the real compile_spec)
     import synth.sim.scene as scene
 
     def broken(spec):
@@ -283,3 +284,26 @@ def test_a_ranking_without_a_unit_takes_its_scale_and_one_with_no_landing_is_ref
     doc["candidates"], doc["mesh"] = [ok], "m.obj"
     with pytest.raises(ValueError, match="field mesh: expected an object"):
         ranking_as_jaw_document(doc, "r.json")
+
+
+def test_top_simulates_the_first_grasps_and_leaves_no_stale_label(tmp_path, capsys):
+    """``--top N`` simulates a file's first N grasps (a ranking's first N that landed); the
+    others carry no label afterwards, not even one of an earlier run."""
+    mesh = ROOT / "meshes" / "cube.stl"
+    plan = tmp_path / "plan.json"
+    assert main(["plan", str(mesh), "--units", "cm", "--gripper", "franka", "--samples", "60",
+                 "--top", "3", "--out", str(plan), "--quiet"]) == 0
+    ranked = tmp_path / "ranked.json"
+    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "cm",
+                 "--out", str(ranked), "--quiet"]) == 0
+    points = tmp_path / "points.json"
+    assert main(["plan", str(mesh), "--units", "cm", "--evals", "2000", "--top", "3",
+                 "--out", str(points), "--quiet"]) == 0
+    for path, key in ((plan, "grasps"), (ranked, "candidates"), (points, "grasps")):
+        assert main(["sim", str(path), "--sim-shake", "0", "--quiet"]) == 0
+        assert all("sim" in g for g in json.loads(path.read_text())[key])
+        assert main(["sim", str(path), "--sim-shake", "0", "--quiet", "--top", "1"]) == 0
+        assert "1 of 1 grasps held" in capsys.readouterr().out
+        assert ["sim" in g for g in json.loads(path.read_text())[key]] == [True, False, False]
+    assert main(["sim", str(plan), "--top", "1001", "--no-files"]) == 2
+    assert "--top" in _one_line(capsys.readouterr().err)

@@ -8,7 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import output_path, real
-from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
+from synth.cli.vocabulary import add_json, add_out, add_quiet, check_top, exit_epilog
+from synth.limits import MAX_TOP
 
 __all__ = ["add_parser", "add_sim_options", "run", "format_sim_table", "settings_from_args",
            "summary"]
@@ -96,6 +97,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     p.add_argument("--mesh", default=None, metavar="MESH",
                    help="the mesh file, when it is no longer where the grasp file's mesh.path "
                    "says (it must have the same content)")
+    p.add_argument("--top", type=int, default=0, metavar="N",
+                   help=f"simulate only the file's first N grasps (a ranking: its first N "
+                   f"that landed), best first, 1 to {MAX_TOP:,}, or 0 for all (default 0); "
+                   "the others are left without a label (an earlier one is removed: the file's "
+                   "labels are all of one run)")
     p.add_argument("--mu", type=float, default=None, metavar="MU",
                    help=f"simulate with this friction coefficient, in [0, {MAX_MU:g}] "
                    "(default: the grasps' own)")
@@ -166,26 +172,39 @@ def run(args: argparse.Namespace) -> int:
     )
 
     real("--mu", args.mu, 0, MAX_MU)
+    check_top(args.top, listing=True)
+    first = args.top or None  # how many grasps to simulate (None: all)
     settings = settings_from_args(args)
     doc = read_json(args.grasps, GRASPS)
     if args.mesh is not None:
         require(args.mesh, MESH)
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
-        labelled, mesh = _simulate_jaws(args, check_jaw_document(doc, str(args.grasps)),
+        check_jaw_document(doc, str(args.grasps))
+        labelled, mesh = _simulate_jaws(args, {**doc, "grasps": doc["grasps"][:first]},
                                         settings)
-        _write(args, labelled, out, mesh)
+        for k, g in enumerate(doc["grasps"]):  # the labels of this run only
+            g.pop("sim", None)
+            if k < len(labelled["grasps"]):
+                g["sim"] = labelled["grasps"][k]["sim"]
+        doc["sim"] = labelled["sim"]
+        _write(args, doc, out, mesh, shown=labelled)
         return 0
     if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
         # a ranking of poses from elsewhere: the candidates that landed get their labels
         jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
+        jaws["grasps"], rows = jaws["grasps"][:first], rows[:first]
         labelled, mesh = _simulate_jaws(args, jaws, settings)
+        for c in doc["candidates"]:  # the labels of this run only
+            if isinstance(c, dict):
+                c.pop("sim", None)
         for i, g in zip(rows, labelled["grasps"], strict=True):
             doc["candidates"][i]["sim"] = g["sim"]
         doc["sim"] = labelled["sim"]
         _write(args, doc, out, mesh, shown=labelled)
         return 0
     file = check_document(doc, str(args.grasps))
+    file = replace(file, grasps=file.grasps[:first])
     if args.mesh is not None:
         file = replace(file, mesh_path=Path(args.mesh))
     require_sim()
@@ -199,7 +218,9 @@ def run(args: argparse.Namespace) -> int:
                                progress=lambda i, n: bar(i / n, f"grasp {i} of {n}"))
     finally:
         bar.close()
-    _write(args, labelled_document(file, report), out, file.mesh_path)
+    labelled = labelled_document(file, report)
+    _write(args, labelled, out, file.mesh_path,
+           shown={**labelled, "grasps": labelled["grasps"][:len(report.labels)]})
     return 0
 
 

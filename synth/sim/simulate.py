@@ -221,9 +221,13 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
 
 
 def labelled_document(file: GraspFile, report: SimReport) -> dict[str, Any]:
-    """The grasp document with each grasp's ``sim`` label and the run's ``sim`` summary."""
+    """The grasp document with each grasp's ``sim`` label and the run's ``sim`` summary
+    (``file`` may hold the document's first grasps only: the others are left without a
+    label, an earlier one removed, so that the document's labels are all of this run)."""
     doc = copy.deepcopy(file.document)
-    for g, lab in zip(doc["grasps"], report.labels, strict=True):
+    for g in doc["grasps"][len(report.labels):]:
+        g.pop("sim", None)
+    for g, lab in zip(doc["grasps"][: len(report.labels)], report.labels, strict=True):
         g["sim"] = lab.to_dict()
     doc["sim"] = report.to_dict()
     return doc

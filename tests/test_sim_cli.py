@@ -307,3 +307,27 @@ def test_top_simulates_the_first_grasps_and_leaves_no_stale_label(tmp_path, caps
         assert ["sim" in g for g in json.loads(path.read_text())[key]] == [True, False, False]
     assert main(["sim", str(plan), "--top", "1001", "--no-files"]) == 2
     assert "--top" in _one_line(capsys.readouterr().err)
+
+
+def test_a_gripper_description_file_is_found_from_anywhere(tmp_path, capsys, monkeypatch):
+    """A plan made with a gripper description file stores it relative to the plan (as the
+    mesh), so synth sim finds it from another folder, and a labelled copy written elsewhere
+    names it from there."""
+    for d in ("hands", "plans", "elsewhere", "copies"):
+        (tmp_path / d).mkdir()
+    hand = tmp_path / "hands" / "my_2f85.json"  # boxes only: no mesh files beside it
+    hand.write_text((ROOT / "synth" / "fingers" / "grippers" / "robotiq_2f85.json").read_text())
+    mesh = tmp_path / "cube.stl"
+    mesh.write_bytes((ROOT / "meshes" / "cube.stl").read_bytes())
+    monkeypatch.chdir(tmp_path)
+    assert main(["plan", "cube.stl", "--units", "cm", "--gripper", "hands/my_2f85.json",
+                 "--top", "1", "--samples", "40", "--out", "plans/g.json", "--quiet"]) == 0
+    stored = json.loads((tmp_path / "plans" / "g.json").read_text())["gripper"]["source"]
+    assert (tmp_path / "plans" / stored).resolve() == hand.resolve()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    capsys.readouterr()
+    assert main(["sim", "../plans/g.json", "--sim-shake", "0", "--quiet",
+                 "--out", "../copies/g.json"]) == 0, capsys.readouterr().err
+    copy = json.loads((tmp_path / "copies" / "g.json").read_text())
+    assert (tmp_path / "copies" / copy["gripper"]["source"]).resolve() == hand.resolve()
+    assert copy["grasps"][0]["sim"]["held"] is True

@@ -16,7 +16,8 @@ from synth.errors import OptionError
 from synth.limits import MAX_LENGTH
 
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
-           "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table"]
+           "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table",
+           "store_gripper_source"]
 
 _ONLY_GRIPPER = ("gravity", "torsion", "samples", "min_margin")
 #: Most surface points a gripper plan may draw (``--samples``).
@@ -143,6 +144,17 @@ def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
     return "\n".join(lines)
 
 
+def store_gripper_source(doc: dict[str, Any], out: Path | None) -> None:
+    """A gripper description given as a file is stored in ``doc["gripper"]["source"]``
+    relative to the file ``out`` that will hold the document (as its mesh is), so that
+    ``synth sim`` finds it from anywhere; a built-in name stays as it is."""
+    from synth.paths import stored_mesh_path
+
+    source = doc.get("gripper", {}).get("source")
+    if isinstance(source, str) and Path(source).suffix and Path(source).is_file():
+        doc["gripper"]["source"] = stored_mesh_path(source, out)
+
+
 def gripper_params(args: argparse.Namespace) -> Any:
     """The :class:`synth.plan.gripper.GripperParams` of checked gripper options (``synth
     plan --gripper`` and ``synth db build --gripper``)."""
@@ -210,6 +222,7 @@ def run_gripper(args: argparse.Namespace) -> int:
         from synth.cli.plan import simulate_planned
 
         doc = simulate_planned(doc, args.mesh, part, settings, args.quiet)
+    store_gripper_source(doc, None if paths is None else paths[0])
     text = json.dumps(doc, indent=1) + "\n"
     if paths is not None:
         with atomic_paths(paths) as (tmp_out, tmp_png, tmp_glb):

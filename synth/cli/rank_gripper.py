@@ -123,6 +123,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                                  None if shown_n == 0 else shown_n, where.widths)
     rows = list(ranking.rows)
     p = params
+    from synth.cli.gripper import store_gripper_source
     from synth.paths import stored_mesh_path
     from synth.plan.result import load_record
 
@@ -144,6 +145,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                      "ranked grasps (--top; null for the others)"},
            "counts": ranking.counts, "seconds": ranking.seconds,
            "candidates": [r.to_dict() for r in rows]}
+    store_gripper_source(doc, out)
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:
         write_atomic(out, text)

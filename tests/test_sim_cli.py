@@ -231,16 +231,21 @@ def test_fields_the_simulation_does_not_read_are_left_alone(tmp_path, capsys):
     assert json.loads(path.read_text())["grasps"][0]["measures"] == "x"
 
 
+def _plan_and_rank(mesh: Path, folder: Path, top: int) -> tuple[Path, Path]:
+    """A Franka plan of ``mesh`` (in cm) and the ranking of its own poses, as files."""
+    plan, ranked = folder / "plan.json", folder / "ranked.json"
+    assert main(["plan", str(mesh), "--units", "cm", "--gripper", "franka", "--samples", "60",
+                 "--top", str(top), "--out", str(plan), "--quiet"]) == 0
+    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "cm",
+                 "--out", str(ranked), "--quiet"]) == 0
+    return plan, ranked
+
+
 def test_a_ranking_of_poses_from_elsewhere_is_simulated(tmp_path, capsys):
     """``synth rank --gripper`` of a plan's own poses, then ``synth sim`` of the ranking: the
     candidates that landed get the labels the plan's grasps get, in place; the others none."""
     mesh = ROOT / "meshes" / "cube.stl"
-    plan = tmp_path / "plan.json"
-    assert main(["plan", str(mesh), "--units", "cm", "--gripper", "franka", "--samples", "60",
-                 "--top", "2", "--out", str(plan), "--quiet"]) == 0
-    ranked = tmp_path / "ranked.json"
-    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "cm",
-                 "--out", str(ranked), "--quiet"]) == 0
+    plan, ranked = _plan_and_rank(mesh, tmp_path, 2)
     doc = json.loads(ranked.read_text())
     doc["candidates"].append({**doc["candidates"][0], "status": "collision", "index": 2})
     ranked.write_text(json.dumps(doc))
@@ -290,12 +295,7 @@ def test_top_simulates_the_first_grasps_and_leaves_no_stale_label(tmp_path, caps
     """``--top N`` simulates a file's first N grasps (a ranking's first N that landed); the
     others carry no label afterwards, not even one of an earlier run."""
     mesh = ROOT / "meshes" / "cube.stl"
-    plan = tmp_path / "plan.json"
-    assert main(["plan", str(mesh), "--units", "cm", "--gripper", "franka", "--samples", "60",
-                 "--top", "3", "--out", str(plan), "--quiet"]) == 0
-    ranked = tmp_path / "ranked.json"
-    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "cm",
-                 "--out", str(ranked), "--quiet"]) == 0
+    plan, ranked = _plan_and_rank(mesh, tmp_path, 3)
     points = tmp_path / "points.json"
     assert main(["plan", str(mesh), "--units", "cm", "--evals", "2000", "--top", "3",
                  "--out", str(points), "--quiet"]) == 0

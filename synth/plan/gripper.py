@@ -393,8 +393,10 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     if len(pool.spw):
         size = DISTINCT_RTOL * part.length
         ranked = np.arange(len(pool.spw))
-        floor = mass is not None and bool(params.min_margin)
-        if params.rank_by == "margin" or floor:  # refine the least squeezes; originals stay
+        # the physical floor, as the largest squeeze per weight within the rated grip
+        limit = None if mass is None or not params.min_margin else (
+            gripper.grip_force / (params.min_margin * mass * GRAVITY))
+        if params.rank_by == "margin" or limit is not None:  # refine the least squeezes
             least = ranked if params.rank_by == "margin" else np.argsort(pool.spw,
                                                                          kind="stable")
             head = pool.take(_distinct(pool.points, least, size, REFINE_TOP))
@@ -407,8 +409,8 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
                 # after the originals (so a part is called too heavy on its least squeeze)
                 pool = _joined(pool, moved)
                 ranked = np.arange(len(pool.spw))
-        if mass is not None and params.min_margin:  # the floor: a squeeze within the grip
-            within = pool.spw[ranked] * mass * GRAVITY * params.min_margin <= gripper.grip_force
+        if limit is not None and mass is not None:
+            within = pool.spw[ranked] <= limit
             counts["within_grip"] = int(within.sum())
             if not within.any():
                 heavy = float(pool.spw.min()) * mass * GRAVITY

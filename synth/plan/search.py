@@ -53,7 +53,7 @@ from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
 from synth.scores import describe_twist, form_closure, form_closure_batch, frictional_form_closure
 from synth.scores.quality import conditioning, epsilon_quality
-from synth.scores.surface import differs, readings, surface_scores, worst_reading
+from synth.scores.surface import surface_scores, worst_reading, worst_reading_batch
 
 __all__ = ["plan_part", "rank_grasps", "Progress", "SEED_SHARE", "POOL_SHARE", "SURFACE_SHARE",
            "PLACEMENT_SHARE", "PLACEMENT_SEED_SHARE", "SWAP_COST"]
@@ -531,20 +531,6 @@ def part_weight(part: Part, prm: PlanParams) -> float | None:
     return prm.density * part.volume * metres**3 * GRAVITY
 
 
-def _conditionings(score: Scorer, archive: GraspBatch, rows: NDArray[np.int64],
-                   surface: str) -> NDArray[np.float64]:
-    """The reported conditioning (the weaker reading's, as :func:`worst_reading` takes it) of
-    the archive's grasps ``rows``, computed as one batch."""
-    P, N, S = archive.points[rows], archive.normals[rows], archive.smooth[rows]
-    sets = readings(N, S, surface)
-    out = np.asarray(conditioning(score.matrix(P, sets[0])), float).reshape(len(rows))
-    if len(sets) == 2:
-        other = np.asarray(conditioning(score.matrix(P, sets[1])), float).reshape(len(rows))
-        two = differs(N, S)
-        out = np.where(two, np.minimum(out, other), out)
-    return out
-
-
 def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
             deadline: float) -> tuple[list[PlannedGrasp], dict[str, int]]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
@@ -563,7 +549,10 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     order = valid[np.argsort(-archive.fit[valid], kind="stable")]
     ranked_cond: dict[int, float] = {}  # ranking by d*: each candidate's conditioning
     if prm.rank_by == "d_star" and len(order):
-        cond_all = _conditionings(score, archive, order, prm.surface)
+        P = archive.points[order]
+        cond_all = worst_reading_batch(lambda n: conditioning(score.matrix(P, n)),
+                                       archive.normals[order], archive.smooth[order],
+                                       prm.surface)
         shown = np.array([shown_d_star(float(d)) for d in archive.d[order]])
         perm = np.lexsort((-cond_all, -shown))  # the ranking's own order, stable
         order, cond_all = order[perm], cond_all[perm]

@@ -43,7 +43,7 @@ from synth.scores.friction_batch import frictional_form_closure_batch
 from synth.scores.quality import scaled_wrenches
 
 __all__ = ["SURFACES", "DEFAULT_SURFACE", "SAME_NORMAL_TOL", "SurfaceScores", "check_surface",
-           "readings", "differs", "surface_scores", "worst_reading"]
+           "readings", "differs", "surface_scores", "worst_reading", "worst_reading_batch"]
 
 #: Two readings of a grasp whose normals differ by at most this (per component) are the same
 #: reading: it is scored once. The effect of such a difference on d* is of the same order,
@@ -197,6 +197,32 @@ def surface_scores(points: ArrayLike, normals: ArrayLike, smooth: ArrayLike, sur
     else:
         d, ok = np.minimum(d_mesh, d_smooth), ok_mesh & ok_smooth
     return SurfaceScores(d.copy(), ok.copy(), d_mesh, d_smooth, ok_mesh, ok_smooth, surface)
+
+
+def worst_reading_batch(measure: Callable[[NDArray[np.float64]], ArrayLike],
+                        normals: ArrayLike, smooth: ArrayLike,
+                        surface: str) -> NDArray[np.float64]:
+    """:func:`worst_reading` of a batch of grasps: ``measure`` maps (B, k, 3) normals to
+    (B,) values, and each grasp gets the smallest over the readings of the surface model (a
+    second reading only where it differs from the first).
+
+    Parameters
+    ----------
+    measure : callable((B, k, 3) float) -> (B,) float (array-like)
+    normals, smooth : (B, k, 3) float
+    surface : str
+
+    Returns
+    -------
+    (B,) float
+    """
+    N, S = np.asarray(normals, float), np.asarray(smooth, float)
+    sets = readings(N, S, surface)
+    out = np.asarray(measure(sets[0]), float).reshape(len(N))
+    if len(sets) == 2:
+        other = np.asarray(measure(sets[1]), float).reshape(len(N))
+        out = np.where(differs(N, S), np.minimum(out, other), out)
+    return out
 
 
 def worst_reading(measure: Callable[[NDArray[np.float64]], float], normals: ArrayLike,

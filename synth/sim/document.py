@@ -117,6 +117,22 @@ def _get(obj: Any, key: str, where: str, name: str) -> Any:
     return obj[key]
 
 
+def _object(doc: Any, key: str, name: str) -> dict[str, Any]:
+    """``doc[key]``, which must be an object."""
+    value = _get(doc, key, "", name)
+    if not isinstance(value, dict):
+        raise InputError(f"{_where(name, key)}: expected an object, got {shown(value)}")
+    return value
+
+
+def _version_1(doc: Any, name: str) -> None:
+    """Refuse a document whose ``version`` is not 1."""
+    version = _get(doc, "version", "", name)
+    if isinstance(version, bool) or version != 1:
+        raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
+                         "from another version of synth)")
+
+
 def _number(value: Any, key: str, name: str, lo: float = -math.inf,
             lo_open: bool = False) -> float:
     ok = isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -316,13 +332,8 @@ def check_jaw_document(doc: Any, name: str = "<document>",
     fmt = _get(doc, "format", "", name)
     if fmt != JAW_FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {JAW_FORMAT!r}, got {shown(fmt)}")
-    version = _get(doc, "version", "", name)
-    if isinstance(version, bool) or version != 1:
-        raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
-                         "from another version of synth)")
-    mesh = _get(doc, "mesh", "", name)
-    if not isinstance(mesh, dict):
-        raise InputError(f"{_where(name, 'mesh')}: expected an object, got {shown(mesh)}")
+    _version_1(doc, name)
+    mesh = _object(doc, "mesh", name)
     gripper = doc.get("gripper")
     params = doc.get("params")
     source = (gripper.get("source") if isinstance(gripper, dict) else None) or (
@@ -403,10 +414,7 @@ def ranking_as_jaw_document(doc: Any, name: str = "<document>") -> tuple[dict[st
     InputError
         The ranking is malformed, or no candidate landed.
     """
-    version = _get(doc, "version", "", name)
-    if isinstance(version, bool) or version != 1:
-        raise InputError(f"{_where(name, 'version')}: expected 1, got {shown(version)} (a file "
-                         "from another version of synth)")
+    _version_1(doc, name)
     candidates = _get(doc, "candidates", "", name)
     if not isinstance(candidates, list):
         raise InputError(f"{_where(name, 'candidates')}: expected a list, got "
@@ -416,10 +424,7 @@ def ranking_as_jaw_document(doc: Any, name: str = "<document>") -> tuple[dict[st
     if not rows:
         raise InputError(f"{name}: none of its {len(candidates)} candidates landed on the part "
                          "(status ok), so there is nothing to simulate")
-    mesh = _get(doc, "mesh", "", name)
-    if not isinstance(mesh, dict):
-        raise InputError(f"{_where(name, 'mesh')}: expected an object, got {shown(mesh)}")
-    mesh = dict(mesh)
+    mesh = dict(_object(doc, "mesh", name))
     if mesh.get("units") is None:
         scale = _number(_get(mesh, "metres_per_unit", "mesh", name), "mesh.metres_per_unit",
                         name, 0.0, True)

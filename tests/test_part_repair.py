@@ -10,7 +10,8 @@ import pytest
 import trimesh
 
 from synth import load_part
-from synth.part.repair import close, drop_duplicate_faces, fix_degenerate
+from synth.part.bodies import solid_moments
+from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, orient
 from synth.part.tolerances import coordinate_precision
 
 
@@ -116,3 +117,42 @@ def test_float32_part_far_away_keeps_its_planar_facets(tmp_path: Path) -> None:
     part = load_part(path, units="m")
     assert part.precision == pytest.approx(40.0 * 2.0**-24, rel=0.1)
     assert len(part.regions) == 6 and all(r.planar for r in part.regions)
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1.0, 0.0), (1e3, 5e3)])
+def test_solid_moments_agree_with_trimesh_and_with_hand_values(scale: float,
+                                                              offset: float) -> None:
+    # a box of 2 x 3 x 4 has volume 24 and its centre at its middle; a torus is checked
+    # against trimesh's full mass properties (second moments included)
+    box = trimesh.creation.box(extents=(2.0, 3.0, 4.0))
+    box.apply_translation((1.0, -2.0, 0.5))
+    box.apply_scale(scale)
+    box.apply_translation((offset, 0.0, -offset))
+    volume, center = solid_moments(box.triangles)
+    assert volume == pytest.approx(24.0 * scale**3, rel=1e-12)
+    assert np.allclose(center, np.array([1.0, -2.0, 0.5]) * scale + (offset, 0.0, -offset),
+                       rtol=0, atol=1e-12 * (scale + offset))
+    torus = trimesh.creation.torus(1.0, 0.3)
+    torus.apply_scale(scale)
+    volume, center = solid_moments(torus.triangles)
+    props = trimesh.triangles.mass_properties(torus.triangles)
+    assert volume == pytest.approx(props.volume, rel=1e-12)
+    assert np.allclose(center, props.center_mass, rtol=0, atol=1e-12 * scale)
+    inverted = torus.copy()
+    inverted.invert()
+    assert solid_moments(inverted.triangles)[0] == pytest.approx(-volume, rel=1e-12)
+
+
+def test_orient_turns_an_inside_out_piece_outward_and_counts_its_faces() -> None:
+    box = trimesh.creation.box()
+    inside_out = trimesh.Trimesh(box.vertices, box.faces[:, ::-1], process=False)
+    fixed, flipped = orient(inside_out)
+    assert flipped == 12
+    assert fixed.volume == pytest.approx(1.0)
+    again, flipped = orient(fixed)
+    assert flipped == 0 and again.volume == pytest.approx(1.0)
+    # one face wound the wrong way is turned back, and only that one
+    f = box.faces.copy()
+    f[3] = f[3, ::-1]
+    fixed, flipped = orient(trimesh.Trimesh(box.vertices, f, process=False))
+    assert flipped == 1 and fixed.is_winding_consistent and fixed.volume == pytest.approx(1.0)

@@ -34,7 +34,7 @@ from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
-from synth.part.bodies import body_labels
+from synth.part.bodies import body_labels, solid_moments
 from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
 from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, open_edges, orient, weld
@@ -234,7 +234,8 @@ def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs
                 crashed.append((pname, e.how))
             if what:
                 closes.append(what if len(pieces) == 1 else f"{what} ({pname})")
-        closed = bool(m.is_watertight and m.is_winding_consistent and m.volume > 0)
+        closed = bool(m.is_watertight and m.is_winding_consistent
+                      and solid_moments(m.triangles)[0] > 0)
         if not closed:
             still_open.append((pname, open_edges(m)))
         out.append((pname, m, closed))
@@ -426,6 +427,7 @@ def load_part(
     if decimate is not None:
         raw, soup = _decimated(raw, decimate, name, repairs), False
     pieces, precision, length = _pieces(raw, name, repairs, soup)
+    del raw  # the file as read: a large mesh's biggest copy, not needed past welding
     bodies = _repair_bodies(pieces, name, repairs, warnings)
     groups, crashes = group_bodies([b[1] for b in bodies], [b[2] for b in bodies],
                                    tol.GROUP_GAP_RTOL)
@@ -444,10 +446,15 @@ def load_part(
     convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
                      if bodies[i][2] and bodies[i][1].is_convex}
     repairs.extend(notes)
-    mesh = meshes[0] if len(meshes) == 1 else cast(trimesh.Trimesh,
-                                                   trimesh.util.concatenate(meshes))
-    mesh = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
-                           process=False)
+    if len(meshes) == 1 and type(meshes[0]) is trimesh.Trimesh:
+        # one body, as the repairs above built it (plain arrays, no visuals): kept, with the
+        # adjacency, watertightness and convexity they computed, which the part reads again
+        mesh = meshes[0]
+    else:
+        both = meshes[0] if len(meshes) == 1 else cast(trimesh.Trimesh,
+                                                       trimesh.util.concatenate(meshes))
+        mesh = trimesh.Trimesh(np.asarray(both.vertices, float),
+                               np.asarray(both.faces, np.int64), process=False)
     # trimesh stores str(unit).lower(): "none" when the unit is unknown (GLB files carry it)
     mesh.units = str(unit)
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,

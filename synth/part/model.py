@@ -18,6 +18,13 @@ from synth.part.regions import Region, RegionSet, compute_regions
 
 __all__ = ["Part"]
 
+#: trimesh's cached arrays that only building a part reads (edges, adjacency, angles).
+_BUILD_TABLES = frozenset({
+    "edges", "edges_face", "edges_sorted", "edges_sparse", "edges_unique", "edges_unique_idx",
+    "edges_unique_inverse", "edges_unique_length", "face_adjacency", "face_adjacency_edges",
+    "face_adjacency_projections", "face_adjacency_unshared", "face_angles",
+    "faces_unique_edges", "triangles_cross", "vertices_component_label"})
+
 
 class Part:
     """A rigid part to grasp: a cleaned triangle mesh and everything derived from it.
@@ -161,10 +168,15 @@ class Part:
         tri = np.asarray(mesh.triangles, float)
         tri.flags.writeable = False
         self._triangles = tri
-        self._index = build_index(tri, np.asarray(mesh.face_normals, float))
         self._vertex_cone = self._build_vertex_cone()
         needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
         self._solids = Solids(mesh, bodies) if needs else None
+        # the edge and adjacency tables trimesh cached while the part was built are several
+        # times the mesh's own size; what the part needs of them is in its features, regions
+        # and solids now (trimesh computes them again on demand), and dropping them before
+        # the closest-point index keeps them out of the peak memory
+        mesh._cache.clear(exclude=[k for k in mesh._cache.cache if k not in _BUILD_TABLES])
+        self._index = build_index(tri, np.asarray(mesh.face_normals, float))
         self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
 

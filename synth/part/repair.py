@@ -15,6 +15,7 @@ import numpy as np
 import trimesh
 
 from synth.isolate import call_isolated
+from synth.part.bodies import solid_moments
 
 __all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges",
            "MERGE_CLOSE"]
@@ -145,10 +146,15 @@ def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
 
 
 def orient(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
-    """Consistent winding and outward normals; returns the mesh and the faces flipped."""
+    """Consistent winding and outward normals of one connected piece; returns the mesh and
+    the faces flipped."""
     before = mesh.faces.copy()
     trimesh.repair.fix_winding(mesh)
-    trimesh.repair.fix_inversion(mesh, multibody=True)
+    # the loader orients one connected piece at a time, so a closed piece with a negative
+    # enclosed volume is inside out (trimesh's fix_inversion, without its second moments)
+    if (len(mesh.faces) >= 4 and mesh.is_watertight and mesh.is_winding_consistent
+            and solid_moments(mesh.triangles)[0] < 0.0):
+        mesh.invert()
     return mesh, int((~(mesh.faces == before).all(axis=1)).sum())
 
 

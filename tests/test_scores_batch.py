@@ -73,3 +73,15 @@ def test_empty_and_bad_batches():
     bad[1, 0, 0] = np.nan
     with pytest.raises(InputError, match=r"W\[1\]"):
         form_closure_batch(bad)
+
+
+def test_factors_given_by_the_caller_give_the_same_answers():
+    from synth.scores.gram import gram_factors
+
+    rng = np.random.default_rng(3)
+    W = np.stack([wrench_matrix(*cube_contacts(rng, 7)) for _ in range(40)])
+    own = form_closure_batch(W, compiled=False)
+    shared = form_closure_batch(W, compiled=False, factors=gram_factors(W))
+    assert np.array_equal(own.d_star, shared.d_star) and np.array_equal(own.rank, shared.rank)
+    with pytest.raises(InputError, match="factors"):
+        form_closure_batch(W[:3], factors=gram_factors(W))

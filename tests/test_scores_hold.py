@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
+from synth.errors import InputError
 from synth.scores.hold import finger_hold_batch, internal_squeeze, stiff_hold_batch
 from tests.cli_support import CUBE_FC
 from tests.sim_support import CUBE3, CUBE7
@@ -93,6 +94,36 @@ def test_the_gram_route_equals_the_svd_route(monkeypatch):
     fa, fb = np.isfinite(a.squeeze_per_weight), np.isfinite(b.squeeze_per_weight)
     assert fa.sum() > 100 and np.array_equal(fa, fb)
     assert np.allclose(a.squeeze_per_weight[fa], b.squeeze_per_weight[fb], rtol=1e-9)
+
+
+def test_the_response_is_the_pseudo_inverse_when_rows_are_balanced():
+    # a centre of mass far from the contacts makes the moment rows much larger than the force
+    # rows, so the Gram factor is of the balanced rows and must be scaled back: the response
+    # must still be numpy's pseudo-inverse of the wrench matrix itself
+    from synth.scores.gram import gram_factors
+    from synth.scores.quality import scaled_wrenches
+
+    P0, N0 = CUBE7
+    P = P0[None] + 0.15 * RNG.uniform(-1, 1, size=(50, 7, 3)) * (1 - np.abs(N0))[None]
+    N = np.repeat(N0[None], 50, axis=0)
+    center = np.array([40.0, -25.0, 10.0])
+    W = scaled_wrenches(P, N, center, 2.0)
+    factors = gram_factors(W)
+    assert factors.certified.all() and not np.allclose(factors.scale, 1.0)
+    h = stiff_hold_batch(P, N, center, 2.0)
+    pinv = np.linalg.pinv(W)  # (50, 7, 6)
+    held = np.isfinite(h.squeeze_per_weight)
+    assert held.sum() > 10
+    # the Gram route's error bound: cond(W)^2 round-offs of the largest entry (here
+    # cond(W) is in the thousands, so about 1e-8 relative)
+    cond = np.linalg.cond(W[held])
+    tol = 10.0 * cond**2 * np.finfo(float).eps * np.abs(pinv[held]).max(axis=(1, 2))
+    assert np.all(np.abs(h.response[held] - pinv[held, :, :3]).max(axis=(1, 2)) <= tol)
+    assert np.all(np.abs(h.torque_response[held] - pinv[held, :, 3:]).max(axis=(1, 2)) <= tol)
+    shared = stiff_hold_batch(P, N, center, 2.0, factors)
+    assert np.array_equal(shared.squeeze_per_weight, h.squeeze_per_weight)
+    with pytest.raises(InputError, match="factors"):
+        stiff_hold_batch(P[:3], N[:3], center, 2.0, factors)
 
 
 def test_no_closure_no_hold():

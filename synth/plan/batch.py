@@ -36,6 +36,7 @@ from synth.fingers import Fingers, default_fingers, tip_centers
 from synth.plan.params import PlanParams
 from synth.scores import form_closure_batch
 from synth.scores.friction_batch import frictional_form_closure_batch
+from synth.scores.gram import gram_factors
 from synth.scores.hold import stiff_hold_batch
 from synth.scores.quality import conditioning_at_least, grasp_wrenches, scaled_wrenches
 from synth.scores.surface import differs, readings
@@ -180,16 +181,18 @@ class Scorer:
         prm = self.params
         # the numpy simplex always: a plan must not depend on whether numba is installed, nor
         # stall in the kernel's first compile (about 10 s) under a time cap
-        if prm.mu == 0:
-            res = form_closure_batch(scaled_wrenches(P, N, self.center, self.length),
-                                     compiled=False)
+        factors = None
+        if prm.mu == 0:  # the hold measure below reads the same factors as d*
+            factors = gram_factors(scaled_wrenches(P, N, self.center, self.length))
+            res = form_closure_batch(factors.wrenches, compiled=False, factors=factors)
         else:
             res = frictional_form_closure_batch(P, N, prm.mu, center=self.center, edges=prm.edges,
                                                 compiled=False)
         d, ok = res.d_star, res.closure.copy()
         ratio = ok.astype(float)
-        if ok.any() and prm.mu == 0 and own and math.isfinite(prm.floor):
-            spw = stiff_hold_batch(P[ok], N[ok], self.center, self.length).squeeze_per_weight
+        if factors is not None and ok.any() and own and math.isfinite(prm.floor):
+            spw = stiff_hold_batch(P[ok], N[ok], self.center, self.length,
+                                   factors.take(ok)).squeeze_per_weight
             with np.errstate(divide="ignore"):
                 ratio[ok] = np.minimum(1.0, prm.floor / spw)
             over = spw > prm.floor

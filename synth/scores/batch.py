@@ -29,9 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
-from synth.scores.gram import gram_inverse_factor, null_vector_m1, rank_of_balanced
+from synth.scores.gram import GramFactors, gram_factors, rank_of_balanced
 from synth.scores.simplex import UNBOUNDED, UNVERIFIED, solve_batch
-from synth.scores.wrench import balance_rows
 from synth.tolerances import D_STAR_TOL
 
 __all__ = ["BatchScores", "form_closure_batch", "d_star_linprog"]
@@ -98,7 +97,8 @@ def _check_batch(W: ArrayLike) -> NDArray[np.float64]:
     return A
 
 
-def form_closure_batch(W: ArrayLike, compiled: bool | None = None) -> BatchScores:
+def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
+                       factors: GramFactors | None = None) -> BatchScores:
     """Form-closure measure d*, closure flag and rank of many wrench matrices.
 
     Gives the same answers as :func:`synth.form_closure` (to 1e-7 on d*) at a small fraction of
@@ -112,6 +112,9 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None) -> BatchScore
         Simplex route for the grasps that need the LP (see
         :func:`synth.scores.simplex.compiled_for`, the default): True for the numba kernel,
         False for numpy. The answers agree to about 1e-12 either way.
+    factors : GramFactors, optional
+        :func:`synth.scores.gram.gram_factors` of ``W``, when the caller already has them
+        (the planner shares them with the hold measure); computed here otherwise.
 
     Returns
     -------
@@ -134,14 +137,16 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None) -> BatchScore
     d = np.zeros(B)
     if B == 0:
         return BatchScores(d, np.zeros(0, bool), np.zeros(0, np.int64))
-    Wb, _ = balance_rows(A)
-    X, certified = gram_inverse_factor(Wb)
+    f = gram_factors(A) if factors is None else factors
+    if f.wrenches.shape != A.shape:
+        raise InputError(f"factors: of matrices of shape {f.wrenches.shape}, but W has "
+                         f"shape {A.shape}")
+    Wb, certified = f.balanced, f.certified
     rank = rank_of_balanced(Wb, certified)
     todo = np.ones(B, dtype=bool)
     if n == m + 1:
         # nullity one: the null line gives d* directly (Gram route where certified, else SVD)
-        v = np.zeros((B, n))
-        v[certified] = null_vector_m1(Wb[certified], X[certified])
+        v = f.null.copy()
         other = np.nonzero(~certified & (rank == m))[0]
         if other.size:
             v[other] = np.linalg.svd(Wb[other], full_matrices=True)[2][:, -1, :]

@@ -23,12 +23,16 @@ of iterative refinement brings the round-off of forming ``G`` (``cond(G) * eps``
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
+from synth.scores.wrench import balance_rows
 from synth.tolerances import RANK_RTOL
 
-__all__ = ["GRAM_COND2_MAX", "gram_inverse_factor", "rank_of_balanced", "null_vector_m1"]
+__all__ = ["GRAM_COND2_MAX", "GramFactors", "gram_factors", "gram_inverse_factor",
+           "rank_of_balanced", "null_vector_m1"]
 
 #: Largest certified ``trace(G) trace(G^-1)`` (a bound on ``cond(W)^2``): 1e10 means
 #: ``sigma_min / sigma_max >= 1e-5``, above ``RANK_RTOL`` (1e-6) and far below double round-off.
@@ -153,3 +157,61 @@ def null_vector_m1(W: NDArray[np.float64], X: NDArray[np.float64]) -> NDArray[np
         v -= np.einsum("bij,bi->bj", W, z)
         v /= np.linalg.norm(v, axis=1, keepdims=True)
     return v
+
+
+@dataclass(frozen=True, eq=False)
+class GramFactors:
+    """Wrench matrices with their balanced rows, Gram factors and null lines, computed once
+    and read by both d* (:func:`synth.scores.batch.form_closure_batch`) and the stiff hand's
+    hold (:func:`synth.scores.hold.stiff_hold_batch`) of the same grasps.
+
+    Attributes
+    ----------
+    wrenches : (B, m, n) float
+        The matrices as given.
+    balanced : (B, m, n) float
+        ``scale[:, :, None] * wrenches`` (:func:`synth.scores.wrench.balance_rows`).
+    scale : (B, m) float
+    inverse_factor : (B, m, m) float
+        :func:`gram_inverse_factor` of ``balanced``.
+    certified : (B,) bool
+        Full row rank, for sure.
+    null : (B, n) float
+        Unit null vectors of the certified matrices when ``n == m + 1`` (zeros elsewhere,
+        and everywhere for other shapes); the null space of ``balanced`` is that of
+        ``wrenches``.
+    """
+
+    wrenches: NDArray[np.float64]
+    balanced: NDArray[np.float64]
+    scale: NDArray[np.float64]
+    inverse_factor: NDArray[np.float64]
+    certified: NDArray[np.bool_]
+    null: NDArray[np.float64]
+
+    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> GramFactors:
+        """The factors of the grasps ``rows`` (a mask or indices)."""
+        return GramFactors(self.wrenches[rows], self.balanced[rows], self.scale[rows],
+                           self.inverse_factor[rows], self.certified[rows], self.null[rows])
+
+
+def gram_factors(W: NDArray[np.float64]) -> GramFactors:
+    """Balance, factor and (for m x (m + 1) matrices) find the null lines of ``W``.
+
+    Parameters
+    ----------
+    W : (B, m, n) float
+        Finite wrench matrices, m = 6 or 3.
+
+    Returns
+    -------
+    GramFactors
+    """
+    W = np.asarray(W, dtype=np.float64)
+    B, m, n = W.shape
+    Wb, scale = balance_rows(W)
+    X, certified = gram_inverse_factor(Wb)
+    null = np.zeros((B, n))
+    if n == m + 1 and certified.any():
+        null[certified] = null_vector_m1(Wb[certified], X[certified])
+    return GramFactors(W, Wb, scale, X, certified, null)

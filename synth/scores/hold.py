@@ -59,8 +59,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
-from synth.errors import SolverError
+from synth.errors import InputError, SolverError
 from synth.scores.cones import check_contacts_batch
+from synth.scores.gram import GramFactors, gram_factors
 from synth.scores.quality import scaled_wrenches
 
 __all__ = ["FingerHold", "finger_hold_batch", "stiff_hold_batch", "internal_squeeze",
@@ -114,7 +115,7 @@ class FingerHold:
 
 
 def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
-                     length: float) -> FingerHold:
+                     length: float, factors: GramFactors | None = None) -> FingerHold:
     """The stiff hand's least force per weight of frictionless grasps (module notes).
 
     Parameters
@@ -124,6 +125,10 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
     center_mass : (3,) float
     length : float
         The part's size (scales moments; no effect on the result).
+    factors : GramFactors, optional
+        :func:`synth.scores.gram.gram_factors` of these grasps' scaled wrenches
+        (:func:`synth.scores.quality.scaled_wrenches` with ``center_mass`` and ``length``),
+        when the caller already has them; computed here otherwise.
 
     Returns
     -------
@@ -145,20 +150,26 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
     T = np.zeros((B, k, 3))
     if B == 0 or k < 7:
         return FingerHold(spw, pre, A, "stiff", T)
-    W = scaled_wrenches(P, N, np.asarray(center_mass, float), float(length))  # (B, 6, k)
+    if factors is None:
+        factors = gram_factors(scaled_wrenches(P, N, np.asarray(center_mass, float),
+                                               float(length)))
+    elif factors.wrenches.shape != (B, 6, k):
+        raise InputError(f"factors: of matrices of shape {factors.wrenches.shape}, expected "
+                         f"{(B, 6, k)} for {B} grasps of {k} contacts")
+    W = factors.wrenches  # (B, 6, k)
     rest = np.arange(B)
-    if k == 7:  # certified full rank: W^+ = W^T G^-1 and the null vector from G = W W^T
-        from synth.scores.gram import gram_inverse_factor, null_vector_m1
-
-        X, cert = gram_inverse_factor(W)
-        rows = np.flatnonzero(cert)
+    if k == 7:  # certified full rank: the pseudo-inverse and null vector from the Gram factor
+        rows = np.flatnonzero(factors.certified)
         if len(rows):
-            Wc, Xc = W[rows], X[rows]
-            Ginv = np.einsum("bji,bjk->bik", Xc, Xc)  # G^-1
-            pinv = np.einsum("bji,bjk->bik", Wc, Ginv)  # W^+ = W^T G^-1, (b, 7, 6)
+            # of the balanced rows S W: (S W)^+ = W^T G^-1 S^-1 with G = W W^T, so that
+            # W^+ = (S W)^+ S; the null vector is the same for both
+            Xc = factors.inverse_factor[rows]
+            Ginv = np.einsum("bji,bjk->bik", Xc, Xc)  # (S W W^T S)^-1
+            pinv = (np.einsum("bji,bjk->bik", factors.balanced[rows], Ginv)
+                    * factors.scale[rows, None, :])  # W^+, (b, 7, 6)
             A[rows], T[rows] = pinv[:, :, :3], pinv[:, :, 3:]
-            _closed_form(_reach(A[rows], T[rows]), null_vector_m1(Wc, Xc), rows, pre, spw)
-        rest = np.flatnonzero(~cert)
+            _closed_form(_reach(A[rows], T[rows]), factors.null[rows], rows, pre, spw)
+        rest = np.flatnonzero(~factors.certified)
     if len(rest):
         U, s, Vt = np.linalg.svd(W[rest])
         full = s[:, -1] > _RANK_RTOL * s[:, 0]

@@ -7,7 +7,11 @@ worker (target >= 1.7x on 2 cores) and the overhead of the database over the dir
 (target < 5%). Uses the synth planner if ``synth.plan.plan_mesh_file`` imports, else the test
 planner ``tests.db_fakeplanner`` (through the ``SYNTH_DB_PLANNER`` hook), and says which.
 
-Usage: ``python scripts/bench_db.py [--meshes 16] [--evals 10000]``
+With ``--corpus``, the meshes are the corpus parts of ``meshes/corpus`` that load (robot
+links, scans, convex decompositions; the first ``--meshes`` in name order) instead of
+generated ones. Each part is taken once: the database plans one copy of identical files.
+
+Usage: ``python scripts/bench_db.py [--meshes 16] [--evals 10000] [--corpus]``
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import shutil
 import sys
 import tempfile
 import time
@@ -52,6 +57,28 @@ def _make_meshes(folder: Path, n: int, seed: int = 0) -> list[Path]:
     return paths
 
 
+def _corpus_meshes(folder: Path, n: int) -> list[Path]:
+    """The first ``n`` corpus parts that load, in name order, copied into ``folder``."""
+    from synth import load_part
+    from synth.errors import SynthError
+
+    corpus = Path(__file__).resolve().parents[1] / "meshes" / "corpus"
+    usable = []
+    for path in sorted(corpus.iterdir()):
+        if path.suffix.lower() not in (".stl", ".obj", ".ply"):
+            continue
+        try:
+            load_part(path)
+        except SynthError:
+            continue
+        usable.append(path)
+    paths = []
+    for src in usable[:n]:
+        paths.append(folder / src.name)
+        shutil.copyfile(src, paths[-1])
+    return paths
+
+
 def _cpu() -> float:
     """CPU seconds of this process and its finished children (robust to a busy machine)."""
     me = resource.getrusage(resource.RUSAGE_SELF)
@@ -64,6 +91,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--meshes", type=int, default=16)
     ap.add_argument("--evals", type=int, default=10000)
+    ap.add_argument("--corpus", action="store_true",
+                    help="plan the corpus parts that load instead of generated meshes")
     args = ap.parse_args()
     try:
         from synth.plan import plan_mesh_file  # noqa: F401
@@ -76,17 +105,18 @@ def main() -> int:
         )
     params = normalize_params({"evals": args.evals})
     print(f"planner: {planner}  params: {params}")
-    print(f"cpus: {len(os.sched_getaffinity(0))}  meshes: {args.meshes}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "meshes"
         folder.mkdir()
-        paths = _make_meshes(folder, args.meshes)
+        paths = (_corpus_meshes if args.corpus else _make_meshes)(folder, args.meshes)
+        print(f"cpus: {len(os.sched_getaffinity(0))}  meshes: {len(paths)}"
+              f"{' (corpus)' if args.corpus else ' (generated)'}")
         fn = load_planner(planner)
         fn(str(paths[0]), params)  # warm imports and caches, as a worker would be
         t, c = time.perf_counter(), _cpu()
         n_grasps = sum(len(fn(str(p), params)["grasps"]) for p in paths)
         direct, direct_cpu = time.perf_counter() - t, _cpu() - c
-        print(f"direct loop     : {direct:7.2f} s  {args.meshes / direct * 60:7.1f} meshes/min"
+        print(f"direct loop     : {direct:7.2f} s  {len(paths) / direct * 60:7.1f} meshes/min"
               f"  {n_grasps / direct:7.1f} grasps/s  cpu {direct_cpu:6.2f} s")  # fmt: skip
         times, cpus = {}, {}
         for workers in (1, 2):

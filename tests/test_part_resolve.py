@@ -312,8 +312,8 @@ def test_closest_points_exact(name: str) -> None:
 
 
 def test_closest_within_radius_against_brute_force() -> None:
-    """Exact wherever the mesh comes within the radius, on a mesh with long slivers (the
-    size groups keep the search local)."""
+    """Exact wherever the mesh comes within the radius, on a mesh with long slivers that
+    span far beyond the small faces."""
     from synth.part.closest import build_index, closest_within
 
     mesh = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide()

@@ -196,11 +196,18 @@ class FingerChecker:
             self._objects[key] = obj
         return obj
 
-    def _hits(self, obj: Any, rotation: np.ndarray | None, translation: np.ndarray) -> bool:
+    def _hits(self, obj: Any, rotation: np.ndarray | None, position: np.ndarray) -> bool:
+        """Whether ``obj`` collides with the part at ``position`` given in FCL's frame
+        (:meth:`_fcl_frame`), rotated by the quaternion ``rotation`` (None: unrotated)."""
         if rotation is not None:
             obj.setQuatRotation(rotation)
-        obj.setTranslation((translation - self.center) / self._scale)
+        obj.setTranslation(position)
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
+
+    def _fcl_frame(self, points: np.ndarray) -> np.ndarray:
+        """Points (..., 3) of the part's frame in FCL's (centred, unit size), all at once:
+        converting them one at a time cost more than a collision test."""
+        return (np.asarray(points, float) - self.center) / self._scale
 
     def mesh_object(self, vertices: np.ndarray, faces: np.ndarray) -> Any:
         """An FCL object of a rigid triangle mesh (vertices in its own frame, part units), to
@@ -309,7 +316,8 @@ class FingerChecker:
         tip = self._object("sphere", r - tol)
         approach = np.full((B, k, 3), np.nan)
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
-        mid = centers[:, :, None, :] + 0.5 * D * dirs  # (B, k, m, 3)
+        mid = self._fcl_frame(centers[:, :, None, :] + 0.5 * D * dirs)  # (B, k, m, 3)
+        tips = self._fcl_frame(centers)
         present_l, usable_l = present.tolist(), usable.tolist()
         for b in np.flatnonzero(alive).tolist():
             for j in range(k):
@@ -323,7 +331,7 @@ class FingerChecker:
                         break
                     if not tip_checked:
                         tip_checked = True
-                        if self._hits(tip, None, centers[b, j]):
+                        if self._hits(tip, None, tips[b, j]):
                             by = (f" by {self._penetration(centers[b, j], r):.3g}" if depths
                                   else "")
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
@@ -335,8 +343,8 @@ class FingerChecker:
                 if chosen < 0:
                     d0 = options[0]
                     body = self._object("capsule", rb - tol, L)
-                    if L > 0 and self._hits(body, rot[b, j, d0],
-                                            centers[b, j] + 0.5 * L * dirs[b, j, d0]):
+                    if L > 0 and self._hits(body, rot[b, j, d0], self._fcl_frame(
+                            centers[b, j] + 0.5 * L * dirs[b, j, d0])):
                         fail(b, j, BODY_HITS_PART, f"finger {slot_name[b][j]} body hits the part")
                     else:
                         fail(b, j, APPROACH_BLOCKED,

@@ -8,8 +8,9 @@ worker (target >= 1.7x on 2 cores) and the overhead of the database over the dir
 planner ``tests.db_fakeplanner`` (through the ``SYNTH_DB_PLANNER`` hook), and says which.
 
 With ``--corpus``, the meshes are the corpus parts of ``meshes/corpus`` that load (robot
-links, scans, convex decompositions; the first ``--meshes`` in name order) instead of
-generated ones. Each part is taken once: the database plans one copy of identical files.
+links, scans, convex decompositions) instead of generated ones, in name order; past the
+corpus's size the parts come again turned by a fixed rotation (PLY files: the database plans
+only one of identical files, and 44 parts are too few to amortise starting the workers).
 
 Usage: ``python scripts/bench_db.py [--meshes 16] [--evals 10000] [--corpus]``
 """
@@ -57,8 +58,9 @@ def _make_meshes(folder: Path, n: int, seed: int = 0) -> list[Path]:
     return paths
 
 
-def _corpus_meshes(folder: Path, n: int) -> list[Path]:
-    """The first ``n`` corpus parts that load, in name order, copied into ``folder``."""
+def _corpus_meshes(folder: Path, n: int, seed: int = 0) -> list[Path]:
+    """``n`` corpus parts that load, in name order, copied into ``folder``; the parts come
+    again turned by a fixed random rotation, as often as needed."""
     from synth import load_part
     from synth.errors import SynthError
 
@@ -72,10 +74,19 @@ def _corpus_meshes(folder: Path, n: int) -> list[Path]:
         except SynthError:
             continue
         usable.append(path)
+    rng = np.random.default_rng(seed)
     paths = []
-    for src in usable[:n]:
-        paths.append(folder / src.name)
-        shutil.copyfile(src, paths[-1])
+    for i in range(n):
+        src = usable[i % len(usable)]
+        if i < len(usable):
+            paths.append(folder / src.name)
+            shutil.copyfile(src, paths[-1])
+            continue
+        turn = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        mesh = trimesh.load(src, force="mesh")
+        mesh.apply_transform(turn)
+        paths.append(folder / f"{i // len(usable)}_{src.stem}.ply")
+        mesh.export(paths[-1])
     return paths
 
 

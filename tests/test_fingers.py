@@ -454,3 +454,34 @@ def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None
         tips = np.asarray(r.fingers["tip_centers"])
         clear = -trimesh.proximity.signed_distance(mesh, tips)
         assert clear.min() >= fingers.tip_radius - fingers.penetration_tol
+
+
+@pytest.mark.parametrize("shape", ["ibeam", "blob"])
+def test_near_tip_certificate_changes_no_verdict(shape, ibeam):
+    """The near part of an approach sweep is certified with exact distances and only the rest
+    goes to FCL: every verdict, reason and approach must equal FCL's on the whole sweep (a
+    checker whose distance certifies nothing), on a part with overhangs and blocked
+    approaches and on a finely tessellated one, tips on and off the surface."""
+    if shape == "ibeam":
+        mesh = ibeam.subdivide().subdivide()
+    else:
+        mesh = trimesh.creation.icosphere(5)
+        mesh.vertices *= 1.0 + 0.2 * np.sin(3.0 * mesh.vertices)
+    rng = np.random.default_rng(7)
+    pts, faces = trimesh.sample.sample_surface(mesh, 700, seed=3)
+    normals = -np.asarray(mesh.face_normals)[faces]
+    pts = pts + rng.normal(scale=0.01, size=pts.shape) * rng.random((len(pts), 1))
+    P, N = pts.reshape(-1, 1, 3), normals.reshape(-1, 1, 3)  # one finger a grasp: all checked
+    fingers = Fingers(tip_radius=0.08, body_radius=0.05, body_length=0.6, approach_cone=0.4)
+    checker = FingerChecker(mesh)
+    certified = checker.check(P, N, fingers)
+    # the certificate was used: the shortened (far) sweep capsule was placed
+    lengths = {key[2] for key in checker._objects if key[0] == "capsule"}
+    assert len(lengths - {fingers.body_length}) == 2
+    fcl_only = FingerChecker(mesh, distance=lambda p: np.zeros(len(p))).check(P, N, fingers)
+    assert np.array_equal(certified.mask, fcl_only.mask)
+    assert certified.reasons == fcl_only.reasons
+    assert np.array_equal(certified.status, fcl_only.status)
+    assert np.array_equal(certified.approach, fcl_only.approach, equal_nan=True)
+    assert 0 < certified.mask.sum() < len(P)
+    assert (certified.status == APPROACH_BLOCKED).any() or shape == "blob"

@@ -30,10 +30,12 @@ a broad-phase manager would add nothing (every finger's box overlaps the part's)
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import fcl
+import igl
 import numpy as np
 
 from synth.errors import InputError
@@ -79,6 +81,10 @@ MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2,
 #: A finger's summed outward normals shorter than this (the sum of unit vectors) count as
 #: cancelling out (a tip pinched between opposite faces); see ``_approach_axes``.
 DEGENERATE_AXIS_TOL: float = 1e-6
+#: The near-tip certificate (:meth:`FingerChecker._near_tip`): the first this many tip radii of
+#: an approach sweep are covered by ``_NEAR_BALLS`` balls checked with exact distances.
+_NEAR_LENGTH = 1.0
+_NEAR_BALLS = 3
 STATUS_NAMES: dict[int, str] = {
     OK: "ok",
     ABSENT: "absent",
@@ -164,13 +170,23 @@ class FingerChecker:
     [True]
     """
 
-    def __init__(self, part: Any) -> None:
+    def __init__(self, part: Any,
+                 distance: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         mesh = part_mesh(part)
         vertices = np.asarray(mesh.vertices, dtype=float)
         faces = np.asarray(mesh.faces, dtype=np.int64)
         problem = mesh_problem(vertices, faces)
         if problem is not None:  # FCL would crash or answer nonsense
             raise InputError(f"part: a mesh FCL cannot check: {problem}")
+        if distance is None:  # the surface's distance for the near-tip certificate
+            aabb = igl.AABB()
+            aabb.init(vertices, faces)
+
+            def distance(points: np.ndarray) -> np.ndarray:
+                sq, _, _ = aabb.squared_distance(vertices, faces,
+                                                 np.ascontiguousarray(points, np.float64))
+                return np.sqrt(np.asarray(sq, np.float64))
+        self._distance = distance
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.center: np.ndarray = (lo + hi) / 2.0
         self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
@@ -203,6 +219,47 @@ class FingerChecker:
             obj.setQuatRotation(rotation)
         obj.setTranslation(position)
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
+
+    def _near_tip(self, centers: np.ndarray, dirs: np.ndarray, usable: np.ndarray,
+                  radius: float, length: float, s: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The near-tip certificate of each finger's first usable approach direction.
+
+        The sweep is a capsule of ``radius`` along ``[c, c + length d]`` from the tip centre
+        ``c`` (B, k, 3), with directions ``dirs`` (B, k, m, 3) of which ``usable``
+        (B, k, m). Its first ``s`` lies inside ``_NEAR_BALLS`` balls centred on
+        the axis, each ``s / _NEAR_BALLS`` long and of radius ``radius + s / (2 _NEAR_BALLS)``;
+        where the surface is at least that far from every centre (exact distances, libigl),
+        the near part touches nothing, and only the rest of the capsule, which stays clear of
+        the contact's neighbourhood, goes to FCL. FCL's box test against a capsule seated on
+        the surface opens every triangle under the tip, so its cost grew with the mesh's
+        density (1.5 ms a sweep at 1.3M faces); the far capsule costs about 10 us. Where the
+        certificate fails (a tilted direction, a concave neighbourhood), the whole sweep goes
+        to FCL as before: the answers are the same either way.
+
+        Returns
+        -------
+        first : (B, k) int
+            The first usable direction (0 where none).
+        clear : (B, k) bool
+            Its near part is certified clear.
+        far_mid : (B, k, 3) float
+            The far capsule's centre, in FCL's frame.
+        """
+        B, k = centers.shape[:2]
+        first = np.argmax(usable, axis=2)
+        d0 = np.take_along_axis(dirs, first[..., None, None], axis=2)[:, :, 0]  # (B, k, 3)
+        step = s / _NEAR_BALLS
+        t = (np.arange(_NEAR_BALLS) + 0.5) * step
+        balls = centers[:, :, None, :] + t[:, None] * d0[:, :, None, :]  # (B, k, n, 3)
+        clear = np.zeros((B, k), bool)
+        rows = np.flatnonzero(usable.any(axis=2).ravel())
+        if len(rows):
+            dist = self._distance(balls.reshape(B * k, _NEAR_BALLS, 3)[rows].reshape(-1, 3))
+            ok = (dist.reshape(len(rows), _NEAR_BALLS) >= radius + 0.5 * step).all(axis=1)
+            clear.ravel()[rows] = ok
+        far_mid = self._fcl_frame(centers + (s + 0.5 * (length - s)) * d0)
+        return first, clear, far_mid
 
     def _fcl_frame(self, points: np.ndarray) -> np.ndarray:
         """Points (..., 3) of the part's frame in FCL's (centred, unit size), all at once:
@@ -318,6 +375,11 @@ class FingerChecker:
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
         mid = self._fcl_frame(centers[:, :, None, :] + 0.5 * D * dirs)  # (B, k, m, 3)
         tips = self._fcl_frame(centers)
+        near = _NEAR_LENGTH * r
+        first, near_clear, far_mid = self._near_tip(centers, dirs, usable & present[..., None],
+                                                    r - tol, D, near)
+        far = self._object("capsule", r - tol, D - near)
+        first_l, near_l = first.tolist(), near_clear.tolist()
         present_l, usable_l = present.tolist(), usable.tolist()
         for b in np.flatnonzero(alive).tolist():
             for j in range(k):
@@ -326,7 +388,11 @@ class FingerChecker:
                 options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
                 for d in options:
-                    if not self._hits(sweep, rot[b, j, d], mid[b, j, d]):
+                    if d == first_l[b][j] and near_l[b][j]:  # the near part is clear
+                        hit = self._hits(far, rot[b, j, d], far_mid[b, j])
+                    else:
+                        hit = self._hits(sweep, rot[b, j, d], mid[b, j, d])
+                    if not hit:
                         chosen = d
                         break
                     if not tip_checked:
@@ -469,7 +535,8 @@ _CHECKERS: "weakref.WeakKeyDictionary[Any, FingerChecker]" = weakref.WeakKeyDict
 
 
 def checker_for(part: Any) -> FingerChecker:
-    """The cached :class:`FingerChecker` of ``part``'s mesh (built on first use).
+    """The cached :class:`FingerChecker` of ``part``'s mesh (built on first use; a
+    :class:`synth.Part` lends it its surface distance).
 
     The cache is keyed by the mesh object and dropped with it; a mesh edited in place after
     its first check keeps its old BVH, so build a new ``FingerChecker`` after editing.
@@ -477,7 +544,7 @@ def checker_for(part: Any) -> FingerChecker:
     mesh = part_mesh(part)
     checker = _CHECKERS.get(mesh)
     if checker is None:
-        checker = FingerChecker(mesh)
+        checker = FingerChecker(mesh, getattr(part, "surface_distance", None))
         _CHECKERS[mesh] = checker
     return checker
 

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
-           "closest_within", "plane_and_sides", "workers"]
+           "closest_within", "distance_to_mesh", "plane_and_sides", "workers"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
 #: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
@@ -422,3 +422,12 @@ def closest_within(index: MeshIndex, points: np.ndarray, radius: float
     """
     closest, face, dist = _nearest(index, np.asarray(points, dtype=np.float64))
     return closest, face, dist, dist <= radius
+
+
+def distance_to_mesh(index: MeshIndex, points: np.ndarray) -> np.ndarray:
+    """Distance (n,) from each point (n, 3) to the nearest face, by libigl's tree alone."""
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    if not len(points):
+        return np.zeros(0)
+    sq, _, _ = index.aabb.squared_distance(index.soup_vertices, index.soup_faces, points)
+    return np.sqrt(np.asarray(sq, np.float64))

@@ -456,10 +456,12 @@ def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None
         assert clear.min() >= fingers.tip_radius - fingers.penetration_tol
 
 
+@pytest.mark.parametrize("traced", [False, True])
 @pytest.mark.parametrize("shape", ["ibeam", "blob"])
-def test_near_tip_certificate_changes_no_verdict(shape, ibeam):
+def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypatch):
     """The near part of an approach sweep is certified with exact distances and only the rest
-    goes to FCL: every verdict, reason and approach must equal FCL's on the whole sweep (a
+    goes to FCL; on a large mesh the whole sweep is traced with them and FCL is left the
+    grazing cases. Every verdict, reason and approach must equal FCL's on the whole sweep (a
     checker whose distance certifies nothing), on a part with overhangs and blocked
     approaches and on a finely tessellated one, tips on and off the surface."""
     if shape == "ibeam":
@@ -473,12 +475,21 @@ def test_near_tip_certificate_changes_no_verdict(shape, ibeam):
     pts = pts + rng.normal(scale=0.01, size=pts.shape) * rng.random((len(pts), 1))
     P, N = pts.reshape(-1, 1, 3), normals.reshape(-1, 1, 3)  # one finger a grasp: all checked
     fingers = Fingers(tip_radius=0.08, body_radius=0.05, body_length=0.6, approach_cone=0.4)
+    fcl_only = FingerChecker(mesh, distance=lambda p: np.zeros(len(p))).check(P, N, fingers)
+    decided = []
+    if traced:  # as on a mesh of _TRACE_FACES or more
+        monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
+        trace = FingerChecker._trace
+        monkeypatch.setattr(FingerChecker, "_trace", lambda self, *a: decided.append(
+            trace(self, *a)) or decided[-1])
     checker = FingerChecker(mesh)
     certified = checker.check(P, N, fingers)
-    # the certificate was used: the shortened (far) sweep capsule was placed
-    lengths = {key[2] for key in checker._objects if key[0] == "capsule"}
-    assert len(lengths - {fingers.body_length}) == 2
-    fcl_only = FingerChecker(mesh, distance=lambda p: np.zeros(len(p))).check(P, N, fingers)
+    if traced:  # the traces decided sweeps both ways
+        verdicts = np.concatenate(decided)
+        assert (verdicts == 1).any() and ((verdicts == -1).any() or shape == "blob")
+    else:  # the certificate was used: the shortened (far) sweep capsule was placed
+        lengths = {key[2] for key in checker._objects if key[0] == "capsule"}
+        assert len(lengths - {fingers.body_length}) == 2
     assert np.array_equal(certified.mask, fcl_only.mask)
     assert certified.reasons == fcl_only.reasons
     assert np.array_equal(certified.status, fcl_only.status)

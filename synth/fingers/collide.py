@@ -16,6 +16,14 @@ The cheap numpy stages run first on the whole batch; FCL only sees fingers of gr
 alive, and a grasp is dropped at its first failing finger. The part's BVH is built once per
 mesh and cached (:func:`checker_for`).
 
+Exact distances to the surface (libigl's tree; a :class:`synth.Part` lends its own) take
+the part of the sweeps that FCL does slowly, with the same verdicts: the end of a sweep
+seated on the surface, whose box FCL tests against every triangle under the tip, is
+certified clear by balls along its axis (:meth:`FingerChecker._near_tip`), and on a mesh of
+``_TRACE_FACES`` or more the whole sweep is sphere-traced (:meth:`FingerChecker._trace`), so
+that FCL's BVH is built only if a sweep grazes the surface, a tip sinks in or a gripper is
+checked.
+
 A tip centre inside the part (contact far off the surface, or a flipped normal on a thick
 part) is caught by the approach check: every path from outside to it crosses the surface.
 
@@ -85,6 +93,13 @@ DEGENERATE_AXIS_TOL: float = 1e-6
 #: an approach sweep are covered by ``_NEAR_BALLS`` balls checked with exact distances.
 _NEAR_LENGTH = 1.0
 _NEAR_BALLS = 3
+#: Meshes of at least this many faces have their sweeps traced (:meth:`FingerChecker._trace`)
+#: and FCL's BVH built only on demand: below it, building the BVH costs less than tracing.
+_TRACE_FACES = 50_000
+#: A trace stops undecided after this many steps, or at a step below this fraction of the
+#: capsule's radius (a sweep grazing the surface), and FCL decides.
+_TRACE_STEPS = 64
+_TRACE_MIN_STEP = 1e-3
 STATUS_NAMES: dict[int, str] = {
     OK: "ok",
     ABSENT: "absent",
@@ -193,14 +208,28 @@ class FingerChecker:
         # FCL works with absolute tolerances: give it the part centred and of unit size, so
         # a part of 1 mm in metres or 1 km far from the origin is checked like one of 1 m
         self._scale = self.radius if self.radius > 0 else 1.0
-        bvh = bvh_model((vertices - self.center) / self._scale, faces)
         self.mesh = mesh
-        self._bvh = bvh
-        self._part = fcl.CollisionObject(bvh, fcl.Transform())
+        # a large mesh's sweeps are traced with exact distances; FCL's BVH (about 2.5 us a
+        # face to build) is then built only if a sweep grazes the surface or a gripper needs it
+        self._traced = len(faces) >= _TRACE_FACES
+        self._fcl: Any = None if self._traced else self._build_fcl()
         self._objects: dict[tuple[str, float, float], Any] = {}
         self._request = fcl.CollisionRequest()
 
     # -- FCL primitives ---------------------------------------------------------------------
+
+    def _build_fcl(self) -> Any:
+        vertices = np.asarray(self.mesh.vertices, dtype=float)
+        bvh = bvh_model((vertices - self.center) / self._scale,
+                        np.asarray(self.mesh.faces, dtype=np.int64))
+        return fcl.CollisionObject(bvh, fcl.Transform())
+
+    @property
+    def _part(self) -> Any:
+        """The part as one FCL object (its BVH built on first use)."""
+        if self._fcl is None:
+            self._fcl = self._build_fcl()
+        return self._fcl
 
     def _object(self, kind: str, radius: float, length: float = 0.0) -> Any:
         key = (kind, radius, length)
@@ -211,6 +240,15 @@ class FingerChecker:
             obj = fcl.CollisionObject(geom, fcl.Transform())
             self._objects[key] = obj
         return obj
+
+    def _tip_hits(self, tip: Any, center: np.ndarray, position: np.ndarray,
+                  radius: float) -> bool:
+        """Whether the tip ball of ``radius`` at ``center`` (``position`` in FCL's frame)
+        crosses the surface: its distance to the surface when the sweeps are traced, else
+        FCL."""
+        if self._traced:
+            return bool(self._distance(center[None])[0] < radius)
+        return self._hits(tip, None, position)
 
     def _hits(self, obj: Any, rotation: np.ndarray | None, position: np.ndarray) -> bool:
         """Whether ``obj`` collides with the part at ``position`` given in FCL's frame
@@ -260,6 +298,45 @@ class FingerChecker:
             clear.ravel()[rows] = ok
         far_mid = self._fcl_frame(centers + (s + 0.5 * (length - s)) * d0)
         return first, clear, far_mid
+
+    def _trace(self, starts: np.ndarray, dirs: np.ndarray, radius: float, length: float
+               ) -> np.ndarray:
+        """Verdicts (n,) of the capsules of ``radius`` along ``[a, a + length d]`` from
+        ``starts`` (n, 3) along unit ``dirs`` (n, 3): 1 clear of the surface, -1 crossing
+        it, 0 undecided (grazing it; left to FCL).
+
+        Sphere tracing with exact distances: a point of the axis at distance ``delta`` from
+        the surface is the centre of an empty ball, which holds the capsule's section within
+        ``sqrt(delta^2 - radius^2)`` of it along the axis (and, at the start, the rounded
+        end), so the next point is taken there; a point nearer than ``radius`` has surface
+        inside the capsule. The steps grow with the distance, so a sweep takes about ten.
+        """
+        n = len(starts)
+        verdict = np.zeros(n, np.int8)
+        t = np.zeros(n)
+        live = np.arange(n)
+        # the far rounded end lies within the axis' last ``radius``; and past the point where
+        # the axis leaves the part's bounding sphere grown by ``radius`` (for good: it starts
+        # inside), the capsule is clear (distances far from a mesh are its slowest queries)
+        w = starts - self.center
+        wd = np.einsum("ij,ij->i", w, dirs)
+        grown = self.radius * (1.0 + 1e-9) + radius
+        out = -wd + np.sqrt(np.maximum(wd * wd - np.einsum("ij,ij->i", w, w) + grown**2, 0.0))
+        end = np.minimum(length + radius, np.maximum(out, 0.0))
+        for _ in range(_TRACE_STEPS):
+            if not len(live):
+                break
+            delta = self._distance(starts[live] + t[live, None] * dirs[live])
+            hit = delta < radius
+            h = np.sqrt(np.maximum(delta * delta - radius * radius, 0.0))
+            reach = t[live] + h
+            done = ~hit & (reach >= end[live])
+            verdict[live[hit]] = -1
+            verdict[live[done]] = 1
+            go = ~hit & ~done & (h > _TRACE_MIN_STEP * radius)
+            t[live[go]] = reach[go]
+            live = live[go]
+        return verdict
 
     def _fcl_frame(self, points: np.ndarray) -> np.ndarray:
         """Points (..., 3) of the part's frame in FCL's (centred, unit size), all at once:
@@ -376,8 +453,18 @@ class FingerChecker:
         mid = self._fcl_frame(centers[:, :, None, :] + 0.5 * D * dirs)  # (B, k, m, 3)
         tips = self._fcl_frame(centers)
         near = _NEAR_LENGTH * r
-        first, near_clear, far_mid = self._near_tip(centers, dirs, usable & present[..., None],
-                                                    r - tol, D, near)
+        live_usable = usable & (present & alive[:, None])[..., None]
+        if self._traced:  # the first usable direction of each finger traced in one batch
+            first = np.argmax(live_usable, axis=2)
+            axis0 = np.take_along_axis(dirs, first[..., None, None], axis=2)[:, :, 0]
+            rows = np.flatnonzero(live_usable.any(axis=2).ravel())
+            traced = np.zeros(B * k, np.int8)
+            traced[rows] = self._trace(centers.reshape(-1, 3)[rows],
+                                       axis0.reshape(-1, 3)[rows], r - tol, D)
+            near_clear, far_mid = traced.reshape(B, k), np.zeros((B, k, 3))
+        else:
+            first, near_clear, far_mid = self._near_tip(centers, dirs, live_usable, r - tol, D,
+                                                        near)
         far = self._object("capsule", r - tol, D - near)
         first_l, near_l = first.tolist(), near_clear.tolist()
         present_l, usable_l = present.tolist(), usable.tolist()
@@ -388,7 +475,9 @@ class FingerChecker:
                 options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
                 for d in options:
-                    if d == first_l[b][j] and near_l[b][j]:  # the near part is clear
+                    if d == first_l[b][j] and self._traced and near_l[b][j]:
+                        hit = near_l[b][j] < 0  # traced: decided
+                    elif d == first_l[b][j] and near_l[b][j]:  # the near part is clear
                         hit = self._hits(far, rot[b, j, d], far_mid[b, j])
                     else:
                         hit = self._hits(sweep, rot[b, j, d], mid[b, j, d])
@@ -397,7 +486,7 @@ class FingerChecker:
                         break
                     if not tip_checked:
                         tip_checked = True
-                        if self._hits(tip, None, tips[b, j]):
+                        if self._tip_hits(tip, centers[b, j], tips[b, j], r - tol):
                             by = (f" by {self._penetration(centers[b, j], r):.3g}" if depths
                                   else "")
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "

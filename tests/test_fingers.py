@@ -462,8 +462,8 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     """The near part of an approach sweep is certified with exact distances and only the rest
     goes to FCL; on a large mesh the whole sweep is traced with them and FCL is left the
     grazing cases. Every verdict, reason and approach must equal FCL's on the whole sweep (a
-    checker whose distance certifies nothing), on a part with overhangs and blocked
-    approaches and on a finely tessellated one, tips on and off the surface."""
+    checker that certifies nothing), on a part with overhangs and blocked approaches and on
+    a finely tessellated one, tips on and off the surface."""
     if shape == "ibeam":
         mesh = ibeam.subdivide().subdivide()
     else:
@@ -475,7 +475,10 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     pts = pts + rng.normal(scale=0.01, size=pts.shape) * rng.random((len(pts), 1))
     P, N = pts.reshape(-1, 1, 3), normals.reshape(-1, 1, 3)  # one finger a grasp: all checked
     fingers = Fingers(tip_radius=0.08, body_radius=0.05, body_length=0.6, approach_cone=0.4)
-    fcl_only = FingerChecker(mesh, distance=lambda p: np.zeros(len(p))).check(P, N, fingers)
+    reference = FingerChecker(mesh)  # FCL on every whole sweep: nothing certified
+    reference._near_tip = lambda centers, dirs, usable, *_: (
+        np.argmax(usable, axis=2), np.zeros(usable.shape[:2], bool), np.zeros(centers.shape))
+    fcl_only = reference.check(P, N, fingers)
     decided = []
     if traced:  # as on a mesh of _TRACE_FACES or more
         monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
@@ -492,6 +495,14 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
         assert len(lengths - {fingers.body_length}) == 2
     assert np.array_equal(certified.mask, fcl_only.mask)
     assert certified.reasons == fcl_only.reasons
+    # each reported depth is the tip's radius less its centre's distance from the surface
+    # (trimesh's closest points, a separate code), to the 3 digits printed
+    sunk = np.flatnonzero(certified.status[:, 0] == TIP_PENETRATES)
+    assert len(sunk) > 5
+    centers = certified.tip_centers[sunk, 0]
+    _, dist, _ = trimesh.proximity.closest_point(mesh, centers)
+    for row, d in zip(sunk, dist, strict=True):
+        assert _depth(certified.reasons[row]) == pytest.approx(0.08 - d, rel=5e-3)
     assert np.array_equal(certified.status, fcl_only.status)
     assert np.array_equal(certified.approach, fcl_only.approach, equal_nan=True)
     assert 0 < certified.mask.sum() < len(P)

@@ -360,13 +360,11 @@ class FingerChecker:
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
 
     def _penetration(self, center: np.ndarray, radius: float) -> float:
-        """Largest depth by which the ball (center, radius) sinks into the surface (FCL)."""
-        obj = self._object("sphere", radius)
-        obj.setTranslation((center - self.center) / self._scale)
-        req = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=True)
-        res = fcl.CollisionResult()
-        fcl.collide(self._part, obj, req, res)
-        return self._scale * max((abs(c.penetration_depth) for c in res.contacts), default=0.0)
+        """Depth by which the ball (center, radius) sinks into the surface: its radius less
+        its centre's exact distance from the surface (0 when it touches nothing). FCL's
+        deepest contact, used before, fell short of it: 0.0015 for a tip sunk 0.0028 into a
+        fine blob (its sphere-triangle depths come from an iterative solver)."""
+        return max(0.0, radius - float(self._distance(np.asarray(center, float)[None])[0]))
 
     def sweep_length(self, fingers: Fingers) -> float:
         """Length of the approach sweep: from the tip centre to beyond the bounding sphere."""

@@ -364,3 +364,21 @@ def test_closest_points_near_stays_on_the_faces_nearby(name: str) -> None:
     q_exact, _, d_exact = closest_points(part, pts)
     covered = (near == np.argmin(all_d, axis=1)[:, None]).any(axis=1)
     assert np.all(np.abs(d - d_exact)[covered] <= tol + eps)
+
+
+def test_a_part_pickles_and_answers_the_same_after() -> None:
+    """A Part travels to other processes (multiprocessing, Dask): its libigl tree pickles as
+    its arrays and is built again on first use."""
+    import pickle
+
+    from synth import PlanParams, load_part, plan_part
+
+    part = load_part(MESHES / "tee.stl")
+    copy = pickle.loads(pickle.dumps(part))
+    pts = np.random.default_rng(2).uniform(-1.0, 1.0, size=(200, 3)) * part.length
+    assert np.array_equal(copy.surface_distance(pts), part.surface_distance(pts))
+    a = plan_part(part, PlanParams(seed=0, evals=2000))
+    b = plan_part(copy, PlanParams(seed=0, evals=2000))
+    assert [g.d_star for g in a.grasps] == [g.d_star for g in b.grasps]
+    assert all(np.array_equal(g.points, h.points) for g, h in zip(a.grasps, b.grasps,
+                                                                   strict=True))

@@ -43,7 +43,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import fcl
-import igl
 import numpy as np
 
 from synth.errors import InputError
@@ -61,6 +60,7 @@ from synth.fingers.model import (
     tip_centers,
 )
 from synth.native import bvh_model, mesh_problem
+from synth.part.closest import BoxTree
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -194,13 +194,10 @@ class FingerChecker:
         if problem is not None:  # FCL would crash or answer nonsense
             raise InputError(f"part: a mesh FCL cannot check: {problem}")
         if distance is None:  # the surface's distance for the near-tip certificate
-            aabb = igl.AABB()
-            aabb.init(vertices, faces)
+            boxes = BoxTree(vertices, faces)
 
             def distance(points: np.ndarray) -> np.ndarray:
-                sq, _, _ = aabb.squared_distance(vertices, faces,
-                                                 np.ascontiguousarray(points, np.float64))
-                return np.sqrt(np.asarray(sq, np.float64))
+                return np.sqrt(boxes.nearest(points)[0])
         self._distance = distance
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.center: np.ndarray = (lo + hi) / 2.0

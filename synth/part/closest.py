@@ -29,7 +29,7 @@ import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
+__all__ = ["BoxTree", "MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
            "closest_within", "distance_to_mesh", "plane_and_sides", "workers"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
@@ -126,6 +126,43 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     return result
 
 
+class BoxTree:
+    """libigl's axis-aligned box tree of a triangle mesh, which pickles as its arrays (the
+    tree is built again on first use after unpickling: a ``Part`` travels to other
+    processes).
+
+    Parameters
+    ----------
+    vertices : (v, 3) float
+    faces : (f, 3) int
+    """
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        self.vertices = np.ascontiguousarray(vertices, np.float64)
+        self.faces = np.ascontiguousarray(faces, np.int64)
+        self._tree: Any = None
+
+    def _built(self) -> Any:
+        if self._tree is None:
+            self._tree = igl.AABB()
+            self._tree.init(self.vertices, self.faces)
+        return self._tree
+
+    def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Squared distance (n,) and nearest face (n,) of each point (n, 3)."""
+        points = np.ascontiguousarray(points, np.float64)
+        if not len(points):
+            return np.zeros(0), np.zeros(0, np.int64)
+        sq, face, _ = self._built().squared_distance(self.vertices, self.faces, points)
+        return np.asarray(sq, np.float64), np.asarray(face, np.int64)
+
+    def __getstate__(self) -> dict[str, np.ndarray]:
+        return {"vertices": self.vertices, "faces": self.faces}
+
+    def __setstate__(self, state: dict[str, np.ndarray]) -> None:
+        self.__init__(state["vertices"], state["faces"])  # type: ignore[misc]
+
+
 class MeshIndex(NamedTuple):
     """What the search needs of a mesh (``Part`` holds these arrays).
 
@@ -153,12 +190,8 @@ class MeshIndex(NamedTuple):
     centroids : (f, 3) float
         Face centroids (ties between faces at one distance go to the nearer centroid in the
         search among near faces, ``exact=False``).
-    aabb : igl.AABB
-        libigl's box tree of the faces, over ``soup_vertices`` and ``soup_faces``.
-    soup_vertices : (3 f, 3) float
-        The corners of ``triangles`` (a view of them).
-    soup_faces : (f, 3) int
-        ``[[0, 1, 2], [3, 4, 5], ...]``.
+    boxes : BoxTree
+        libigl's box tree of the faces.
     """
 
     triangles: np.ndarray
@@ -171,9 +204,7 @@ class MeshIndex(NamedTuple):
     unbounded: np.ndarray
     proxy_face: np.ndarray
     centroids: np.ndarray
-    aabb: Any
-    soup_vertices: np.ndarray
-    soup_faces: np.ndarray
+    boxes: BoxTree
 
 
 def _pieces(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -221,19 +252,17 @@ def build_index(triangles: np.ndarray, normals: np.ndarray) -> MeshIndex:
     proxies = pieces.mean(axis=1)
     piece_r = np.linalg.norm(pieces - proxies[:, None, :], axis=2).max(axis=1) * (1 + 1e-9)
     radius = float(piece_r.max())
-    soup_v = tri.reshape(-1, 3)
-    soup_f = np.arange(len(soup_v), dtype=np.int64).reshape(-1, 3)
-    aabb = igl.AABB()
-    aabb.init(soup_v, soup_f)
+    boxes = BoxTree(tri.reshape(-1, 3), np.arange(3 * len(tri), dtype=np.int64).reshape(-1, 3))
+    boxes._built()
     edge = np.roll(tri, -1, axis=1) - tri  # edges (0,1), (1,2), (2,0)
     en = np.cross(fn[:, None, :], edge)  # in-plane, pointing into the triangle
     en /= np.maximum(np.linalg.norm(en, axis=2, keepdims=True), 1e-300)
     wind = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), fn)
     index = MeshIndex(tri, cKDTree(proxies), radius, fn, np.einsum("ij,ij->i", fn, tri[:, 0]),
                       en, np.einsum("ijk,ijk->ij", en, tri), ~(wind > 0), owner, centroids,
-                      aabb, soup_v, soup_f)
+                      boxes)
     for a in (tri, fn, index.plane_offsets, en, index.edge_offsets, index.unbounded, owner,
-              centroids, soup_v, soup_f):
+              centroids, boxes.vertices, boxes.faces):
         a.flags.writeable = False
     return index
 
@@ -395,9 +424,7 @@ def _nearest(index: MeshIndex, points: np.ndarray
     kernel (relative tolerances, see the module notes)."""
     if not len(points):
         return np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0)
-    _, face, _ = index.aabb.squared_distance(index.soup_vertices, index.soup_faces,
-                                             np.ascontiguousarray(points))
-    face = np.asarray(face, np.int64)
+    _, face = index.boxes.nearest(points)
     closest = closest_on_triangles(index.triangles[face], points)
     return closest, face, np.linalg.norm(closest - points, axis=1)
 
@@ -426,8 +453,4 @@ def closest_within(index: MeshIndex, points: np.ndarray, radius: float
 
 def distance_to_mesh(index: MeshIndex, points: np.ndarray) -> np.ndarray:
     """Distance (n,) from each point (n, 3) to the nearest face, by libigl's tree alone."""
-    points = np.ascontiguousarray(points, dtype=np.float64)
-    if not len(points):
-        return np.zeros(0)
-    sq, _, _ = index.aabb.squared_distance(index.soup_vertices, index.soup_faces, points)
-    return np.sqrt(np.asarray(sq, np.float64))
+    return np.sqrt(index.boxes.nearest(points)[0])

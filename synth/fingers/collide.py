@@ -205,6 +205,9 @@ class FingerChecker:
         # FCL works with absolute tolerances: give it the part centred and of unit size, so
         # a part of 1 mm in metres or 1 km far from the origin is checked like one of 1 m
         self._scale = self.radius if self.radius > 0 else 1.0
+        # round-off of a distance computed from these coordinates: a traced distance this
+        # close to a radius decides nothing (a seated tip with no penetration tolerance)
+        self._slack = 1e-9 * (self.radius + float(np.abs(self.center).max()))
         self.mesh = mesh
         # a large mesh's sweeps are traced with exact distances; FCL's BVH (about 2.5 us a
         # face to build) is then built only if a sweep grazes the surface or a gripper needs it
@@ -244,7 +247,9 @@ class FingerChecker:
         crosses the surface: its distance to the surface when the sweeps are traced, else
         FCL."""
         if self._traced:
-            return bool(self._distance(center[None])[0] < radius)
+            d = float(self._distance(center[None])[0])
+            if abs(d - radius) > self._slack:  # else it touches to round-off: FCL says
+                return d < radius
         return self._hits(tip, None, position)
 
     def _hits(self, obj: Any, rotation: np.ndarray | None, position: np.ndarray) -> bool:
@@ -304,34 +309,38 @@ class FingerChecker:
 
         Sphere tracing with exact distances: a point of the axis at distance ``delta`` from
         the surface is the centre of an empty ball, which holds the capsule's section within
-        ``sqrt(delta^2 - radius^2)`` of it along the axis (and, at the start, the rounded
-        end), so the next point is taken there; a point nearer than ``radius`` has surface
-        inside the capsule. The steps grow with the distance, so a sweep takes about ten.
+        ``sqrt(delta^2 - radius^2)`` of it along the axis (at the start, the rounded end too;
+        at the end of the axis, the other one), so the next point is taken there, never past
+        the axis' end; a point of the axis nearer than ``radius`` has surface inside the
+        capsule. A point within round-off of ``radius`` decides nothing. The steps grow with
+        the distance, so a sweep takes about ten.
         """
         n = len(starts)
         verdict = np.zeros(n, np.int8)
         t = np.zeros(n)
         live = np.arange(n)
-        # the far rounded end lies within the axis' last ``radius``; and past the point where
-        # the axis leaves the part's bounding sphere grown by ``radius`` (for good: it starts
-        # inside), the capsule is clear (distances far from a mesh are its slowest queries)
+        # past the point where the axis leaves the part's bounding sphere grown by ``radius``
+        # (for good: it is a line), the capsule is clear (far from a mesh its distance
+        # queries are slowest)
         w = starts - self.center
         wd = np.einsum("ij,ij->i", w, dirs)
         grown = self.radius * (1.0 + 1e-9) + radius
         out = -wd + np.sqrt(np.maximum(wd * wd - np.einsum("ij,ij->i", w, w) + grown**2, 0.0))
-        end = np.minimum(length + radius, np.maximum(out, 0.0))
+        exit_ = np.maximum(out, 0.0)
         for _ in range(_TRACE_STEPS):
             if not len(live):
                 break
-            delta = self._distance(starts[live] + t[live, None] * dirs[live])
-            hit = delta < radius
+            tl = t[live]
+            delta = self._distance(starts[live] + tl[:, None] * dirs[live])
+            hit = delta < radius - self._slack
             h = np.sqrt(np.maximum(delta * delta - radius * radius, 0.0))
-            reach = t[live] + h
-            done = ~hit & (reach >= end[live])
+            reach = tl + h
+            done = ~hit & (delta >= radius) & ((tl >= length) | (reach >= exit_[live]))
             verdict[live[hit]] = -1
             verdict[live[done]] = 1
-            go = ~hit & ~done & (h > _TRACE_MIN_STEP * radius)
-            t[live[go]] = reach[go]
+            step = np.minimum(reach, length)
+            go = ~hit & ~done & (step - tl > _TRACE_MIN_STEP * radius)
+            t[live[go]] = step[go]
             live = live[go]
         return verdict
 

@@ -214,8 +214,8 @@ def _corner_normals(
     weighted = np.repeat(normals, 3, axis=0) * w[:, None]
     size = int(fan.max()) + 1 if n_f else 0
     # the sums np.add.at makes, in the same order, 10x faster
-    acc = np.stack([np.bincount(fan, weights=weighted[:, c], minlength=size) for c in range(3)],
-                   axis=1).reshape(size, 3)
+    acc = np.asarray(np.stack([np.bincount(fan, weights=weighted[:, c], minlength=size)
+                               for c in range(3)], axis=1), np.float64).reshape(size, 3)
     acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
     corner = acc[fan].reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]

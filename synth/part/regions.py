@@ -211,11 +211,10 @@ def _corner_normals(
     fan = _components(3 * n_f, np.concatenate([a for a, _ in links]),
                       np.concatenate([b for _, b in links]))
     w = np.asarray(mesh.face_angles, float).ravel()
-    weighted = np.repeat(normals, 3, axis=0) * w[:, None]
-    size = int(fan.max()) + 1 if n_f else 0
-    # the sums np.add.at makes, in the same order, 10x faster
-    acc = np.asarray(np.stack([np.bincount(fan, weights=weighted[:, c], minlength=size)
-                               for c in range(3)], axis=1), np.float64).reshape(size, 3)
+    acc = np.zeros((int(fan.max()) + 1 if n_f else 0, 3))
+    for c in range(3):  # the sums np.add.at makes, in the same order, 10x faster
+        acc[:, c] = np.bincount(fan, weights=np.repeat(normals[:, c], 3) * w,
+                                minlength=len(acc))
     acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
     corner = acc[fan].reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]

@@ -156,3 +156,16 @@ def test_orient_turns_an_inside_out_piece_outward_and_counts_its_faces() -> None
     f[3] = f[3, ::-1]
     fixed, flipped = orient(trimesh.Trimesh(box.vertices, f, process=False))
     assert flipped == 1 and fixed.is_winding_consistent and fixed.volume == pytest.approx(1.0)
+
+
+def test_orient_turns_each_inside_out_piece_of_a_mesh_of_several() -> None:
+    # review: a large box beside a small inside-out one; the total volume is positive, so a
+    # sign test of the whole mesh would leave the small box inside out
+    big = trimesh.creation.box((2.0, 2.0, 2.0))
+    small = trimesh.creation.box((1.0, 1.0, 1.0))
+    small.apply_translation((4.0, 0.0, 0.0))
+    small = trimesh.Trimesh(small.vertices, small.faces[:, ::-1], process=False)
+    both = trimesh.util.concatenate([big, small])
+    fixed, flipped = orient(both)
+    assert flipped == 12
+    assert fixed.volume == pytest.approx(9.0)

@@ -225,7 +225,7 @@ def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs
     still_open: list[tuple[str, int]] = []
     crashed: list[tuple[str, str]] = []
     for pname, m in pieces:
-        m, k = orient(m)
+        m, k = orient(m, one_piece=True)  # a connected piece of _split
         flipped += k
         if not m.is_watertight and len(m.faces) >= 4:
             try:  # after a crash, the file's other bodies get trimesh's filling only

@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 
 from synth.isolate import call_isolated
-from synth.part.bodies import solid_moments
+from synth.part.bodies import body_labels, solid_moments
 
 __all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges",
            "MERGE_CLOSE"]
@@ -145,14 +145,19 @@ def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
     return out, len(f) - len(keep)
 
 
-def orient(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
-    """Consistent winding and outward normals of one connected piece; returns the mesh and
-    the faces flipped."""
+def orient(mesh: trimesh.Trimesh, one_piece: bool = False) -> tuple[trimesh.Trimesh, int]:
+    """Consistent winding and outward normals of every closed piece; returns the mesh and
+    the faces flipped.
+
+    ``one_piece``: the caller knows the mesh is one connected piece (the loader orients its
+    pieces one at a time), which spares finding the pieces: a closed piece with a negative
+    enclosed volume is then inside out (trimesh's ``fix_inversion`` without its second
+    moments). Otherwise trimesh's ``fix_inversion`` turns each closed piece."""
     before = mesh.faces.copy()
     trimesh.repair.fix_winding(mesh)
-    # the loader orients one connected piece at a time, so a closed piece with a negative
-    # enclosed volume is inside out (trimesh's fix_inversion, without its second moments)
-    if (len(mesh.faces) >= 4 and mesh.is_watertight and mesh.is_winding_consistent
+    if not one_piece and body_labels(mesh).max() > 0:
+        trimesh.repair.fix_inversion(mesh, multibody=True)
+    elif (len(mesh.faces) >= 4 and mesh.is_watertight and mesh.is_winding_consistent
             and solid_moments(mesh.triangles)[0] < 0.0):
         mesh.invert()
     return mesh, int((~(mesh.faces == before).all(axis=1)).sum())
@@ -180,7 +185,7 @@ def close(mesh: trimesh.Trimesh, native: bool = True) -> tuple[trimesh.Trimesh, 
     filled = mesh.copy()
     trimesh.repair.fill_holes(filled)
     if filled.is_watertight:
-        filled, _ = orient(filled)
+        filled, _ = orient(filled, one_piece=True)
         return filled, f"filled holes with {len(filled.faces) - n_f} faces"
     if not native:
         return mesh, None

@@ -193,12 +193,8 @@ class FingerChecker:
         problem = mesh_problem(vertices, faces)
         if problem is not None:  # FCL would crash or answer nonsense
             raise InputError(f"part: a mesh FCL cannot check: {problem}")
-        if distance is None:  # the surface's distance for the near-tip certificate
-            boxes = BoxTree(vertices, faces)
-
-            def distance(points: np.ndarray) -> np.ndarray:
-                return np.sqrt(boxes.nearest(points)[0])
-        self._distance = distance
+        # the surface's distance for the near-tip certificate and the traces
+        self._distance = distance or BoxTree(vertices, faces).distance
         lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.center: np.ndarray = (lo + hi) / 2.0
         self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
@@ -362,7 +358,7 @@ class FingerChecker:
         """Whether ``obj`` (from :meth:`mesh_object`), rotated (3 x 3) and moved in the
         part's frame, intersects the part (any body)."""
         obj.setRotation(np.asarray(rotation, float))
-        obj.setTranslation((np.asarray(translation, float) - self.center) / self._scale)
+        obj.setTranslation(self._fcl_frame(translation))
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
 
     def _penetration(self, center: np.ndarray, radius: float) -> float:
@@ -479,10 +475,9 @@ class FingerChecker:
                 options = [d for d in range(m) if usable_l[b][j][d]]
                 chosen, tip_checked = -1, False
                 for d in options:
-                    if d == first_l[b][j] and self._traced and near_l[b][j]:
-                        hit = near_l[b][j] < 0  # traced: decided
-                    elif d == first_l[b][j] and near_l[b][j]:  # the near part is clear
-                        hit = self._hits(far, rot[b, j, d], far_mid[b, j])
+                    if d == first_l[b][j] and near_l[b][j]:  # traced: decided, else the
+                        hit = (near_l[b][j] < 0 if self._traced  # near part is clear
+                               else self._hits(far, rot[b, j, d], far_mid[b, j]))
                     else:
                         hit = self._hits(sweep, rot[b, j, d], mid[b, j, d])
                     if not hit:

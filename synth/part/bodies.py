@@ -37,7 +37,7 @@ import trimesh
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from synth.part.closest import MeshIndex, build_index, closest_within
+from synth.part.closest import BoxTree
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
            "solid_moments"]
@@ -52,9 +52,9 @@ _FACE_SAMPLES = np.array(
 )
 _BARY_TOL = 1e-9  # barycentric coordinates are scale free
 _CHUNK = 1 << 16
-#: The inside test of a closed body that is not convex: its mesh index, face normals, and
+#: The inside test of a closed body that is not convex: its faces' box tree, face normals, and
 #: corner and edge pseudo-normals (:func:`_mesh_hidden`).
-_MeshTest = tuple[MeshIndex, np.ndarray, np.ndarray, np.ndarray]
+_MeshTest = tuple[BoxTree, np.ndarray, np.ndarray, np.ndarray]
 
 
 def face_sample_weights() -> np.ndarray:
@@ -237,10 +237,12 @@ class Solids:
                 planes = np.hstack([fn[f], -np.einsum("ij,ij->i", fn[f], tri[f, 0])[:, None]])
                 self._tests.append((b.index, b.bounds, planes))
             else:
-                index = build_index(tri[f], fn[f])
+                body_tri = tri[f]
+                boxes = BoxTree(body_tri.reshape(-1, 3),
+                                np.arange(3 * len(f), dtype=np.int64).reshape(-1, 3))
                 corner = vpn[faces[f]]  # (m, 3, 3): pseudo-normal at each corner
                 edge = epn[fue[f]]  # (m, 3, 3): at edges (0,1), (1,2), (2,0)
-                self._tests.append((b.index, b.bounds, (index, fn[f], corner, edge)))
+                self._tests.append((b.index, b.bounds, (boxes, fn[f], corner, edge)))
 
     @property
     def bodies(self) -> list[int]:
@@ -289,19 +291,21 @@ def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.nda
     return res
 
 
-def _mesh_hidden(index: MeshIndex, normals: np.ndarray, corner: np.ndarray, edge: np.ndarray,
+def _mesh_hidden(boxes: BoxTree, normals: np.ndarray, corner: np.ndarray, edge: np.ndarray,
                  pts: np.ndarray, margin: float, reach: float) -> np.ndarray:
     """Inside or within ``margin`` of a closed mesh, by its closest point and pseudo-normal.
 
-    Only surface within ``reach`` of a point is searched: a point with none is outside.
+    A point with no surface within ``reach`` is outside.
     """
-    q, f, d, found = closest_within(index, pts, reach)
+    q, f, d = boxes.closest(pts)
+    found = d <= reach
     hidden = np.zeros(len(pts), bool)
     rows = np.flatnonzero(found)
     if not len(rows):
         return hidden
     q, f, d, p = q[rows], f[rows], d[rows], pts[rows]
-    bary = trimesh.triangles.points_to_barycentric(index.triangles[f], q, method="cramer")
+    bary = trimesh.triangles.points_to_barycentric(boxes.vertices[boxes.faces[f]], q,
+                                                   method="cramer")
     small = bary < _BARY_TOL
     pn = normals[f].copy()
     on_edge = small.sum(axis=1) == 1

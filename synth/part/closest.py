@@ -30,7 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 __all__ = ["BoxTree", "MeshIndex", "build_index", "closest_on_mesh", "closest_on_triangles",
-           "closest_within", "distance_to_mesh", "plane_and_sides", "workers"]
+           "closest_within", "plane_and_sides", "workers"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
 #: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
@@ -155,6 +155,18 @@ class BoxTree:
             return np.zeros(0), np.zeros(0, np.int64)
         sq, face, _ = self._built().squared_distance(self.vertices, self.faces, points)
         return np.asarray(sq, np.float64), np.asarray(face, np.int64)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance (n,) from each point (n, 3) to the nearest face."""
+        return np.sqrt(self.nearest(points)[0])
+
+    def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Closest point (n, 3), its face (n,) and distance (n,): the nearest face by the
+        tree, the point on it by :func:`closest_on_triangles` (relative tolerances)."""
+        points = np.asarray(points, dtype=np.float64)
+        _, face = self.nearest(points)
+        closest = closest_on_triangles(self.vertices[self.faces[face]], points)
+        return closest, face, np.linalg.norm(closest - points, axis=1)
 
     def __getstate__(self) -> dict[str, np.ndarray]:
         return {"vertices": self.vertices, "faces": self.faces}
@@ -394,7 +406,7 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
     """
     points = np.asarray(points, dtype=np.float64)
     if exact:
-        return _nearest(index, points)
+        return index.boxes.closest(points)
     n = len(points)
     closest, face, dist = np.zeros((n, 3)), np.zeros(n, np.int64), np.zeros(n)
     n_proxy = len(index.proxy_face)
@@ -418,17 +430,6 @@ def closest_on_mesh(index: MeshIndex, points: np.ndarray, k: int = 8,
     return closest, face, dist
 
 
-def _nearest(index: MeshIndex, points: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The nearest face by libigl's tree, and the closest point on it by this module's
-    kernel (relative tolerances, see the module notes)."""
-    if not len(points):
-        return np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0)
-    _, face = index.boxes.nearest(points)
-    closest = closest_on_triangles(index.triangles[face], points)
-    return closest, face, np.linalg.norm(closest - points, axis=1)
-
-
 def closest_within(index: MeshIndex, points: np.ndarray, radius: float
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Exact closest point of the mesh, and whether it lies within ``radius``.
@@ -447,10 +448,5 @@ def closest_within(index: MeshIndex, points: np.ndarray, radius: float
     found : (n,) bool
         The mesh comes within ``radius`` of the point.
     """
-    closest, face, dist = _nearest(index, np.asarray(points, dtype=np.float64))
+    closest, face, dist = index.boxes.closest(points)
     return closest, face, dist, dist <= radius
-
-
-def distance_to_mesh(index: MeshIndex, points: np.ndarray) -> np.ndarray:
-    """Distance (n,) from each point (n, 3) to the nearest face, by libigl's tree alone."""
-    return np.sqrt(index.boxes.nearest(points)[0])

@@ -12,7 +12,7 @@ from synth.contacts.contacts import Contacts
 from synth.errors import InputError
 from synth.part import tolerances as tol
 from synth.part.bodies import Body, Solids, body_labels, compute_bodies, face_sample_weights
-from synth.part.closest import build_index, distance_to_mesh
+from synth.part.closest import build_index
 from synth.part.features import EDGE_KINDS, VERTEX_KINDS, Features, compute_features
 from synth.part.regions import Region, RegionSet, compute_regions
 
@@ -354,7 +354,7 @@ class Part:
         >>> part.surface_distance([[0.0, 0.0, 2.0]])  # doctest: +SKIP
         array([1.5])
         """
-        return distance_to_mesh(self._index, np.asarray(points, float).reshape(-1, 3))
+        return self._index.boxes.distance(np.asarray(points, float).reshape(-1, 3))
 
     def raycast(self, origins: np.ndarray, directions: np.ndarray) -> Any:
         """Contacts where fingers moving from ``origins`` along ``directions`` first hit.

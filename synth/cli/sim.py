@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -183,11 +184,7 @@ def run(args: argparse.Namespace) -> int:
         check_jaw_document(doc, str(args.grasps))
         labelled, mesh = _simulate_jaws(args, {**doc, "grasps": doc["grasps"][:first]},
                                         settings)
-        for k, g in enumerate(doc["grasps"]):  # the labels of this run only
-            g.pop("sim", None)
-            if k < len(labelled["grasps"]):
-                g["sim"] = labelled["grasps"][k]["sim"]
-        doc["sim"] = labelled["sim"]
+        _relabel(doc, "grasps", range(len(labelled["grasps"])), labelled)
         _write(args, doc, out, mesh, shown=labelled)
         return 0
     if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
@@ -195,12 +192,7 @@ def run(args: argparse.Namespace) -> int:
         jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
         jaws["grasps"], rows = jaws["grasps"][:first], rows[:first]
         labelled, mesh = _simulate_jaws(args, jaws, settings)
-        for c in doc["candidates"]:  # the labels of this run only
-            if isinstance(c, dict):
-                c.pop("sim", None)
-        for i, g in zip(rows, labelled["grasps"], strict=True):
-            doc["candidates"][i]["sim"] = g["sim"]
-        doc["sim"] = labelled["sim"]
+        _relabel(doc, "candidates", rows, labelled)
         _write(args, doc, out, mesh, shown=labelled)
         return 0
     file = check_document(doc, str(args.grasps))
@@ -222,6 +214,18 @@ def run(args: argparse.Namespace) -> int:
     _write(args, labelled, out, file.mesh_path,
            shown={**labelled, "grasps": labelled["grasps"][:len(report.labels)]})
     return 0
+
+
+def _relabel(doc: dict[str, Any], key: str, rows: Sequence[int],
+             labelled: dict[str, Any]) -> None:
+    """Put the labels of this run only on ``doc``: every earlier ``sim`` of ``doc[key]``
+    removed, those of ``labelled``'s grasps on the items ``rows``, and the run's summary."""
+    for item in doc[key]:
+        if isinstance(item, dict):
+            item.pop("sim", None)
+    for i, g in zip(rows, labelled["grasps"], strict=True):
+        doc[key][i]["sim"] = g["sim"]
+    doc["sim"] = labelled["sim"]
 
 
 def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> tuple[dict, Path]:

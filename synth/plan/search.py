@@ -550,7 +550,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     ranked_cond: dict[int, float] = {}  # ranking by d*: each candidate's conditioning
     if prm.rank_by == "d_star" and len(order):
         P = archive.points[order]
-        cond_all = worst_reading_batch(lambda n: conditioning(score.matrix(P, n)),
+        cond_all = worst_reading_batch(lambda n, rows: conditioning(score.matrix(P[rows], n)),
                                        archive.normals[order], archive.smooth[order],
                                        prm.surface)
         shown = np.array([shown_d_star(float(d)) for d in archive.d[order]])

@@ -199,16 +199,17 @@ def surface_scores(points: ArrayLike, normals: ArrayLike, smooth: ArrayLike, sur
     return SurfaceScores(d.copy(), ok.copy(), d_mesh, d_smooth, ok_mesh, ok_smooth, surface)
 
 
-def worst_reading_batch(measure: Callable[[NDArray[np.float64]], ArrayLike],
+def worst_reading_batch(measure: Callable[[NDArray[np.float64], NDArray[np.int64]], ArrayLike],
                         normals: ArrayLike, smooth: ArrayLike,
                         surface: str) -> NDArray[np.float64]:
-    """:func:`worst_reading` of a batch of grasps: ``measure`` maps (B, k, 3) normals to
-    (B,) values, and each grasp gets the smallest over the readings of the surface model (a
-    second reading only where it differs from the first).
+    """:func:`worst_reading` of a batch of grasps: ``measure(n, rows)`` maps the normals
+    (b, k, 3) of the grasps ``rows`` (b,) of the batch to their (b,) values, and each grasp
+    gets the smallest over the readings of the surface model (a second reading measured only
+    where it differs from the first).
 
     Parameters
     ----------
-    measure : callable((B, k, 3) float) -> (B,) float (array-like)
+    measure : callable((b, k, 3) float, (b,) int) -> (b,) float (array-like)
     normals, smooth : (B, k, 3) float
     surface : str
 
@@ -218,10 +219,10 @@ def worst_reading_batch(measure: Callable[[NDArray[np.float64]], ArrayLike],
     """
     N, S = np.asarray(normals, float), np.asarray(smooth, float)
     sets = readings(N, S, surface)
-    out = np.asarray(measure(sets[0]), float).reshape(len(N))
-    if len(sets) == 2:
-        other = np.asarray(measure(sets[1]), float).reshape(len(N))
-        out = np.where(differs(N, S), np.minimum(out, other), out)
+    out = np.asarray(measure(sets[0], np.arange(len(N))), float).reshape(len(N))
+    rows = np.flatnonzero(differs(N, S)) if len(sets) == 2 else np.zeros(0, np.int64)
+    if len(rows):
+        out[rows] = np.minimum(out[rows], np.asarray(measure(sets[1][rows], rows), float))
     return out
 
 

@@ -38,6 +38,8 @@ from synth.fingers.collide import (
 UP = (0.0, 0.0, -1.0)  # inward normal of a face whose outward normal is +z
 
 
+CORPUS = Path(__file__).resolve().parent.parent / "meshes" / "corpus"
+
 def _box(lo: tuple[float, float, float], hi: tuple[float, float, float]) -> trimesh.Trimesh:
     lo_a, hi_a = np.array(lo), np.array(hi)
     return trimesh.creation.box(
@@ -475,24 +477,25 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     pts = pts + rng.normal(scale=0.01, size=pts.shape) * rng.random((len(pts), 1))
     P, N = pts.reshape(-1, 1, 3), normals.reshape(-1, 1, 3)  # one finger a grasp: all checked
     fingers = Fingers(tip_radius=0.08, body_radius=0.05, body_length=0.6, approach_cone=0.4)
-    reference = FingerChecker(mesh)  # FCL on every whole sweep: nothing certified
-    reference._near_tip = lambda centers, dirs, usable, *_: (
-        np.argmax(usable, axis=2), np.zeros(usable.shape[:2], bool), np.zeros(centers.shape))
-    fcl_only = reference.check(P, N, fingers)
+    fcl_only = _full_fcl(mesh).check(P, N, fingers)
     decided = []
     if traced:  # as on a mesh of _TRACE_FACES or more
         monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
         trace = FingerChecker._trace
         monkeypatch.setattr(FingerChecker, "_trace", lambda self, *a: decided.append(
             trace(self, *a)) or decided[-1])
+    else:
+        certify = FingerChecker._certify
+        monkeypatch.setattr(FingerChecker, "_certify", lambda self, *a: decided.append(
+            certify(self, *a)[0]) or (decided[-1],) + certify(self, *a)[1:])
     checker = FingerChecker(mesh)
     certified = checker.check(P, N, fingers)
+    verdicts = np.concatenate([v.ravel() for v in decided])
     if traced:  # the traces decided sweeps both ways
-        verdicts = np.concatenate(decided)
         assert (verdicts == 1).any() and ((verdicts == -1).any() or shape == "blob")
-    else:  # the certificate was used: the shortened (far) sweep capsule was placed
-        lengths = {key[2] for key in checker._objects if key[0] == "capsule"}
-        assert len(lengths - {fingers.body_length}) == 2
+    else:  # every certificate decided some sweeps: the hull's planes, a sunk tip, the balls
+        kinds = {collide_mod._CLEAR, collide_mod._SINKS, collide_mod._NEAR}
+        assert kinds <= set(verdicts.tolist())
     assert np.array_equal(certified.mask, fcl_only.mask)
     assert certified.reasons == fcl_only.reasons
     # each reported depth is the tip's radius less its centre's distance from the surface
@@ -511,10 +514,7 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
 
 def _full_fcl(mesh):
     """A checker on FCL's whole sweeps: it certifies and traces nothing."""
-    ref = FingerChecker(mesh)
-    ref._near_tip = lambda centers, dirs, usable, *_: (
-        np.argmax(usable, axis=2), np.zeros(usable.shape[:2], bool), np.zeros(centers.shape))
-    return ref
+    return FingerChecker(mesh, certify=False)
 
 
 def test_traced_seated_tips_with_no_tolerance_touch_without_penetrating(monkeypatch):
@@ -551,3 +551,83 @@ def test_traced_sweep_ends_where_the_capsule_ends(monkeypatch):
     traced = FingerChecker(mesh).check(P, N, fingers)
     assert ref.mask.all()
     assert np.array_equal(traced.status, ref.status)
+
+
+@pytest.mark.parametrize(("scale", "offset"), [(1.0, 0.0), (1e-3, 0.0), (1e3, 0.0),
+                                               (1.0, 1e4)])
+def test_hull_planes_certify_compound_parts_at_any_scale(scale, offset):
+    """On a convex decomposition (bodies side by side, gaps between them, an outside hull
+    that covers several), tips seated on the faces and jittered off them: the checker whose
+    sweeps the hull's planes, sunk tips and balls decide gives FCL's verdicts, reasons and
+    approaches on whole sweeps, tiny, huge and far from the origin."""
+    mesh = trimesh.load(CORPUS / "pybullet_duck_vhacd.obj", force="mesh")
+    mesh.apply_scale(scale / mesh.scale)
+    mesh.apply_translation([offset, -offset, offset])
+    assert mesh.body_count == 5
+    rng = np.random.default_rng(11)
+    pts, faces = trimesh.sample.sample_surface(mesh, 600, seed=4)
+    normals = -np.asarray(mesh.face_normals)[faces]
+    jitter = rng.normal(scale=0.01 * scale, size=pts.shape) * (rng.random((len(pts), 1)) < 0.5)
+    P, N = (pts + jitter)[:, None], normals[:, None]
+    fingers = Fingers(tip_radius=0.02 * scale, body_radius=0.012 * scale,
+                      body_length=0.15 * scale, approach_cone=0.4,
+                      penetration_tol=2e-5 * scale)
+    checker = FingerChecker(mesh)
+    verdicts = checker._certify(*_first_sweeps(checker, P, N, fingers))[0]
+    assert {collide_mod._CLEAR, collide_mod._SINKS, collide_mod._NEAR} <= set(
+        verdicts.ravel().tolist())
+    got, ref = checker.check(P, N, fingers), _full_fcl(mesh).check(P, N, fingers)
+    assert 0 < got.mask.sum() < len(P)
+    assert got.reasons == ref.reasons
+    assert np.array_equal(got.status, ref.status)
+    assert np.array_equal(got.approach, ref.approach, equal_nan=True)
+
+
+def _first_sweeps(checker, P, N, fingers):
+    """``_certify``'s arguments for one-finger grasps: tip centres, each finger's first
+    approach direction (the cone's axis: no support plane), all live."""
+    r, tol = fingers.tip_radius, fingers.penetration_tol
+    n = N / np.linalg.norm(N, axis=-1, keepdims=True)
+    centers = P - r * n
+    return (centers, -n, np.ones(P.shape[:2], bool), r - tol, checker.sweep_length(fingers),
+            collide_mod._NEAR_LENGTH * r)
+
+
+def test_certified_sweeps_in_any_direction_are_those_fcl_finds_clear(bracket):
+    """The certificates alone, on tip centres around and inside an L bracket and sweeps in
+    every direction (not only the cone's axis, so the planes' slope term decides): a sweep
+    certified clear is clear for FCL, and a tip certified sunk is nearer the surface than its
+    radius for trimesh's closest points."""
+    from synth.fingers.geometry import quaternions_to
+
+    rng = np.random.default_rng(5)
+    n = 3000
+    centers = rng.uniform(-1.0, 5.0, (n, 3))
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    rho, D, near = 0.2, 8.0, 0.2
+    checker = FingerChecker(bracket)
+    verdict, tip_d, _ = checker._certify(centers[:, None], dirs[:, None], np.ones((n, 1), bool),
+                                         rho, D, near)
+    verdict = verdict[:, 0]
+    ref = FingerChecker(bracket, certify=False)
+    sweep = ref._object("capsule", rho, D)
+    rot = quaternions_to(dirs)
+    mid = ref._fcl_frame(centers + 0.5 * D * dirs)
+    hits = np.array([ref._hits(sweep, rot[i], mid[i]) for i in range(n)])
+    clear = verdict == collide_mod._CLEAR
+    assert clear.sum() > 100 and hits.sum() > 100
+    assert not hits[clear].any()
+    # directions that would cross the planes: a sweep down onto the upright's top from above
+    # it is never certified (it hits), one up and away from the same centre is
+    above = np.array([[0.5, 1.0, 4.0 + 1.5 * rho]])
+    down, up = np.array([[0.2, 0.0, -1.0]]), np.array([[0.2, 0.0, 1.0]])
+    for d, want in ((down, False), (up, True)):
+        d = d / np.linalg.norm(d)
+        v = checker._certify(above[:, None], d[:, None], np.ones((1, 1), bool), rho, D, near)[0]
+        assert (v[0, 0] == collide_mod._CLEAR) == want
+    sunk = verdict == collide_mod._SINKS
+    _, dist, _ = trimesh.proximity.closest_point(bracket, centers[sunk])
+    assert sunk.sum() > 100
+    assert (dist < rho).all()
+    assert np.allclose(tip_d[sunk, 0], dist, rtol=1e-9, atol=1e-12)

@@ -5,9 +5,9 @@ For a batch of grasps of one part, :func:`check_fingers` keeps the grasps whose 
 1. can touch all their contacts (a fingertip shared by several contacts fits them all),
 2. do not overlap each other (tips and bodies; exact sphere/capsule distances in numpy),
 3. stay on the part's side of an optional support plane, approach path included (numpy),
-4. do not penetrate the part deeper than ``Fingers.penetration_tol`` (FCL; a tip is seated
-   along the mesh's own normal, see :mod:`synth.scores.surface`, so one touching the facets
-   sinks into none of them), and
+4. do not penetrate the part deeper than ``Fingers.penetration_tol`` (exact distances, FCL
+   within round-off of the limit; a tip is seated along the mesh's own normal, see
+   :mod:`synth.scores.surface`, so one touching the facets sinks into none of them), and
 5. can come in from outside along an approach direction in the cone without passing through
    the part (FCL: the fingertip swept from beyond the part's bounding sphere to its contact is
    a capsule, which also contains the tip and, the body being thinner, the whole finger).
@@ -16,13 +16,14 @@ The cheap numpy stages run first on the whole batch; FCL only sees fingers of gr
 alive, and a grasp is dropped at its first failing finger. The part's BVH is built once per
 mesh and cached (:func:`checker_for`).
 
-Exact distances to the surface (libigl's tree; a :class:`synth.Part` lends its own) take
-the part of the sweeps that FCL does slowly, with the same verdicts: the end of a sweep
-seated on the surface, whose box FCL tests against every triangle under the tip, is
-certified clear by balls along its axis (:meth:`FingerChecker._near_tip`), and on a mesh of
-``_TRACE_FACES`` or more the whole sweep is sphere-traced (:meth:`FingerChecker._trace`), so
-that FCL's BVH is built only if a sweep grazes the surface, a tip sinks in or a gripper is
-checked.
+Certificates take most sweeps off FCL, with its verdicts to its tolerance
+(:meth:`FingerChecker._certify`): a sweep that one supporting plane of the part's convex
+hull separates from the part is clear; a tip centre nearer the surface than the tip's radius
+(exact distances: libigl's tree, or a :class:`synth.Part`'s own) sinks in; the end of a sweep
+seated on the surface, whose box FCL tests against every triangle under the tip, is certified
+clear by balls along its axis, and only the rest goes to FCL. On a mesh of ``_TRACE_FACES``
+or more the whole sweep is sphere-traced (:meth:`FingerChecker._trace`), so that FCL's BVH is
+built only if a sweep grazes the surface, a tip sinks in or a gripper is checked.
 
 A tip centre inside the part (contact far off the surface, or a flipped normal on a thick
 part) is caught by the approach check: every path from outside to it crosses the surface.
@@ -37,6 +38,7 @@ a broad-phase manager would add nothing (every finger's box overlaps the part's)
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,6 +46,7 @@ from typing import Any
 
 import fcl
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from synth.errors import InputError
 from synth.fingers.geometry import (
@@ -89,7 +92,7 @@ MISFIT, OVERLAP, PLANE, TIP_PENETRATES, BODY_HITS_PART, APPROACH_BLOCKED = 1, 2,
 #: A finger's summed outward normals shorter than this (the sum of unit vectors) count as
 #: cancelling out (a tip pinched between opposite faces); see ``_approach_axes``.
 DEGENERATE_AXIS_TOL: float = 1e-6
-#: The near-tip certificate (:meth:`FingerChecker._near_tip`): the first this many tip radii of
+#: The near-tip certificate (:meth:`FingerChecker._certify`): the first this many tip radii of
 #: an approach sweep are covered by ``_NEAR_BALLS`` balls checked with exact distances.
 _NEAR_LENGTH = 1.0
 _NEAR_BALLS = 3
@@ -100,6 +103,9 @@ _TRACE_FACES = 50_000
 #: capsule's radius (a sweep grazing the surface), and FCL decides.
 _TRACE_STEPS = 64
 _TRACE_MIN_STEP = 1e-3
+#: Verdicts on a finger's first approach sweep (:meth:`FingerChecker._certify`, the traces):
+#: clear; its near part clear (the rest to FCL); crossing the surface; its tip sinking in.
+_CLEAR, _NEAR, _CROSSES, _SINKS = 2, 1, -1, -2
 STATUS_NAMES: dict[int, str] = {
     OK: "ok",
     ABSENT: "absent",
@@ -174,6 +180,12 @@ class FingerChecker:
     ----------
     part : trimesh.Trimesh or object with ``.mesh``
         Watertight mesh with outward face normals.
+    distance : callable, optional
+        Exact distances (n,) of points (n, 3) from the surface (default: a libigl tree of
+        the mesh).
+    certify : bool
+        Decide what it can of each sweep with the certificates of :meth:`_certify` (default);
+        False leaves every sweep and tip to FCL, the slower reference they are tested against.
 
     Examples
     --------
@@ -186,7 +198,8 @@ class FingerChecker:
     """
 
     def __init__(self, part: Any,
-                 distance: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+                 distance: Callable[[np.ndarray], np.ndarray] | None = None,
+                 certify: bool = True) -> None:
         mesh = part_mesh(part)
         vertices = np.asarray(mesh.vertices, dtype=float)
         faces = np.asarray(mesh.faces, dtype=np.int64)
@@ -207,8 +220,12 @@ class FingerChecker:
         self.mesh = mesh
         # a large mesh's sweeps are traced with exact distances; FCL's BVH (about 2.5 us a
         # face to build) is then built only if a sweep grazes the surface or a gripper needs it
-        self._traced = len(faces) >= _TRACE_FACES
+        self._certify_sweeps = certify
+        self._traced = certify and len(faces) >= _TRACE_FACES
         self._fcl: Any = None if self._traced else self._build_fcl()
+        # the hull's supporting planes separate most sweeps from the part (_certify)
+        self._planes = (_support_planes(vertices) if certify and not self._traced
+                        else np.zeros((0, 4)))
         self._objects: dict[tuple[str, float, float], Any] = {}
         self._request = fcl.CollisionRequest()
 
@@ -238,12 +255,13 @@ class FingerChecker:
         return obj
 
     def _tip_hits(self, tip: Any, center: np.ndarray, position: np.ndarray,
-                  radius: float) -> bool:
+                  radius: float, distance: float = math.nan) -> bool:
         """Whether the tip ball of ``radius`` at ``center`` (``position`` in FCL's frame)
-        crosses the surface: its distance to the surface when the sweeps are traced, else
-        FCL."""
-        if self._traced:
-            d = float(self._distance(center[None])[0])
+        crosses the surface: by its centre's exact ``distance`` from the surface (computed
+        here when not given), FCL only where that is within round-off of ``radius`` or the
+        checker certifies nothing."""
+        if self._certify_sweeps:
+            d = distance if distance == distance else float(self._distance(center[None])[0])
             if abs(d - radius) > self._slack:  # else it touches to round-off: FCL says
                 return d < radius
         return self._hits(tip, None, position)
@@ -256,46 +274,71 @@ class FingerChecker:
         obj.setTranslation(position)
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))
 
-    def _near_tip(self, centers: np.ndarray, dirs: np.ndarray, usable: np.ndarray,
-                  radius: float, length: float, s: float
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The near-tip certificate of each finger's first usable approach direction.
+    def _certify(self, centers: np.ndarray, axis: np.ndarray, live: np.ndarray,
+                 radius: float, length: float, s: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What exact geometry decides of each live finger's first approach sweep.
 
         The sweep is a capsule of ``radius`` along ``[c, c + length d]`` from the tip centre
-        ``c`` (B, k, 3), with directions ``dirs`` (B, k, m, 3) of which ``usable``
-        (B, k, m). Its first ``s`` lies inside ``_NEAR_BALLS`` balls centred on
-        the axis, each ``s / _NEAR_BALLS`` long and of radius ``radius + s / (2 _NEAR_BALLS)``;
-        where the surface is at least that far from every centre (exact distances, libigl),
-        the near part touches nothing, and only the rest of the capsule, which stays clear of
-        the contact's neighbourhood, goes to FCL. FCL's box test against a capsule seated on
-        the surface opens every triangle under the tip, so its cost grew with the mesh's
-        density (1.5 ms a sweep at 1.3M faces); the far capsule costs about 10 us. Where the
-        certificate fails (a tilted direction, a concave neighbourhood), the whole sweep goes
-        to FCL as before: the answers are the same either way.
+        ``c`` (B, k, 3) along ``axis`` ``d`` (B, k, 3), for the fingers ``live`` (B, k).
+        In turn, each finger taking the first that applies:
+
+        1. ``_CLEAR``: a supporting plane ``n . x = h`` of the part's convex hull (the plane
+           whose outer side holds ``c`` deepest) has the whole capsule on its outer side,
+           ``n . c - h + length min(0, n . d) > radius``, so the part, which lies on the
+           other, touches none of it. Most sweeps of a convex part, and of the hull's faces
+           of any part, end here, in one matrix product.
+        2. ``_SINKS``: the tip centre is nearer the surface than ``radius`` (exact distance),
+           so the tip ball, and every sweep that holds it, crosses the surface.
+        3. ``_NEAR``: the first ``s`` of the capsule lies inside ``_NEAR_BALLS`` balls centred
+           on the axis, each ``s / _NEAR_BALLS`` long and of radius
+           ``radius + s / (2 _NEAR_BALLS)``, which the surface is at least that far from
+           (exact distances): only the rest of the capsule, which stays clear of the
+           contact's neighbourhood, goes to FCL. FCL's box test against a capsule seated on
+           the surface opens every triangle under the tip, so its cost grew with the mesh's
+           density (1.5 ms a sweep at 1.3M faces); the far capsule costs about 10 us.
+        4. ``0``: nothing is certified; FCL checks the whole sweep, as it did before.
+
+        Every certificate needs a margin of ``_slack`` (round-off), so the verdicts are
+        FCL's on whole sweeps, but for a tip sunk past ``radius`` by less than FCL's own
+        tolerance, which the exact distance calls sunk (a candidate of the coffee mug's
+        plan, 2.9e-8 past it: 1.2e-5 of the tip's radius, which FCL had let through).
 
         Returns
         -------
-        first : (B, k) int
-            The first usable direction (0 where none).
-        clear : (B, k) bool
-            Its near part is certified clear.
+        verdict : (B, k) int8
+        tip_distance : (B, k) float
+            The tip centre's distance from the surface where step 2 computed it, else NaN.
         far_mid : (B, k, 3) float
             The far capsule's centre, in FCL's frame.
         """
         B, k = centers.shape[:2]
-        first = np.argmax(usable, axis=2)
-        d0 = np.take_along_axis(dirs, first[..., None, None], axis=2)[:, :, 0]  # (B, k, 3)
-        step = s / _NEAR_BALLS
-        t = (np.arange(_NEAR_BALLS) + 0.5) * step
-        balls = centers[:, :, None, :] + t[:, None] * d0[:, :, None, :]  # (B, k, n, 3)
-        clear = np.zeros((B, k), bool)
-        rows = np.flatnonzero(usable.any(axis=2).ravel())
+        verdict = np.zeros(B * k, np.int8)
+        tip_distance = np.full(B * k, np.nan)
+        rows = np.flatnonzero(live.ravel())
+        c, d = centers.reshape(-1, 3)[rows], axis.reshape(-1, 3)[rows]
+        if len(rows) and len(self._planes):
+            n, h = self._planes[:, :3], self._planes[:, 3]
+            deepest = np.argmax(c @ n.T - h, axis=1)
+            nf = n[deepest]
+            gap = (np.einsum("ij,ij->i", nf, c) - h[deepest]
+                   + length * np.minimum(np.einsum("ij,ij->i", nf, d), 0.0))
+            clear = gap > radius + self._slack
+            verdict[rows[clear]] = _CLEAR
+            rows, c, d = rows[~clear], c[~clear], d[~clear]
         if len(rows):
-            dist = self._distance(balls.reshape(B * k, _NEAR_BALLS, 3)[rows].reshape(-1, 3))
-            ok = (dist.reshape(len(rows), _NEAR_BALLS) >= radius + 0.5 * step).all(axis=1)
-            clear.ravel()[rows] = ok
-        far_mid = self._fcl_frame(centers + (s + 0.5 * (length - s)) * d0)
-        return first, clear, far_mid
+            tip_distance[rows] = dist = self._distance(c)
+            sinks = dist < radius - self._slack
+            verdict[rows[sinks]] = _SINKS
+            rows, c, d = rows[~sinks], c[~sinks], d[~sinks]
+        if len(rows):
+            step = s / _NEAR_BALLS
+            t = (np.arange(_NEAR_BALLS) + 0.5) * step
+            balls = c[:, None, :] + t[:, None] * d[:, None, :]  # (n, _NEAR_BALLS, 3)
+            dist = self._distance(balls.reshape(-1, 3)).reshape(len(rows), _NEAR_BALLS)
+            verdict[rows[(dist >= radius + 0.5 * step).all(axis=1)]] = _NEAR
+        far_mid = self._fcl_frame(centers + (s + 0.5 * (length - s)) * axis)
+        return verdict.reshape(B, k), tip_distance.reshape(B, k), far_mid
 
     def _trace(self, starts: np.ndarray, dirs: np.ndarray, radius: float, length: float
                ) -> np.ndarray:
@@ -445,7 +488,7 @@ class FingerChecker:
                     what = "tip" if tip_below[b, j] else "approach"
                     fail(b, j, PLANE, f"finger {slot_name[b][j]} {what} crosses the support plane")
 
-        # 4-5. FCL: tip against part, then the approach sweep
+        # 4-5. Tip against part, then the approach sweep: certificates, then FCL
         sweep = self._object("capsule", r - tol, D)
         tip = self._object("sphere", r - tol)
         approach = np.full((B, k, 3), np.nan)
@@ -454,30 +497,48 @@ class FingerChecker:
         tips = self._fcl_frame(centers)
         near = _NEAR_LENGTH * r
         live_usable = usable & (present & alive[:, None])[..., None]
+        first = np.argmax(live_usable, axis=2)  # each finger's first usable direction
+        axis0 = np.take_along_axis(dirs, first[..., None, None], axis=2)[:, :, 0]
+        sweeping = np.asarray(live_usable.any(axis=2))
+        tip_distance = np.full((B, k), np.nan)
+        far_mid = np.zeros((B, k, 3))
+        verdict = np.zeros((B, k), np.int8)
         if self._traced:  # the first usable direction of each finger traced in one batch
-            first = np.argmax(live_usable, axis=2)
-            axis0 = np.take_along_axis(dirs, first[..., None, None], axis=2)[:, :, 0]
-            rows = np.flatnonzero(live_usable.any(axis=2).ravel())
-            traced = np.zeros(B * k, np.int8)
-            traced[rows] = self._trace(centers.reshape(-1, 3)[rows],
-                                       axis0.reshape(-1, 3)[rows], r - tol, D)
-            near_clear, far_mid = traced.reshape(B, k), np.zeros((B, k, 3))
-        else:
-            first, near_clear, far_mid = self._near_tip(centers, dirs, live_usable, r - tol, D,
-                                                        near)
+            rows = np.flatnonzero(sweeping.ravel())
+            traced = self._trace(centers.reshape(-1, 3)[rows], axis0.reshape(-1, 3)[rows],
+                                 r - tol, D)
+            verdict.ravel()[rows] = np.select([traced > 0, traced < 0], [_CLEAR, _CROSSES])
+        elif self._certify_sweeps:
+            verdict, tip_distance, far_mid = self._certify(centers, axis0, sweeping, r - tol, D,
+                                                           near)
         far = self._object("capsule", r - tol, D - near)
-        first_l, near_l = first.tolist(), near_clear.tolist()
-        present_l, usable_l = present.tolist(), usable.tolist()
-        for b in np.flatnonzero(alive).tolist():
+        # a finger whose first sweep is certified clear takes it (undone below for the
+        # fingers after a grasp's first failing one, which stay unchecked)
+        settled = sweeping & (verdict == _CLEAR)
+        approach[settled] = axis0[settled]
+        status[settled] = OK
+        todo = present & ~settled
+        loop = np.flatnonzero(alive & todo.any(axis=1))
+        reset = settled[loop].any(axis=1).tolist()
+        first_l, verdict_l = first[loop].tolist(), verdict[loop].tolist()
+        todo_l = todo[loop].tolist()
+        for q, b in enumerate(loop.tolist()):
             for j in range(k):
-                if not present_l[b][j]:
+                if not todo_l[q][j]:
                     continue
-                options = [d for d in range(m) if usable_l[b][j][d]]
+                v = verdict_l[q][j]
+                if v == _SINKS:  # its first sweep crosses the surface and the tip sinks in
+                    by = f" by {r - tip_distance[b, j]:.3g}" if depths else ""
+                    fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip penetrates the "
+                         f"part{by} (a fingertip may sink at most {tol:.3g}, the penetration "
+                         f"tolerance)")
+                    break
+                options = np.flatnonzero(usable[b, j]).tolist()
                 chosen, tip_checked = -1, False
                 for d in options:
-                    if d == first_l[b][j] and near_l[b][j]:  # traced: decided, else the
-                        hit = (near_l[b][j] < 0 if self._traced  # near part is clear
-                               else self._hits(far, rot[b, j, d], far_mid[b, j]))
+                    if d == first_l[q][j] and v:  # decided, or the near part is clear
+                        hit = v == _CROSSES or (v == _NEAR and self._hits(far, rot[b, j, d],
+                                                                          far_mid[b, j]))
                     else:
                         hit = self._hits(sweep, rot[b, j, d], mid[b, j, d])
                     if not hit:
@@ -485,7 +546,8 @@ class FingerChecker:
                         break
                     if not tip_checked:
                         tip_checked = True
-                        if self._tip_hits(tip, centers[b, j], tips[b, j], r - tol):
+                        if self._tip_hits(tip, centers[b, j], tips[b, j], r - tol,
+                                          tip_distance[b, j]):
                             by = (f" by {self._penetration(centers[b, j], r):.3g}" if depths
                                   else "")
                             fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
@@ -506,6 +568,9 @@ class FingerChecker:
                     break
                 approach[b, j] = dirs[b, j, chosen]
                 status[b, j] = OK
+            if not alive[b] and reset[q]:
+                after = settled[b] & (np.arange(k) > j)
+                status[b, after], approach[b, after] = UNCHECKED, np.nan
 
         # 6. Tip-body and body-body overlaps between fingers, with the chosen directions.
         live = np.flatnonzero(alive)
@@ -535,6 +600,25 @@ class FingerChecker:
             contact_finger=np.ascontiguousarray(ids),
             fingers=fingers,
         )
+
+
+def _support_planes(vertices: np.ndarray) -> np.ndarray:
+    """Supporting planes (F, 4) of the convex hull of ``vertices`` (n, 3): unit outward
+    normals ``n`` and offsets ``h`` with ``n . v <= h`` for every vertex, one per distinct
+    facet plane. The offsets are the vertices' own maxima, not qhull's (whose facets may leave
+    a point outside by its merging tolerance), so each plane supports the mesh exactly. None
+    (shape (0, 4)) for a flat or degenerate set: no certificate then."""
+    try:
+        hull = ConvexHull(vertices)
+    except (QhullError, ValueError):
+        return np.zeros((0, 4))
+    n = np.unique(np.round(hull.equations[:, :3], 9), axis=0)  # coplanar facets: one plane
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    h = np.empty(len(n))
+    step = max(1, 2_000_000 // max(1, len(vertices)))  # bounded memory for a large mesh
+    for s in range(0, len(n), step):
+        h[s:s + step] = (vertices @ n[s:s + step].T).max(axis=0)
+    return np.column_stack([n, h])
 
 
 def _approach_axes(outward_sum: np.ndarray, normal_gram: np.ndarray,
@@ -660,8 +744,9 @@ def check_fingers(
         Finger of each contact, in [0, k); contacts with the same id share one fingertip.
         Default: one finger per contact.
     depths : bool
-        Say in ``reasons`` how deep a penetrating tip sinks (a second, costlier FCL query
-        per such tip). False for callers that read only the mask: the verdicts are the same.
+        Say in ``reasons`` how deep a penetrating tip sinks (a distance query per such tip,
+        where the check did not already make it). False for callers that read only the
+        mask: the verdicts are the same.
 
     Returns
     -------
@@ -682,7 +767,8 @@ def check_fingers(
 
 
 def tip_sinks(part: Any, centers: np.ndarray, tip_radius: float) -> np.ndarray:
-    """How deep each fingertip sinks into the part (FCL's penetration depth; 0 when clear).
+    """How deep each fingertip sinks into the part (its radius less its centre's exact
+    distance from the surface; 0 when clear).
 
     A grasp :func:`check_fingers` accepts has every sink at most ``Fingers.penetration_tol``.
 

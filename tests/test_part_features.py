@@ -6,8 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from synth.part import Part, load_part
+from synth.part.features import edge_table
 
 MESHES = Path(__file__).resolve().parent.parent / "meshes"
 
@@ -99,3 +101,30 @@ def test_sharp_angle_is_settable() -> None:
     # 64 segments: 5.6 deg between side facets, now sharp
     assert len(coarse.features.edges_of_kind("convex")) == 128 + 64
     assert all(r.planar for r in coarse.regions)
+
+
+@pytest.mark.parametrize("name", ["corpus/pybullet_bunny.obj", "corpus/pybullet_lego_vhacd.obj",
+                                  "nut.stl", "torus.stl", "open", "nonmanifold"])
+def test_edge_table_numbers_edges_as_trimesh_does(name: str) -> None:
+    """The one-sort edge table gives trimesh's unique edges, their order, each face's edges
+    and each edge's first two faces (``edges_face`` through the inverse), on scans, convex
+    decompositions, closed parts, an open sheet and a fin of three faces on one edge."""
+    if name == "open":
+        mesh = trimesh.creation.icosphere(2)
+        mesh.update_faces(np.arange(len(mesh.faces)) % 5 != 0)
+    elif name == "nonmanifold":
+        v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        mesh = trimesh.Trimesh(v, [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
+    else:
+        mesh = trimesh.load(MESHES / name, force="mesh")
+    faces = np.asarray(mesh.faces, np.int64)
+    edges, face_edges, order, starts = edge_table(faces, len(mesh.vertices))
+    assert np.array_equal(edges, mesh.edges_unique)
+    assert np.array_equal(face_edges, mesh.faces_unique_edges)
+    inverse = np.asarray(mesh.edges_unique_inverse)
+    assert np.array_equal(inverse[order], np.repeat(np.arange(len(edges)), np.diff(
+        np.append(starts, len(order)))))
+    first = np.full(len(edges), len(order))
+    np.minimum.at(first, inverse, np.arange(len(order)))
+    assert np.array_equal(order[starts], first)
+    assert np.array_equal(order[starts] // 3, mesh.edges_face[first])

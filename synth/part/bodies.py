@@ -213,9 +213,13 @@ class Solids:
     mesh : trimesh.Trimesh
         The part's mesh, outward normals.
     bodies : sequence of Body
+    edges, face_edges : (e, 2) and (f, 3) int
+        The mesh's unique edges and each face's three of them (``mesh.edges_unique`` and
+        ``mesh.faces_unique_edges``, as :class:`synth.part.features.Features` keeps them).
     """
 
-    def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...]) -> None:
+    def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...],
+                 edges: np.ndarray, face_edges: np.ndarray) -> None:
         fn = np.asarray(mesh.face_normals, float)
         tri = np.asarray(mesh.triangles, float)
         faces = np.asarray(mesh.faces, np.int64)
@@ -226,8 +230,8 @@ class Solids:
             ang = np.asarray(mesh.face_angles, float)
             vpn = np.zeros((len(mesh.vertices), 3))
             np.add.at(vpn, faces.ravel(), (ang[..., None] * fn[:, None, :]).reshape(-1, 3))
-            fue = np.asarray(mesh.faces_unique_edges, np.int64)
-            epn = np.zeros((len(mesh.edges_unique), 3))
+            fue = np.asarray(face_edges, np.int64)
+            epn = np.zeros((len(edges), 3))
             np.add.at(epn, fue.ravel(), np.repeat(fn, 3, axis=0))
         for b in bodies:
             if not b.closed:

@@ -243,13 +243,17 @@ def _pieces(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pieces, owner
 
 
-def build_index(triangles: np.ndarray, normals: np.ndarray) -> MeshIndex:
+def build_index(triangles: np.ndarray, normals: np.ndarray,
+                mesh: tuple[np.ndarray, np.ndarray] | None = None) -> MeshIndex:
     """The search structures of a triangle set.
 
     Parameters
     ----------
     triangles : (f, 3, 3) float
     normals : (f, 3) float
+    mesh : ((v, 3) float, (f, 3) int), optional
+        The vertices and faces ``triangles`` come from, for the box tree (which otherwise
+        gets three vertices of its own a face: the same tree and answers, in more memory).
         Unit face normals (any consistent sense). Faces whose normal disagrees with their
         winding, or is degenerate, are marked ``unbounded``: always evaluated exactly.
 
@@ -264,15 +268,23 @@ def build_index(triangles: np.ndarray, normals: np.ndarray) -> MeshIndex:
     proxies = pieces.mean(axis=1)
     piece_r = np.linalg.norm(pieces - proxies[:, None, :], axis=2).max(axis=1) * (1 + 1e-9)
     radius = float(piece_r.max())
-    boxes = BoxTree(tri.reshape(-1, 3), np.arange(3 * len(tri), dtype=np.int64).reshape(-1, 3))
+    if mesh is None:
+        boxes = BoxTree(tri.reshape(-1, 3), np.arange(3 * len(tri), dtype=np.int64).reshape(-1, 3))
+    else:
+        boxes = BoxTree(np.asarray(mesh[0], np.float64), np.asarray(mesh[1], np.int64))
     boxes._built()
-    edge = np.roll(tri, -1, axis=1) - tri  # edges (0,1), (1,2), (2,0)
-    en = np.cross(fn[:, None, :], edge)  # in-plane, pointing into the triangle
-    en /= np.maximum(np.linalg.norm(en, axis=2, keepdims=True), 1e-300)
+    # in-plane normals of the edges (0,1), (1,2), (2,0), pointing into the triangle, and
+    # their offsets: one edge at a time, so no temporary is larger than the (f, 3) result
+    en = np.empty_like(tri)
+    eo = np.empty(tri.shape[:2])
+    for k in range(3):
+        e = np.cross(fn, tri[:, (k + 1) % 3] - tri[:, k])
+        e /= np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+        en[:, k] = e
+        eo[:, k] = np.einsum("ij,ij->i", e, tri[:, k])
     wind = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), fn)
     index = MeshIndex(tri, cKDTree(proxies), radius, fn, np.einsum("ij,ij->i", fn, tri[:, 0]),
-                      en, np.einsum("ijk,ijk->ij", en, tri), ~(wind > 0), owner, centroids,
-                      boxes)
+                      en, eo, ~(wind > 0), owner, centroids, boxes)
     for a in (tri, fn, index.plane_offsets, en, index.edge_offsets, index.unbounded, owner,
               centroids, boxes.vertices, boxes.faces):
         a.flags.writeable = False

@@ -26,6 +26,11 @@ _BUILD_TABLES = frozenset({
     "faces_unique_edges", "triangles_cross", "vertices_component_label"})
 
 
+def _drop_build_tables(mesh: trimesh.Trimesh) -> None:
+    """Clear trimesh's cached ``_BUILD_TABLES`` of ``mesh`` (kept: normals, areas, bounds)."""
+    mesh._cache.clear(exclude=[k for k in mesh._cache.cache if k not in _BUILD_TABLES])
+
+
 class Part:
     """A rigid part to grasp: a cleaned triangle mesh and everything derived from it.
 
@@ -159,6 +164,11 @@ class Part:
             src.flags.writeable = False
         self.face_source = src
         self.convex_inputs = dict(convex_inputs or {})
+        # the edge and adjacency tables trimesh cached while the bodies were found are several
+        # times the mesh's own size; the features build their own in one sort, and what the
+        # part needs of them is in its features (trimesh computes them again on demand), so
+        # dropping them here keeps them out of the peak memory of everything that follows
+        _drop_build_tables(mesh)
         self.features: Features = compute_features(mesh, sharp_angle, src, tol.COPLANAR_ANGLE)
         self._regions: RegionSet = compute_regions(
             mesh, self.features, tol.COPLANAR_ANGLE, tol.PATCH_HALF_ANGLE, self.precision
@@ -170,13 +180,11 @@ class Part:
         self._triangles = tri
         self._vertex_cone = self._build_vertex_cone()
         needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
-        self._solids = Solids(mesh, bodies) if needs else None
-        # the edge and adjacency tables trimesh cached while the part was built are several
-        # times the mesh's own size; what the part needs of them is in its features, regions
-        # and solids now (trimesh computes them again on demand), and dropping them before
-        # the closest-point index keeps them out of the peak memory
-        mesh._cache.clear(exclude=[k for k in mesh._cache.cache if k not in _BUILD_TABLES])
-        self._index = build_index(tri, np.asarray(mesh.face_normals, float))
+        self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges)
+                        if needs else None)
+        _drop_build_tables(mesh)  # the corner angles the regions and solids read
+        self._index = build_index(tri, np.asarray(mesh.face_normals, float),
+                                  (np.asarray(mesh.vertices), np.asarray(mesh.faces)))
         self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
 

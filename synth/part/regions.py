@@ -136,7 +136,7 @@ def compute_regions(
     # 1. coplanar components and which of them are planar facets
     tol = np.full(len(fa), coplanar_angle)
     if precision > 0:
-        edge_len = np.asarray(mesh.edges_unique_length, float)[np.asarray(mesh.faces_unique_edges)]
+        edge_len = features.edge_length[features.face_edges]
         height = 2.0 * areas / np.maximum(edge_len.max(axis=1), 1e-300)
         tol += 2.0 * precision / np.maximum(np.minimum(height[fa], height[fb]), 1e-300)
         tol = np.minimum(tol, max(coplanar_angle, 0.25 * features.sharp_angle))  # slivers
@@ -218,7 +218,7 @@ def _corner_normals(
     acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
     corner = acc[fan].reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]
-    return -corner
+    return np.negative(corner, out=corner)
 
 
 def _build_regions(

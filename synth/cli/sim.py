@@ -290,13 +290,9 @@ def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> tuple[
         how = f"{off[worst]:.3g} {mesh['units']}" if np.isfinite(off[worst]) else "far"
         raise InputError(f"{path}: not the mesh these grasps were planned on (contact "
                          f"{worst % 2} of grasp {worst // 2 + 1} lies {how} off its surface)")
-    source = doc.get("gripper", {}).get("source")
-    if isinstance(source, str) and Path(source).suffix and not Path(source).is_absolute():
-        # a description file, stored relative to the grasp file (older files: to the folder
-        # the plan ran in)
-        beside = resolve_mesh_path(source, args.grasps)
-        if beside.is_file():
-            doc = {**doc, "gripper": {**doc["gripper"], "source": str(beside)}}
+    found = _gripper_file(doc, args.grasps)
+    if found is not None:
+        doc = {**doc, "gripper": {**doc["gripper"], "source": str(found)}}
     bar = LineProgress(enabled=not args.quiet)
     try:
         labelled = simulate_jaw_document(doc, part, settings, mu=args.mu,
@@ -304,6 +300,20 @@ def _simulate_jaws(args: argparse.Namespace, doc: dict, settings: Any) -> tuple[
     finally:
         bar.close()
     return labelled, Path(path)
+
+
+def _gripper_file(doc: dict, grasps: Path) -> Path | None:
+    """The gripper description file a grasp document names, found where it was stored
+    (relative to the grasp file; older files: to the folder the plan ran in; an absolute
+    path stays itself); None for a built-in gripper's name or a file that is not there."""
+    from synth.paths import resolve_mesh_path
+
+    gripper = doc.get("gripper")
+    source = gripper.get("source") if isinstance(gripper, dict) else None
+    if not isinstance(source, str) or not Path(source).suffix:
+        return None
+    found = resolve_mesh_path(source, grasps)
+    return found if found.is_file() else None
 
 
 def _write(args: argparse.Namespace, doc: dict, out: Path | None, mesh: Path,
@@ -317,14 +327,9 @@ def _write(args: argparse.Namespace, doc: dict, out: Path | None, mesh: Path,
 
     if out is not None and isinstance(doc.get("mesh"), dict):
         doc["mesh"]["path"] = stored_mesh_path(mesh, out)
-    gripper = doc.get("gripper")
-    if out is not None and isinstance(gripper, dict) and isinstance(gripper.get("source"), str) \
-            and Path(gripper["source"]).suffix:
-        from synth.paths import resolve_mesh_path
-
-        found = resolve_mesh_path(gripper["source"], args.grasps)  # absolute: stays itself
-        if found.is_file():  # a description file: stored relative to the file written
-            gripper["source"] = stored_mesh_path(found, out)
+    found = _gripper_file(doc, args.grasps)
+    if out is not None and found is not None:  # stored relative to the file written
+        doc["gripper"]["source"] = stored_mesh_path(found, out)
 
     text = json.dumps(doc, indent=1) + "\n"
     if out is not None:

@@ -405,8 +405,10 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
             if params.rank_by == "margin":
                 pool = _joined(moved, pool)
                 ranked = np.argsort(pool.spw, kind="stable")
-            else:  # ranked by another measure: the refined poses count for the floor only,
-                # after the originals (so a part is called too heavy on its least squeeze)
+            else:  # ranked by another measure: the refined poses rank after every original
+                # (whose order is that measure's), so one is returned only when fewer than
+                # --top originals are within the floor, and a part too heavy for every pose
+                # is told the least squeeze of all
                 pool = _joined(pool, moved)
                 ranked = np.arange(len(pool.spw))
         if limit is not None and mass is not None:

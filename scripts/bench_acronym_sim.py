@@ -74,7 +74,9 @@ def synth_command(*args: str) -> list[str]:
 
 
 def read_acronym_object(path: Path) -> dict[str, Any]:
-    """What this benchmark reads from an ACRONYM file besides its poses.
+    """What this benchmark reads from an ACRONYM file besides its poses: the object and the
+    labels as synth's own reader gives them (:func:`synth.formats.acronym.read_acronym`), and
+    the object's friction and FleX's motion measures, which synth does not read.
 
     Parameters
     ----------
@@ -89,15 +91,16 @@ def read_acronym_object(path: Path) -> dict[str, Any]:
         ``motion`` (each of :data:`MOTION`: one float per pose).
     """
     import h5py
-    import numpy as np
 
+    from synth.formats.acronym import read_acronym
+
+    poses = read_acronym(path)
+    if poses.labels is None or poses.object_file is None or poses.object_mass is None:
+        raise SystemExit(f"{path}: not an ACRONYM grasp file with labels, object file and mass")
     with h5py.File(path, "r") as f:
-        obj = f["object/file"][()]
-        return {"mesh": obj.decode() if isinstance(obj, bytes) else str(obj),
-                "scale": float(np.asarray(f["object/scale"][()]).reshape(-1)[0]),
-                "mass": float(f["object/mass"][()]),
-                "friction": float(f["object/friction"][()]),
-                "labels": [int(x) for x in f[LABEL][()]],
+        return {"mesh": poses.object_file, "scale": float(poses.object_scale or 1.0),
+                "mass": poses.object_mass, "friction": float(f["object/friction"][()]),
+                "labels": [int(x) for x in poses.labels],
                 "motion": {k: [float(x) for x in f[f"grasps/qualities/flex/{k}"][()]]
                            for k in MOTION}}
 

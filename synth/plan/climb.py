@@ -240,7 +240,9 @@ def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDA
 
 
 def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
-               rng: np.random.Generator, sweeps: int) -> tuple[GraspBatch, int]:
+               rng: np.random.Generator, sweeps: int,
+               seed_scores: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+               ) -> tuple[GraspBatch, int]:
     """Climb 7-contact seeds over the pool by exact best responses (see the module notes).
 
     Each member takes one contact at a time, in a random order, and replaces it by the best
@@ -258,6 +260,9 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     score : Scorer
     rng : numpy.random.Generator
     sweeps : int
+    seed_scores : ((s,) float, (s,) float), optional
+        The seeds' d* and fitness, when the caller scored them already (the scorer gives a
+        grasp the same scores in any batch, so they are not scored again).
 
     Returns
     -------
@@ -286,7 +291,14 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     next_seed = len(members)
     stale = np.zeros(len(members), np.int64)  # tries without a gain in a row
     tries = np.zeros(len(members), np.int64)
-    cur_d, cur_fit = score(pp[members], pn[members], ps[members])
+    def start(rows: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The scores of the seeds ``rows``."""
+        if seed_scores is not None:
+            return seed_scores[0][rows].copy(), seed_scores[1][rows].copy()
+        ms = seeds[rows]
+        return score(pp[ms], pn[ms], ps[ms])
+
+    cur_d, cur_fit = start(np.arange(len(members)))
     out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
     screened = 0
     while len(members):
@@ -344,8 +356,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
             slots = conv[:fresh]
             members[slots] = seeds[next_seed : next_seed + fresh]
             slot_of[slots] = np.arange(next_seed, next_seed + fresh)
-            ms = members[slots]
-            cur_d[slots], cur_fit[slots] = score(pp[ms], pn[ms], ps[ms])
+            cur_d[slots], cur_fit[slots] = start(slot_of[slots])
             stale[slots], tries[slots] = 0, 0
             next_seed += fresh
             keep = np.setdiff1d(np.arange(M), conv[fresh:])

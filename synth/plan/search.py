@@ -172,7 +172,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     if len(pool) > 4 * k:
         if k == 7 and prm.mu == 0:
             n_swap = max(_MIN_SWAPS, int(POOL_SHARE * budget / SWAP_COST))
-            climbed, screened = swap_climb(pool, seed_idx[:n_swap], score, rng, _SWEEPS)
+            climbed, screened = swap_climb(pool, seed_idx[:n_swap], score, rng, _SWEEPS,
+                                           (archive.d[:n_swap], archive.fit[:n_swap]))
         else:
             climbed = pool_climb(pool, seed_idx, score, rng, int(POOL_SHARE * budget), L)
         archive = GraspBatch.concat([archive, climbed])

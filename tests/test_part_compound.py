@@ -149,3 +149,29 @@ def test_union_seam_through_a_vertex_is_not_smoothed_over() -> None:
     pieces = Pieces(path)
     faces = pieces.touched(p)
     assert len(faces) and _in_cone(c.normals[0], pieces.normal_cone(faces))
+
+
+def test_faces_the_union_repair_tilted_keep_the_normals_of_the_file_triangles() -> None:
+    """The sliver repair after a union moves corners by up to the coordinates' precision,
+    which tilted a small face of the stator's jaw by 0.0033 degrees: a contact there had a
+    d* 7e-5 off the one the file's own normals give (the corpus check found it). Every face
+    of the part whose centre lies inside exactly one of the file's triangles (trimesh's own
+    reading of the file, away from the triangle's edges) has that triangle's normal. The
+    gripper's mover still has 4 faces tilted by 3e-5 to 1e-3 rad that this repair did not
+    make (docs/limits.md)."""
+    name = "robosuite_bd_gripper_stator_collision.obj"
+    part = load_part(CORPUS / name)
+    pieces = Pieces(CORPUS / name)
+    tri = np.asarray(part.mesh.triangles, float)
+    centre = tri.mean(axis=1)
+    inner = (0.5 * centre[:, None] + 0.25 * tri[:, [1, 2, 0]] + 0.25 * tri[:, [2, 0, 1]])
+    normals = np.asarray(part.mesh.face_normals, float)
+    checked = worst = 0
+    for f in range(len(tri)):
+        touched = [pieces.touched(p) for p in (centre[f], *inner[f])]
+        if any(len(t) != 1 for t in touched) or len({int(t[0]) for t in touched}) != 1:
+            continue  # near a file edge, or on two coplanar triangles
+        checked += 1
+        worst = max(worst, float(np.linalg.norm(normals[f] - pieces.normals[touched[0][0]])))
+    assert checked > 0.5 * len(tri)
+    assert worst < 1e-9

@@ -436,7 +436,7 @@ def load_part(
     chosen, dropped, note = _choose(groups, bodies, body, name)
     if note:
         repairs.append(note)
-    meshes, names, sources, notes = unite_overlapping([bodies[i][1] for i in chosen],
+    meshes, names, sources, tilted, notes = unite_overlapping([bodies[i][1] for i in chosen],
                                              [bodies[i][0] for i in chosen],
                                              [bodies[i][2] for i in chosen],
                                              max(tol.DEGENERATE_RTOL * length, precision),
@@ -456,6 +456,15 @@ def load_part(
                                                        trimesh.util.concatenate(meshes))
         mesh = trimesh.Trimesh(np.asarray(both.vertices, float),
                                np.asarray(both.faces, np.int64), process=False)
+    if any(t is not None for t in tilted):  # faces the union's repair tilted: their
+        # triangles' own normals (see unite_overlapping)
+        given = np.concatenate([np.full((len(m.faces), 3), np.nan) if t is None else t
+                                for m, t in zip(meshes, tilted, strict=True)])
+        rows = ~np.isnan(given[:, 0])
+        if rows.any():
+            normals = np.array(mesh.face_normals, float)
+            normals[rows] = given[rows]
+            mesh._cache["face_normals"] = normals
     # trimesh stores str(unit).lower(): "none" when the unit is unknown (GLB files carry it)
     mesh.units = str(unit)
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,

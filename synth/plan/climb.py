@@ -245,10 +245,15 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
                ) -> tuple[GraspBatch, int]:
     """Climb 7-contact seeds over the pool by exact best responses (see the module notes).
 
-    Each member takes one contact at a time, in a random order, and replaces it by the best
-    pool contact (exact d*, fingertips apart, a pool contact once only) when the full scorer
-    confirms the gain (rank, conditioning); a member that gains nothing over ``2 k`` tries in
-    a row has converged and the next seed takes its place. Each seed climbs at most
+    Each member takes one contact at a time, in a fixed cyclic order drawn at random, and
+    replaces it by the best pool contact (exact d*, fingertips apart, a pool contact once only)
+    when the full scorer confirms the gain (rank, conditioning); a member that gains nothing
+    over ``k`` tries in a row (every contact once: no single swap it can confirm improves it)
+    has converged and the next seed takes its place. (Against contacts drawn at random and
+    ``2 k`` tries, which left a member often "converged" with a contact never tried and spent
+    tries on contacts already at their best: on all 47 corpus and held-out parts x seeds 0-3,
+    the median plan 0.359 -> 0.323 s of CPU for the same first-grasp d*, mean ratio to the
+    reference 0.9472 -> 0.9452, a difference within the runs' noise, 0.0035.) Each seed climbs at most
     ``sweeps`` times k tries. Once the seeds are all taken, ``kicks`` more starts follow, each
     one of the ``_KICK_ELITE`` best optima found so far with ``_KICK_CONTACTS`` of its
     contacts replaced by random pool contacts (iterated local search). The climb stops early
@@ -310,12 +315,15 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     cur_d, cur_fit = start(np.arange(len(members)))
     out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
     screened = 0
+    order = rng.permutation(k)
+    rounds = 0
     while len(members):
         if score.out_of_time():  # members still climbing keep where they got to
             out[slot_of], out_d[slot_of], out_fit[slot_of] = members, cur_d, cur_fit
             break
         M = len(members)
-        j = int(rng.integers(0, k))
+        j = int(order[rounds % k])  # every k rounds in a row try every contact once
+        rounds += 1
         d = np.ones((M, n_pool), np.float32)
         rows = [q for q in range(7) if q != j]
         for X, X32 in zip(Xs, X32s, strict=True):  # the smaller d* of the readings
@@ -357,7 +365,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
             cur_d[h], cur_fit[h] = cd[ok, pick[ok]], cfit[ok, pick[ok]]
         stale = np.where(win, 0, stale + 1)
         tries += 1
-        conv = np.flatnonzero((stale >= 2 * k) | (tries >= sweeps * k))
+        conv = np.flatnonzero((stale >= k) | (tries >= sweeps * k))
         if len(conv):
             out[slot_of[conv]], out_d[slot_of[conv]] = members[conv], cur_d[conv]
             out_fit[slot_of[conv]] = cur_fit[conv]

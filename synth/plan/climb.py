@@ -254,10 +254,10 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     tries on contacts already at their best: on all 47 corpus and held-out parts x seeds 0-3,
     the median plan 0.359 -> 0.323 s of CPU for the same first-grasp d*, mean ratio to the
     reference 0.9472 -> 0.9452, a difference within the runs' noise, 0.0035.) Each seed
-    climbs at most ``sweeps`` times k tries. Once the seeds are all taken, ``kicks`` more starts follow, each
-    one of the ``_KICK_ELITE`` best optima found so far with ``_KICK_CONTACTS`` of its
-    contacts replaced by random pool contacts (iterated local search). The climb stops early
-    when the scorer's deadline passes.
+    climbs at most ``sweeps`` times k tries. Once the seeds are all taken, ``kicks`` more
+    starts follow, each one of the ``_KICK_ELITE`` best optima found so far with
+    ``_KICK_CONTACTS`` of its contacts replaced by random pool contacts (iterated local
+    search). The climb stops early when the scorer's deadline passes.
 
     Parameters
     ----------

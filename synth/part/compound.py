@@ -25,7 +25,8 @@ import trimesh
 
 from synth.isolate import NativeCrash, call_isolated
 from synth.native import bvh_model
-from synth.part.repair import fix_degenerate
+from synth.part.closest import BoxTree
+from synth.part.repair import face_keys, fix_degenerate, tilted_normals
 
 __all__ = ["OVERLAP_RTOL", "group_bodies", "unite_overlapping"]
 
@@ -142,7 +143,8 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
 
 
 def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: list[bool],
-                      height: float, max_move: float | None = None
+                      height: float, max_move: float | None = None,
+                      keyed: dict[bytes, np.ndarray] | None = None
                       ) -> tuple[list[trimesh.Trimesh], list[str], list[np.ndarray],
                                  list[np.ndarray | None], list[str]]:
     """Unite the closed bodies of one object that overlap (manifold3d, float64).
@@ -155,6 +157,9 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
     height, max_move : float
         Slivers of the union thinner than ``height`` are repaired, moving its surface by at
         most ``max_move`` (:func:`synth.part.repair.fix_degenerate`).
+    keyed : dict, optional
+        Faces of the bodies an earlier repair tilted (:func:`synth.part.repair.face_keys`),
+        with their triangles' normals: the union's pieces of them get those.
 
     Returns
     -------
@@ -227,13 +232,14 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
         for k, (v, f, src) in enumerate(pieces):
             united = trimesh.Trimesh(v + centre, f, process=False)
             # the union's faces are pieces of the input triangles, in their planes
-            pieces_normals = np.asarray(united.face_normals, float)
+            pieces_normals = _piece_normals(united, [meshes[i] for i in group], src,
+                                            keyed or {})
             united, _, _, kept = fix_degenerate(united, height, max_move)
             out_m.append(united)
             out_s.append(np.asarray(group, np.int64)[src][kept])
             out_n.append(label if len(pieces) == 1 else f"{label}#{k}")
-            out_nn.append(_tilted(united, pieces_normals[kept],
-                                  height if max_move is None else max_move))
+            out_nn.append(tilted_normals(united, pieces_normals[kept],
+                                         height if max_move is None else max_move))
         shown = [names[i] for i in group]
         shown = shown if len(shown) <= 6 else shown[:5] + [f"... {len(shown) - 5} more"]
         notes.append(f"united {len(group)} overlapping bodies {shown} into "
@@ -241,21 +247,22 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
     return out_m, out_n, out_s, out_nn, notes
 
 
-def _tilted(united: trimesh.Trimesh, pieces_normals: np.ndarray, moved: float) -> np.ndarray:
-    """The normals (f, 3) of the union's faces before the sliver repair (``pieces_normals``,
-    those of the input triangles they are pieces of) where the repair tilted the face by
-    more than round-off (1e-12) but no more than moving its corners by ``moved`` can (twice
-    that over its smallest height: the tilt of a merge, which leaves the face in its
-    triangle's plane to the coordinates' precision), and not folded over by it; NaN
-    elsewhere, so untouched faces keep their normals bit for bit. A small face the repair
-    reshaped may be tilted by degrees (15.7 on a V-HACD Lego brick): its own normal then
-    says little, its triangle's is the file's."""
-    own = np.asarray(united.face_normals, float)
-    tri = np.asarray(united.triangles, float)
-    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
-    height = 2.0 * np.asarray(united.area_faces, float) / np.maximum(longest, 1e-300)
-    tilt = np.linalg.norm(own - pieces_normals, axis=1)
-    within = ((tilt > 1e-12) & (tilt <= 2.0 * moved / np.maximum(height, 1e-300))
-              & (np.einsum("ij,ij->i", own, pieces_normals) > 0))  # not folded over, and
-    # not from a degenerate piece (which has no normal: a zero vector)
-    return np.where(within[:, None], pieces_normals, np.nan)
+def _piece_normals(united: trimesh.Trimesh, inputs: list[trimesh.Trimesh], src: np.ndarray,
+                   keyed: dict[bytes, np.ndarray]) -> np.ndarray:
+    """The normals (f, 3) of the union's faces, those of the input triangles they are pieces
+    of: their own, except where an earlier repair tilted the input triangle (``keyed``), whose
+    file triangle's normal they get (found by the face of body ``src`` nearest their centre)."""
+    normals = np.array(united.face_normals, float)
+    if not keyed:
+        return normals
+    centres = np.asarray(united.triangles_center, float)
+    for b in np.unique(src).tolist():
+        rows = np.flatnonzero(src == b)
+        body = inputs[b]
+        _, face, _ = BoxTree(np.asarray(body.vertices, float),
+                             np.asarray(body.faces, np.int64)).closest(centres[rows])
+        for r, key in zip(rows.tolist(), face_keys(body, face).tolist(), strict=True):
+            n = keyed.get(key)
+            if n is not None:
+                normals[r] = n if float(n @ normals[r]) > 0 else -n
+    return normals

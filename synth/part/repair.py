@@ -17,7 +17,8 @@ import trimesh
 from synth.isolate import call_isolated
 from synth.part.bodies import body_labels, solid_moments
 
-__all__ = ["weld", "fix_degenerate", "drop_duplicate_faces", "orient", "close", "open_edges",
+__all__ = ["weld", "fix_degenerate", "tilted_normals", "face_keys", "drop_duplicate_faces",
+           "orient", "close", "open_edges",
            "MERGE_CLOSE"]
 
 #: The function :func:`close` runs in the child process (see :mod:`synth.isolate`).
@@ -127,6 +128,39 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None 
     out = trimesh.Trimesh(v, f[keep], process=False, validate=False)
     out.remove_unreferenced_vertices()
     return out, fixed, int((~keep).sum()), ids[keep]
+
+
+def tilted_normals(mesh: trimesh.Trimesh, before: np.ndarray, moved: float) -> np.ndarray:
+    """The normals (f, 3) the faces of a repaired ``mesh`` had before the repair (``before``:
+    those of the faces they came from) where the repair tilted a face by more than round-off
+    (1e-12) but no more than moving its corners by ``moved`` can (twice that over its
+    smallest height: merging a sliver's corners, or welding, leaves the face in its
+    triangle's plane to the coordinates' precision), and did not fold it over; NaN
+    elsewhere, so untouched faces keep their normals bit for bit. A small face may be tilted
+    by degrees (15.7 on a V-HACD Lego brick): its own normal then says little, its
+    triangle's is the file's."""
+    own = np.asarray(mesh.face_normals, float)
+    tri = np.asarray(mesh.triangles, float)
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    height = 2.0 * np.asarray(mesh.area_faces, float) / np.maximum(longest, 1e-300)
+    tilt = np.linalg.norm(own - before, axis=1)
+    within = ((tilt > 1e-12) & (tilt <= 2.0 * moved / np.maximum(height, 1e-300))
+              & (np.einsum("ij,ij->i", own, before) > 0))  # not folded over, and not from a
+    # degenerate face (which has no normal: a zero vector)
+    return np.where(within[:, None], before, np.nan)
+
+
+def face_keys(mesh: trimesh.Trimesh, faces: np.ndarray | None = None) -> np.ndarray:
+    """A key per face (or per face of ``faces``) that names it by its corners' coordinates
+    whatever their order: the three corners sorted, as bytes. Faces the later repairs keep
+    are found again by it, however they renumber vertices and faces or turn windings."""
+    tri = np.asarray(mesh.triangles, float)
+    if faces is not None:
+        tri = tri[faces]
+    order = np.lexsort((tri[:, :, 2], tri[:, :, 1], tri[:, :, 0]), axis=1)
+    rows = np.ascontiguousarray(np.take_along_axis(tri, order[..., None], axis=1)
+                                .reshape(len(tri), 9))
+    return rows.view(np.dtype((np.void, 72))).ravel()
 
 
 def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:

@@ -225,18 +225,19 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
         n_f += len(m.faces)
         if len(m.faces) == 0:
             continue
-        # the file's triangles' normals, from their corners (not those an STL stores, which
-        # trimesh keeps when they are close: float32 and up to 4e-4 rad off)
-        valid_normals, valid = trimesh.triangles.normals(np.asarray(m.triangles, float))
-        before = np.zeros((len(valid), 3))  # a degenerate triangle has none
-        before[valid] = valid_normals
+        read = m
         m, welded = weld(m, weld_tol)
         counts["welded"] += welded
         moved = tol.surface_tolerance(length, precision)
         m, k, j, came = fix_degenerate(m, sliver, moved)
         counts["repaired"] += k
         if k or (welded and not soup):  # corners may have moved: tilted faces keep their
-            # triangles' normals, found again by their corners after the later repairs
+            # triangles' normals, found again by their corners after the later repairs; the
+            # file's, from their corners (not those an STL stores, which trimesh keeps when
+            # they are close: float32 and up to 4e-4 rad off)
+            normals, valid = trimesh.triangles.normals(np.asarray(read.triangles, float))
+            before = np.zeros((len(valid), 3))  # a degenerate triangle has none
+            before[valid] = normals
             given = tilted_normals(m, before[came], max(moved, weld_tol))
             rows = np.flatnonzero(~np.isnan(given[:, 0]))
             if len(rows):

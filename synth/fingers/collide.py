@@ -452,6 +452,16 @@ class FingerChecker:
             status[b, j] = code
             reasons[b] = text
 
+        def sinks(b: int, j: int) -> None:
+            """Fail grasp ``b`` at finger ``j``, whose tip sinks in (by its radius less its
+            centre's distance, the one the check measured where it did)."""
+            by = ""
+            if depths:
+                d = tip_distance[b, j]
+                by = f" by {r - d if d == d else self._penetration(centers[b, j], r):.3g}"
+            fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip penetrates the part{by} "
+                 f"(a fingertip may sink at most {tol:.3g}, the penetration tolerance)")
+
         # 1. Shared fingertips must touch all their contacts.
         bad = present & (misfit > SHARED_TIP_FIT_RTOL * r)
         for b, j in zip(*np.nonzero(bad), strict=True):
@@ -536,10 +546,7 @@ class FingerChecker:
                     continue
                 v = verdict_l[q][j]
                 if v == _SINKS:  # its first sweep crosses the surface and the tip sinks in
-                    by = f" by {r - tip_distance[b, j]:.3g}" if depths else ""
-                    fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip penetrates the "
-                         f"part{by} (a fingertip may sink at most {tol:.3g}, the penetration "
-                         f"tolerance)")
+                    sinks(b, j)
                     break
                 options = np.flatnonzero(usable[b, j]).tolist()
                 chosen, tip_checked = -1, False
@@ -556,11 +563,7 @@ class FingerChecker:
                         tip_checked = True
                         if self._tip_hits(tip, centers[b, j], tips[b, j], r - tol,
                                           tip_distance[b, j]):
-                            by = (f" by {self._penetration(centers[b, j], r):.3g}" if depths
-                                  else "")
-                            fail(b, j, TIP_PENETRATES, f"finger {slot_name[b][j]} tip "
-                                 f"penetrates the part{by} (a fingertip may "
-                                 f"sink at most {tol:.3g}, the penetration tolerance)")
+                            sinks(b, j)
                             break
                 if not alive[b]:
                     break

@@ -143,7 +143,7 @@ def group_bodies(meshes: list[trimesh.Trimesh], closed: list[bool], gap_rtol: fl
 
 
 def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: list[bool],
-                      height: float, max_move: float | None = None,
+                      height: float, max_move: float,
                       keyed: dict[bytes, np.ndarray] | None = None
                       ) -> tuple[list[trimesh.Trimesh], list[str], list[np.ndarray],
                                  list[np.ndarray | None], list[str]]:
@@ -238,8 +238,7 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
             out_m.append(united)
             out_s.append(np.asarray(group, np.int64)[src][kept])
             out_n.append(label if len(pieces) == 1 else f"{label}#{k}")
-            out_nn.append(tilted_normals(united, pieces_normals[kept],
-                                         height if max_move is None else max_move))
+            out_nn.append(tilted_normals(united, pieces_normals[kept], max_move))
         shown = [names[i] for i in group]
         shown = shown if len(shown) <= 6 else shown[:5] + [f"... {len(shown) - 5} more"]
         notes.append(f"united {len(group)} overlapping bodies {shown} into "

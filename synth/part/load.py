@@ -158,17 +158,14 @@ def _keep_triangle_normals(mesh: trimesh.Trimesh, meshes: list[trimesh.Trimesh],
     piece tilted (``keyed``, by their corners; turned with the face where orienting turned
     it). A contact's normal is then the file's own (the corpus check found d* 7e-5 to 3e-4
     off on faces tilted by 6e-5 to 1e-3 rad)."""
-    n_f = len(mesh.faces)
-    given = np.full((n_f, 3), np.nan)
-    if any(t is not None for t in tilted):
-        given = np.concatenate([np.full((len(m.faces), 3), np.nan) if t is None else t
-                                for m, t in zip(meshes, tilted, strict=True)])
-    if keyed:
-        keys = face_keys(mesh).tolist()
-        for f, key in enumerate(keys):
-            n = keyed.get(key)
-            if n is not None and np.isnan(given[f, 0]):
-                given[f] = n
+    given = np.concatenate([np.full((len(m.faces), 3), np.nan) if t is None else t
+                            for m, t in zip(meshes, tilted, strict=True)])
+    if keyed:  # looked up for the faces that have them only, not one face at a time
+        keys = face_keys(mesh)
+        found = np.flatnonzero(np.isin(keys, np.array(list(keyed), dtype=keys.dtype))
+                               & np.isnan(given[:, 0]))
+        if len(found):
+            given[found] = [keyed[key] for key in keys[found].tolist()]
     rows = np.flatnonzero(~np.isnan(given[:, 0]))
     if not len(rows):
         return

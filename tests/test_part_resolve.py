@@ -279,91 +279,55 @@ def test_closest_points_exact(name: str) -> None:
     pts = _query_points(part, np.random.default_rng(8))
     q, f, d = closest_points(part, pts)
     all_d, best = _brute(part, pts)
-    tol = part.surface_tolerance
     rows = np.arange(len(pts))
-    # the fast pass takes a point within surface_tolerance of a face's plane, inside it,
-    # as on that face (its projection); every other answer is exact
-    fast = d <= tol
-    assert np.all(np.abs(d - best)[~fast] <= 1e-12 * part.length)
-    assert np.all(d[fast] - best[fast] <= tol)
+    eps = 1e-12 * part.length
+    assert np.all(np.abs(d - best) <= eps)
     # the returned point lies on the returned face, at the returned distance
-    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, rtol=0, atol=1e-12 * part.length)
-    assert np.all(np.abs(all_d[rows, f] - d)[~fast] <= 1e-12 * part.length)
+    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, rtol=0, atol=eps)
+    assert np.all(np.abs(all_d[rows, f] - d) <= eps)
     # trimesh: same distances and points except where its near-tie rule (squared distances
     # within tol.merge) took a slightly farther face; faces differ only on ties
     c_tm, d_tm, f_tm = trimesh.proximity.closest_point(part.mesh, pts)
-    exact = ~fast
-    assert np.all(d[exact] <= d_tm[exact] + 1e-12 * part.length)
-    swapped = exact & (np.abs(d - d_tm) > 1e-12 * part.length)
+    assert np.all(d <= d_tm + eps)
+    swapped = np.abs(d - d_tm) > eps
     assert np.all(d_tm[swapped] ** 2 - d[swapped] ** 2 < trimesh.tol.merge)
-    same = exact & ~swapped
-    assert np.allclose(q[same], c_tm[same], rtol=0, atol=1e-12 * part.length)
+    same = ~swapped
+    assert np.allclose(q[same], c_tm[same], rtol=0, atol=eps)
     other = same & (f != f_tm)
-    assert np.all(np.abs(all_d[rows, f_tm] - all_d[rows, f])[other] <= 1e-12 * part.length)
+    assert np.all(np.abs(all_d[rows, f_tm] - all_d[rows, f])[other] <= eps)
     # the contacts: resolving the exact points with the brute-force face (the first of
     # tied faces) gives the same points and normals (ties: the point is on a feature the
     # faces share)
-    c = part.resolve(pts[exact], snap=True)
+    c = part.resolve(pts, snap=True)
     bf_face = np.argmin(all_d, axis=1)
-    c_bf = part.resolve(q[exact], bf_face[exact], snap=True)
+    c_bf = part.resolve(q, bf_face, snap=True)
     assert np.array_equal(c.finger, c_bf.finger)
     assert np.allclose(c.points, c_bf.points, rtol=0, atol=1e-12 * part.length)
     assert np.allclose(c.normals, c_bf.normals, rtol=0, atol=1e-12)
 
 
-def test_closest_within_radius_against_brute_force() -> None:
-    """Exact wherever the mesh comes within the radius, on a mesh with long slivers that
-    span far beyond the small faces."""
-    from synth.part.closest import build_index, closest_within
+def test_box_tree_exact_beside_slivers_against_brute_force() -> None:
+    """Exact distances, points and faces, on a mesh with long slivers that span far beyond
+    the small faces, at points near and far (brute force over every face)."""
+    from synth.part.closest import BoxTree
 
     mesh = trimesh.creation.box((1.0, 1.0, 1.0)).subdivide().subdivide()
     sliver = trimesh.Trimesh([[-5, 2, 0], [5, 2, 0], [0, 2.001, 0.0]], [[0, 1, 2]])
     mesh = trimesh.util.concatenate([mesh, sliver])
-    index = build_index(np.asarray(mesh.triangles), np.asarray(mesh.face_normals))
+    tree = BoxTree(mesh.vertices, mesh.faces)
     rng = np.random.default_rng(5)
     pts = np.r_[rng.uniform(-1, 1, size=(2500, 3)),
                 rng.uniform([-6, 1.7, -0.3], [6, 2.3, 0.3], size=(500, 3))]
-    radius = 0.2
-    q, f, d, found = closest_within(index, pts, radius)
-    brute = np.array([np.linalg.norm(trimesh.triangles.closest_point(
-        index.triangles, np.broadcast_to(p, (len(index.triangles), 3))) - p, axis=1).min()
-        for p in pts])
-    assert np.array_equal(found, brute <= radius)
-    assert np.allclose(d[found], brute[found], rtol=0, atol=1e-12)
-    assert np.allclose(np.linalg.norm(q[found] - pts[found], axis=1), d[found], atol=1e-12)
-    assert 200 < found.sum() < 2900
-
-
-@pytest.mark.parametrize("name", ["bracket", "torus", "fine_torus"])
-def test_closest_points_near_stays_on_the_faces_nearby(name: str) -> None:
-    """``exact=False`` (the climb's drop onto the surface): the point returned lies on the
-    face returned, it is never closer than the true closest point, it is the closest point of
-    the faces of the 8 nearest proxies (brute force over those faces), and it is the exact
-    answer wherever that face is among them."""
-    from synth.part.resolve import closest_points
-
-    part = _fine_torus() if name == "fine_torus" else \
-        load_part(MESHES / f"{name}.stl", units="decimeters")
-    pts = _query_points(part, np.random.default_rng(9))
-    q, f, d = closest_points(part, pts, exact=False)
-    all_d, best = _brute(part, pts)
-    rows = np.arange(len(pts))
-    eps = 1e-12 * part.length
-    tol = part.surface_tolerance
-    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, rtol=0, atol=eps)
-    assert np.all(np.abs(all_d[rows, f] - d) <= eps)
-    assert np.all(d >= best - eps)
-    index = part._index
-    k = min(8, len(index.proxy_face))
-    _, near = index.tree.query(pts, k=k)
-    near = index.proxy_face[near]
-    near_best = all_d[rows[:, None], near].min(axis=1)
-    fast = d <= tol  # the fast pass: on a nearby face's plane, inside it
-    assert np.all(np.abs(d - near_best)[~fast] <= eps)
-    assert np.all(d[fast] - near_best[fast] <= tol)
-    q_exact, _, d_exact = closest_points(part, pts)
-    covered = (near == np.argmin(all_d, axis=1)[:, None]).any(axis=1)
-    assert np.all(np.abs(d - d_exact)[covered] <= tol + eps)
+    q, f, d = tree.closest(pts)
+    tri = np.asarray(mesh.triangles)
+    all_d = np.array([np.linalg.norm(trimesh.triangles.closest_point(
+        tri, np.broadcast_to(p, (len(tri), 3))) - p, axis=1) for p in pts])
+    brute = all_d.min(axis=1)
+    assert np.allclose(d, brute, rtol=0, atol=1e-12)
+    assert np.allclose(all_d[np.arange(len(pts)), f], d, rtol=0, atol=1e-12)
+    assert np.allclose(np.linalg.norm(q - pts, axis=1), d, atol=1e-12)
+    assert np.allclose(tree.distance(pts), brute, rtol=0, atol=1e-12)
+    assert (f == len(tri) - 1).sum() > 100  # the sliver is the answer for many points
 
 
 def test_a_part_pickles_and_answers_the_same_after() -> None:

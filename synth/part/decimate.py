@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from synth.errors import InputError
-from synth.part.closest import build_index, closest_on_mesh
+from synth.part.closest import BoxTree
 
 __all__ = ["Decimation", "decimate_mesh", "SAMPLED_VERTICES"]
 
@@ -62,9 +62,7 @@ def _distances(points: np.ndarray, mesh: trimesh.Trimesh, n: int, seed: int
     """Exact distances of up to ``n`` of ``points`` (a seeded sample) to ``mesh``."""
     rng = np.random.default_rng(seed)
     pick = rng.choice(len(points), size=min(n, len(points)), replace=False)
-    tri = np.asarray(mesh.triangles, float)
-    index = build_index(tri, np.asarray(mesh.face_normals, float))
-    return closest_on_mesh(index, points[pick])[2]
+    return BoxTree(mesh.vertices, mesh.faces).closest(points[pick])[2]
 
 
 def decimate_mesh(vertices: np.ndarray, faces: np.ndarray, target: int) -> Decimation:

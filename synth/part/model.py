@@ -12,7 +12,7 @@ from synth.contacts.contacts import Contacts
 from synth.errors import InputError
 from synth.part import tolerances as tol
 from synth.part.bodies import Body, Solids, body_labels, compute_bodies, face_sample_weights
-from synth.part.closest import build_index
+from synth.part.closest import BoxTree
 from synth.part.features import EDGE_KINDS, VERTEX_KINDS, Features, compute_features
 from synth.part.regions import Region, RegionSet, compute_regions
 
@@ -183,8 +183,7 @@ class Part:
         self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges)
                         if needs else None)
         _drop_build_tables(mesh)  # the corner angles the regions and solids read
-        self._index = build_index(tri, np.asarray(mesh.face_normals, float),
-                                  (np.asarray(mesh.vertices), np.asarray(mesh.faces)))
+        self._index = BoxTree(mesh.vertices, mesh.faces).build()
         self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
 
@@ -362,7 +361,7 @@ class Part:
         >>> part.surface_distance([[0.0, 0.0, 2.0]])  # doctest: +SKIP
         array([1.5])
         """
-        return self._index.boxes.distance(np.asarray(points, float).reshape(-1, 3))
+        return self._index.distance(np.asarray(points, float).reshape(-1, 3))
 
     def raycast(self, origins: np.ndarray, directions: np.ndarray) -> Any:
         """Contacts where fingers moving from ``origins`` along ``directions`` first hit.

@@ -36,46 +36,24 @@ import trimesh
 
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
-from synth.part.closest import (
-    MeshIndex,
-    closest_on_mesh,
-    closest_on_triangles,
-    plane_and_sides,
-    workers,
-)
+from synth.part.closest import closest_on_triangles
 
 if TYPE_CHECKING:
     from synth.part.model import Part
 
 __all__ = ["closest_points", "resolve_points"]
 
-_K_FAST = 8
 
-
-def mesh_index(part: Part) -> MeshIndex:
-    """The part's closest-point search structures (see :class:`MeshIndex`)."""
-    return part._index
-
-
-def closest_points(part: Part, points: np.ndarray, *, exact: bool = True
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closest surface point, its face and distance for each query point.
-
-    A point within ``surface_tolerance`` of the plane of one of the faces with the 8 nearest
-    centroids, whose projection lies inside that face (the first such face in centroid
-    order), is taken as on that face: the projection, on the face. Otherwise the exact search
-    :func:`synth.part.closest.closest_on_mesh` runs on those 8 faces, widened to every face
-    that could be closer when the bound ``|p - c_f| - r`` cannot certify the answer.
+def closest_points(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closest surface point, its face and distance for each query point: the nearest face
+    by the part's box tree, the point on it by the relative-tolerance kernel
+    (:class:`synth.part.closest.BoxTree`). A point equally near several faces (nearest an
+    edge or a corner) gets one of them.
 
     Parameters
     ----------
     part : Part
     points : (n, 3) float
-    exact : bool
-        False skips the widened search: the answer is the closest point on those 8 faces, a
-        point of the surface near the query but not always the closest one (enough to drop
-        a point moved a small step off the surface back onto it, at a fraction of the cost
-        far from flat regions).
 
     Returns
     -------
@@ -83,48 +61,7 @@ def closest_points(part: Part, points: np.ndarray, *, exact: bool = True
     faces : (n,) int
     distance : (n,) float
     """
-    index = mesh_index(part)
-    n = len(points)
-    closest = np.array(points, dtype=float)
-    face = np.full(n, -1, np.int64)
-    dist = np.zeros(n)
-    k1 = min(_K_FAST, len(index.proxy_face))
-    dist_c, cand = index.tree.query(points, k=k1, workers=workers(n))
-    dist_c, cand = dist_c.reshape(n, k1), index.proxy_face[cand.reshape(n, k1)]
-    stol = part.surface_tolerance
-
-    def on_face(rows: np.ndarray, cols: slice) -> tuple[np.ndarray, ...]:
-        h, side = plane_and_sides(index, cand[rows, cols], points[rows])
-        ok = (side >= 0).all(axis=2) & (np.abs(h) <= stol)
-        return h, side, ok
-
-    # fast pass: points already on the surface (within surface_tolerance) of a nearby
-    # face; the nearest centroid's face first, the others only where it fails
-    h0, _, ok0 = on_face(np.arange(n), slice(0, 1))
-    rows = np.flatnonzero(ok0[:, 0])
-    face[rows] = cand[rows, 0]
-    hh = h0[rows, 0]
-    closest[rows] = points[rows] - hh[:, None] * index.plane_normals[face[rows]]
-    dist[rows] = np.abs(hh)
-    rest = np.flatnonzero(~ok0[:, 0])
-    if not len(rest):
-        return closest, face, dist
-    h, side, ok = on_face(rest, slice(None))
-    hit = ok.any(axis=1)
-    first = np.argmax(ok, axis=1)
-    sel = np.flatnonzero(hit)
-    rows = rest[sel]
-    face[rows] = cand[rows, first[sel]]
-    hh = h[sel, first[sel]]
-    closest[rows] = points[rows] - hh[:, None] * index.plane_normals[face[rows]]
-    dist[rows] = np.abs(hh)
-    sel = np.flatnonzero(~hit)
-    if len(sel):
-        rows = rest[sel]
-        c2, f2, d2 = closest_on_mesh(index, points[rows], cand=cand[rows], dist_c=dist_c[rows],
-                                     h=h[sel], side=side[sel], exact=exact)
-        closest[rows], face[rows], dist[rows] = c2, f2, d2
-    return closest, face, dist
+    return part._index.closest(points)
 
 
 def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -502,16 +502,11 @@ def _proposals(pop: Population, rng: np.random.Generator, gradient: bool, score:
 
 def _settle(part: Any, members: GraspBatch, who: NDArray[np.int64], P: NDArray[np.float64],
             moved: NDArray[np.bool_]) -> tuple[GraspBatch, NDArray[np.bool_]]:
-    """Drop the moved contacts onto the surface; candidates (c,) and which keep every moved
-    contact a single face contact.
-
-    A moved point goes to the closest point of the faces near it (not a certified closest
-    point of the whole mesh: any surface point near the proposal is a valid move, and the
-    certification costs a widened search wherever the surface curves away from the step).
-    """
+    """Drop the moved contacts onto the surface (the closest surface point); candidates (c,)
+    and which keep every moved contact a single face contact."""
     cand = members.take(who)
     rows, cols = np.nonzero(moved)
-    q, f, _ = closest_points(part, P[rows, cols], exact=False)
+    q, f, _ = closest_points(part, P[rows, cols])
     c = part.resolve(q, f, snap=True)
     n = len(rows)
     one = np.bincount(c.finger, minlength=n) == 1

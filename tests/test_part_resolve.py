@@ -205,7 +205,7 @@ def _brute(part: Part, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance to every face (n, f) and the minimum (n,)."""
     from synth.part.closest import closest_on_triangles
 
-    tri = part._triangles
+    tri = np.asarray(part.mesh.vertices, float)[np.asarray(part.mesh.faces)]
     d = np.empty((len(points), len(tri)))
     for i, p in enumerate(points):
         q = closest_on_triangles(tri, np.broadcast_to(p, (len(tri), 3)))

@@ -96,7 +96,7 @@ def first_hits(part: Part, origins: np.ndarray, directions: np.ndarray
     tri_idx : (h,) int
     """
     mesh = part.mesh
-    tri = part._triangles
+    tri = part._corners()
     normals = np.asarray(mesh.face_normals, float)
     tree = mesh.triangles_tree
     n_f = len(tri)

@@ -35,7 +35,7 @@ def _faces_points(part: Part, rng: np.random.Generator, n: int, faces: np.ndarra
     u = rng.random((n, 2))
     flip = u.sum(axis=1) > 1.0
     u[flip] = 1.0 - u[flip]
-    tri = part._triangles[f]
+    tri = part._corners(f)
     pts = tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0])
     return pts, f
 

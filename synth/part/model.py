@@ -18,12 +18,13 @@ from synth.part.regions import Region, RegionSet, compute_regions
 
 __all__ = ["Part"]
 
-#: trimesh's cached arrays that only building a part reads (edges, adjacency, angles).
+#: trimesh's cached arrays that only building a part reads (edges, adjacency, angles, and the
+#: faces' corners, which :meth:`Part._corners` gathers when asked).
 _BUILD_TABLES = frozenset({
     "edges", "edges_face", "edges_sorted", "edges_sparse", "edges_unique", "edges_unique_idx",
     "edges_unique_inverse", "edges_unique_length", "face_adjacency", "face_adjacency_edges",
     "face_adjacency_projections", "face_adjacency_unshared", "face_angles",
-    "faces_unique_edges", "triangles_cross", "vertices_component_label"})
+    "faces_unique_edges", "triangles", "triangles_cross", "vertices_component_label"})
 
 
 def _drop_build_tables(mesh: trimesh.Trimesh) -> None:
@@ -175,9 +176,6 @@ class Part:
         )
         self.regions: tuple[Region, ...] = self._regions.regions
         self.face_region: np.ndarray = self._regions.face_region
-        tri = np.asarray(mesh.triangles, float)
-        tri.flags.writeable = False
-        self._triangles = tri
         self._vertex_cone = self._build_vertex_cone()
         needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
         self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges)
@@ -194,7 +192,7 @@ class Part:
         frac = np.ones(n_f)
         if len(bodies) > 1 and self._solids is not None and self._solids.bodies:
             w = face_sample_weights()
-            pts = np.einsum("sk,fkx->fsx", w, self._triangles).reshape(-1, 3)
+            pts = np.einsum("sk,fkx->fsx", w, self._corners()).reshape(-1, 3)
             faces = np.repeat(np.arange(n_f), len(w))
             inward = -np.asarray(self.mesh.face_normals, float)[faces]
             ok = self._exposed(pts, inward).reshape(n_f, len(w))
@@ -204,6 +202,12 @@ class Part:
         area = np.asarray(self.mesh.area_faces, float) * frac
         return exposure, tuple(replace(b, exposed_area=float(area[b.faces].sum()))
                                for b in bodies)
+
+    def _corners(self, faces: Any = slice(None)) -> np.ndarray:
+        """Corners (n, 3, 3) of ``faces`` (an index or mask of faces; all by default),
+        gathered from the vertices on each call: the part keeps no (f, 3, 3) copy of them
+        (94 MB at 1.3M faces)."""
+        return self._index.vertices[self._index.faces[faces]]
 
     def __setattr__(self, name: str, value: Any) -> None:
         if self._frozen:

@@ -78,9 +78,8 @@ def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
         return None
     mesh = part.mesh
     n_in = np.asarray(reg.normal, dtype=np.float64)
-    tri = mesh.triangles
-    origin = tri[face, 0]
-    e = tri[face, 1] - tri[face, 0]
+    origin, corner = part._corners(face)[:2]
+    e = corner - origin
     u = e - np.dot(e, n_in) * n_in
     u /= np.linalg.norm(u)
     v = np.cross(n_in, u)
@@ -93,7 +92,7 @@ def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
     neighbours = _face_neighbours(part)
     chosen = [face]
     area = float(mesh.area_faces[face])
-    pts = to2(tri[face])
+    pts = to2(part._corners(face))
     frontier = list(neighbours[face])
     seen = {face}
     while frontier and len(chosen) < _MAX_PIECE_FACES:
@@ -101,7 +100,7 @@ def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
         if f in seen or not in_region[f]:
             continue
         seen.add(f)
-        cand = np.vstack([pts, to2(tri[f])])
+        cand = np.vstack([pts, to2(part._corners(f))])
         a = area + float(mesh.area_faces[f])
         try:
             hull_area = ConvexHull(cand).volume

@@ -212,8 +212,9 @@ def _corner_normals(
     (e, 2) at that vertex (between the faces ``edge_faces`` (e, 2)). Where a crease (a seam
     of a union) passes through a vertex, its two sides keep their own normals there even
     when they join elsewhere; planar faces keep their own normal."""
-    w = np.asarray(mesh.face_angles, float).ravel()
     faces = np.asarray(mesh.faces, np.int64)
+    # trimesh's face angles, without caching the mesh's (f, 3, 3) corners along with them
+    w = trimesh.triangles.angles(np.asarray(mesh.vertices, float)[faces]).ravel()
     n_f = len(faces)
     m = len(edges)
     a, b = np.empty(2 * m, np.int64), np.empty(2 * m, np.int64)

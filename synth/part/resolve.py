@@ -70,7 +70,7 @@ def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 def _interp_normals(part: Part, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Inward normal of the surface of ``faces`` at ``points`` (n, 3)."""
-    bary = np.clip(_barycentric(part._triangles[faces], points), 0.0, None)
+    bary = np.clip(_barycentric(part._corners(faces), points), 0.0, None)
     bary /= np.maximum(bary.sum(axis=1, keepdims=True), 1e-300)
     n = np.einsum("ij,ijk->ik", bary, part._regions.corner_normals[faces])
     return n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -105,7 +105,7 @@ def resolve_points(
         if len(f) and (f.min() < 0 or f.max() >= n_f):
             raise InputError(f"faces: indices must lie in [0, {n_f}), got {f.min()}..{f.max()}")
         f = f.astype(np.int64)
-        q = closest_on_triangles(part._triangles[f], pts)
+        q = closest_on_triangles(part._corners(f), pts)
         dist = np.linalg.norm(q - pts, axis=1)
     tol = part.surface_tolerance
     if not snap and len(dist) and dist.max() > tol:
@@ -123,7 +123,7 @@ def _classify(part: Part, q: np.ndarray, f: np.ndarray) -> Contacts:
     mfaces = np.asarray(part.mesh.faces, np.int64)
     eps = part.feature_tolerance
     n = len(q)
-    tri = part._triangles[f]
+    tri = part._corners(f)
     dv = np.linalg.norm(tri - q[:, None, :], axis=2)  # distance to corners
     jv = np.argmin(dv, axis=1)
     at_vertex = dv[np.arange(n), jv] <= eps

@@ -484,6 +484,14 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
         trace = FingerChecker._trace
         monkeypatch.setattr(FingerChecker, "_trace", lambda self, *a: decided.append(
             trace(self, *a)) or decided[-1])
+        step = FingerChecker._trace_distance
+        bounded = []  # the points whose step the distance bound gave, not an exact distance
+
+        def spy(self, pts, radius):
+            out = step(self, pts, radius)
+            bounded.append(out < self._distance(pts) - 1e-12)
+            return out
+        monkeypatch.setattr(FingerChecker, "_trace_distance", spy)
     else:
         certify = FingerChecker._certify
         monkeypatch.setattr(FingerChecker, "_certify", lambda self, *a: decided.append(
@@ -491,8 +499,10 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     checker = FingerChecker(mesh)
     certified = checker.check(P, N, fingers)
     verdicts = np.concatenate([v.ravel() for v in decided])
-    if traced:  # the traces decided sweeps both ways
+    if traced:  # the traces decided sweeps both ways, and took the bound's steps far out
         assert (verdicts == 1).any() and ((verdicts == -1).any() or shape == "blob")
+        # (on the blob: the I-beam's faces are too large for the bound to take any step)
+        assert np.concatenate(bounded).mean() > 0.1 or shape == "ibeam"
     else:  # every certificate decided some sweeps: the hull's planes (the I-beam's hull has
         # 6; the blob's, thousands, which are not used), a sunk tip, the balls
         kinds = {collide_mod._SINKS, collide_mod._NEAR}

@@ -330,6 +330,31 @@ def test_box_tree_exact_beside_slivers_against_brute_force() -> None:
     assert (f == len(tri) - 1).sum() > 100  # the sliver is the answer for many points
 
 
+@pytest.mark.parametrize(("scale", "offset"), [(1e-3, 0.0), (1.0, 0.0), (1e3, 0.0),
+                                               (1.0, 1e4)])
+def test_distance_bound_never_exceeds_the_distance(scale: float, offset: float) -> None:
+    """``DistanceBound`` is a lower bound of the exact distance (brute force over every face)
+    at any size and placement, near the surface and far from it, on a mesh with a long
+    sliver beside small faces; and within twice its slack of the distance."""
+    from synth.part.closest import DistanceBound
+
+    mesh = trimesh.creation.torus(1.0, 0.3, major_sections=48, minor_sections=16)
+    sliver = trimesh.Trimesh([[-3, 2, 0], [3, 2, 0], [0, 2.001, 0.0]], [[0, 1, 2]])
+    mesh = trimesh.util.concatenate([mesh, sliver])
+    mesh.vertices = mesh.vertices * scale + offset
+    rng = np.random.default_rng(11)
+    pts = np.r_[rng.uniform(-2, 2, size=(1500, 3)), rng.uniform(-20, 20, size=(500, 3))]
+    pts = pts * scale + offset
+    bound = DistanceBound(mesh.vertices, mesh.faces, cells=16)
+    tri = np.asarray(mesh.triangles)
+    exact = np.array([np.linalg.norm(trimesh.triangles.closest_point(
+        tri, np.broadcast_to(p, (len(tri), 3))) - p, axis=1).min() for p in pts])
+    lb = bound(pts)
+    assert np.all(lb <= exact)
+    assert np.all(exact - lb <= 2 * bound.radius * (1 + 1e-9))
+    assert (lb > 0.5 * exact)[1500:].mean() > 0.9  # and it is not vacuous far out
+
+
 def test_a_part_pickles_and_answers_the_same_after() -> None:
     """A Part travels to other processes (multiprocessing, Dask): its libigl tree pickles as
     its arrays and is built again on first use."""

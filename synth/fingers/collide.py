@@ -63,7 +63,7 @@ from synth.fingers.model import (
     tip_centers,
 )
 from synth.native import bvh_model, mesh_problem
-from synth.part.closest import BoxTree
+from synth.part.closest import BoxTree, DistanceBound
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -103,6 +103,13 @@ _TRACE_FACES = 50_000
 #: capsule's radius (a sweep grazing the surface), and FCL decides.
 _TRACE_STEPS = 64
 _TRACE_MIN_STEP = 1e-3
+#: A traced point whose :class:`~synth.part.closest.DistanceBound` is at least this many times
+#: the bound's slack (and at least the capsule's radius) steps by the bound instead of an
+#: exact distance: there the bound is at least f / (f + 2) of the distance, and an exact query
+#: costs most. On a 1.3M-face blob's default plan, the traces' distance queries took 1.19 s;
+#: with the bound (128 cells a side), 0.17 s of exact queries and 0.10 s of bounds, once the
+#: bound is built (0.25 s), with the same grasps.
+_FAR_BOUND = 4.0
 #: The hull's planes certify sweeps only on parts whose hull has at most this many distinct
 #: facet planes (every corpus part: 6 to 1,992): the certificate is a product of the fingers
 #: by the planes, which on a smooth blob's hull (17,592 planes at 20k faces) cost more than
@@ -228,6 +235,7 @@ class FingerChecker:
         # face to build) is then built only if a sweep grazes the surface or a gripper needs it
         self._certify_sweeps = certify
         self._traced = certify and len(faces) >= _TRACE_FACES
+        self._bound: DistanceBound | None = None  # for the traces, built on first use
         self._fcl: Any = None if self._traced else self._build_fcl()
         # the hull's supporting planes separate most sweeps from the part (_certify)
         self._planes = (_support_planes(vertices, _HULL_PLANES) if certify and not self._traced
@@ -378,7 +386,7 @@ class FingerChecker:
             if not len(live):
                 break
             tl = t[live]
-            delta = self._distance(starts[live] + tl[:, None] * dirs[live])
+            delta = self._trace_distance(starts[live] + tl[:, None] * dirs[live], radius)
             hit = delta < radius - self._slack
             h = np.sqrt(np.maximum(delta * delta - radius * radius, 0.0))
             reach = tl + h
@@ -390,6 +398,19 @@ class FingerChecker:
             t[live[go]] = step[go]
             live = live[go]
         return verdict
+
+    def _trace_distance(self, points: np.ndarray, radius: float) -> np.ndarray:
+        """Distances (n,) of points (n, 3) to the surface for :meth:`_trace`: exact, except
+        where the mesh's :class:`~synth.part.closest.DistanceBound` already puts a point
+        farther than ``radius`` and ``_FAR_BOUND`` times the bound's slack, which is then the
+        distance taken (a shorter step than the exact distance allows; the same verdict,
+        since neither is below ``radius`` there)."""
+        if self._bound is None:
+            self._bound = DistanceBound(self.mesh.vertices, self.mesh.faces)
+        out = self._bound(points)
+        near = np.flatnonzero(out < max(radius, _FAR_BOUND * self._bound.radius))
+        out[near] = self._distance(points[near])
+        return out
 
     def _fcl_frame(self, points: np.ndarray) -> np.ndarray:
         """Points (..., 3) of the part's frame in FCL's (centred, unit size), all at once:

@@ -27,8 +27,9 @@ from typing import Any
 
 import igl
 import numpy as np
+from scipy.spatial import cKDTree
 
-__all__ = ["BoxTree", "closest_on_triangles"]
+__all__ = ["BoxTree", "DistanceBound", "closest_on_triangles"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
 #: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
@@ -170,3 +171,51 @@ class BoxTree:
 
     def __setstate__(self, state: dict[str, np.ndarray]) -> None:
         self.__init__(state["vertices"], state["faces"])  # type: ignore[misc]
+
+
+class DistanceBound:
+    """A lower bound of the distance from points to a triangle mesh, whose cost does not grow
+    with the mesh: the faces grouped by the cell of a ``cells``-per-side grid that holds
+    their centroid, each group inside a ball of radius at most ``radius`` about the mean of
+    its centroids, so that ``|x - c| - radius`` (``c`` the nearest group centre) is at most
+    the distance from ``x`` to any face.
+
+    It serves points far from the surface, where an exact query is slowest: a box tree's
+    search for the nearest face visits every box about as near as the answer, which far from
+    a smooth mesh of f faces is on the order of sqrt(f) of them (a finger's traced sweep on a
+    1.3M-face blob: 65 us a query).
+
+    Parameters
+    ----------
+    vertices : (v, 3) float
+    faces : (f, 3) int
+    cells : int
+        Grid cells along the longest side of the mesh's box.
+    """
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, cells: int = 128) -> None:
+        v = np.asarray(vertices, np.float64)
+        f = np.asarray(faces, np.int64)
+        lo = v.min(axis=0)
+        size = float((v.max(axis=0) - lo).max())
+        step = size / cells if size > 0 else 1.0
+        cent = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
+        ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)
+        _, group = np.unique((ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2],
+                             return_inverse=True)
+        group = group.ravel()
+        count = np.bincount(group)
+        centers = np.stack([np.bincount(group, weights=cent[:, c]) / count for c in range(3)],
+                           axis=1)
+        reach = 0.0
+        for c in range(3):  # the farthest corner of any face from its group's centre
+            reach = max(reach, float(np.linalg.norm(v[f[:, c]] - centers[group], axis=1).max()))
+        # round-off of the distances above and of the query's, at these coordinates
+        self.radius = reach * (1.0 + 1e-9) + 1e-12 * (size + float(np.abs(lo).max()))
+        self._tree = cKDTree(centers)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Lower bounds (n,) of the distances of points (n, 3) to the mesh (may be
+        negative near it)."""
+        return self._tree.query(np.asarray(points, np.float64))[0] - self.radius
+

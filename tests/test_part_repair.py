@@ -10,8 +10,9 @@ import pytest
 import trimesh
 
 from synth import load_part
+from synth.part import repair
 from synth.part.bodies import solid_moments
-from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, orient
+from synth.part.repair import close, drop_duplicate_faces, fix_degenerate, orient, weld
 from synth.part.tolerances import coordinate_precision
 
 
@@ -169,3 +170,38 @@ def test_orient_turns_each_inside_out_piece_of_a_mesh_of_several() -> None:
     fixed, flipped = orient(both)
     assert flipped == 12
     assert fixed.volume == pytest.approx(9.0)
+
+
+def _trimesh_weld(mesh: trimesh.Trimesh, tol: float) -> trimesh.Trimesh:
+    out = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces),
+                          process=False, validate=False)
+    out.merge_vertices(merge_tex=True, merge_norm=True,
+                       digits_vertex=max(0, int(np.ceil(-np.log10(tol)))))
+    return out
+
+
+@pytest.mark.parametrize(("scale", "offset"), [(1e-3, 0.0), (1.0, 0.0), (1e3, 0.0),
+                                               (1.0, 1e3)])
+@pytest.mark.parametrize("collide", [False, True])
+def test_weld_merges_exactly_what_trimesh_merges(scale: float, offset: float, collide: bool,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same vertices, in the same order, and the same faces as trimesh's merge_vertices
+    at the weld's digits: a soup with copies of vertices moved below and above the
+    tolerance, exact copies, and vertices no face uses; with every row key made equal (a
+    collision on every pair), the weld falls back to trimesh and still agrees."""
+    if collide:
+        monkeypatch.setattr(repair, "_KEY_MULT", np.zeros(3, np.uint64))
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(2000, 3))
+    v = np.r_[v, v[:500] + rng.normal(size=(500, 3)) * 1e-9, v[500:900],
+              v[:300] + rng.normal(size=(300, 3)) * 1e-3, rng.normal(size=(40, 3))]
+    f = rng.integers(0, len(v) - 40, size=(4000, 3))
+    mesh = trimesh.Trimesh(v * scale + offset, f, process=False)
+    for tol in (1e-7 * scale, 1e-5 * scale):
+        ours, removed = weld(mesh, tol)
+        theirs = _trimesh_weld(mesh, tol)
+        assert np.array_equal(ours.vertices, theirs.vertices)
+        assert np.array_equal(ours.faces, theirs.faces)
+        assert removed == len(v) - len(theirs.vertices)
+        assert 40 + 400 <= removed < len(v) - 2000  # unused ones and exact copies at least
+

@@ -33,14 +33,67 @@ _NEEDLE_FACTOR = 1e3
 def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
     """Merge vertices closer than about ``tol`` (texture and normal seams included).
 
+    The vertices trimesh's ``merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=d)``
+    merges, in its order: of the vertices the faces use, those whose coordinates round to the
+    same multiple of ``10**-d`` become one, the first of them in the file's order, and the
+    merged vertices keep the order of their first occurrence. Found here with one sort of
+    64-bit keys of the rounded rows (every row compared with its group's first, so a key
+    collision is never trusted: trimesh then merges); trimesh sorts the rows themselves,
+    which at 3.9M vertices took 2.0 s against 0.5 s here, with the same arrays.
+
     Returns the welded copy and the number of vertices removed.
     """
-    out = trimesh.Trimesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64),
-                          process=False, validate=False)
-    n_v = len(out.vertices)
-    out.merge_vertices(merge_tex=True, merge_norm=True,
-                       digits_vertex=max(0, int(np.ceil(-np.log10(tol)))))
-    return out, n_v - len(out.vertices)
+    v = np.asarray(mesh.vertices, float)
+    f = np.asarray(mesh.faces, np.int64)
+    digits = max(0, int(np.ceil(-np.log10(tol))))
+    used = np.zeros(len(v), bool)
+    used[f] = True
+    rows = np.flatnonzero(used)
+    merged = _merge_rows(np.round(v[rows] * 10**digits).astype(np.int64))
+    if merged is None:
+        out = trimesh.Trimesh(v, f, process=False, validate=False)
+        out.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=digits)
+    else:
+        first, inverse = merged
+        renumber = np.zeros(len(v), np.int64)
+        renumber[rows] = inverse
+        out = trimesh.Trimesh(v[rows[first]], renumber[f], process=False, validate=False)
+    return out, len(v) - len(out.vertices)
+
+
+#: Odd 64-bit multipliers of the weld's row keys (any distinct odd constants: equal keys are
+#: checked).
+_KEY_MULT = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], np.uint64)
+
+
+def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Equal rows of ``q`` (m, 3) int: the first row of each distinct value, in order of
+    first occurrence (u,), and each row's value's position among them (m,); None when two
+    different rows share a key (then nothing is merged here)."""
+    m = len(q)
+    if m == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    key = np.zeros(m, np.uint64)
+    for c in range(3):  # a multiply-xor mix, wrapping around
+        key ^= q[:, c].astype(np.uint64) * _KEY_MULT[c]
+        key ^= key >> np.uint64(29)
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+    new = np.empty(m, bool)
+    new[0] = True
+    np.not_equal(sk[1:], sk[:-1], out=new[1:])
+    group = np.cumsum(new) - 1  # of each sorted row
+    first_sorted = order[new]  # the stable sort puts each value's first row first
+    rep = first_sorted[group]
+    for c in range(3):
+        if not np.array_equal(q[order, c], q[rep, c]):
+            return None
+    by_first = np.argsort(first_sorted)
+    place = np.empty(len(by_first), np.int64)
+    place[by_first] = np.arange(len(by_first))
+    inverse = np.empty(m, np.int64)
+    inverse[order] = place[group]
+    return first_sorted[by_first], inverse
 
 
 def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -90,11 +90,26 @@ def test_a_sliver_laden_file_loads_closed_with_real_normals(tmp_path: Path) -> N
     assert any("sliver" in r for r in part.repairs)
 
 
-def test_duplicate_faces_of_one_orientation_are_dropped_opposite_ones_kept() -> None:
+@pytest.mark.parametrize("collide", [False, True])
+def test_duplicate_faces_of_one_orientation_are_dropped_opposite_ones_kept(
+        collide: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first of each repeated face (in any rotation of its corners) stays; with every
+    row key made equal, the fallback finds the same."""
+    if collide:
+        monkeypatch.setattr(repair, "_KEY_MULT", np.zeros(3, np.uint64))
     tri = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2], [1, 2, 0], [0, 2, 1]],
                           process=False)
     out, n = drop_duplicate_faces(tri)
     assert n == 1 and out.faces.tolist() == [[0, 1, 2], [0, 2, 1]]
+    rng = np.random.default_rng(4)
+    f = rng.integers(0, 50, size=(3000, 3))
+    f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    mesh = trimesh.Trimesh(rng.normal(size=(50, 3)), np.r_[f, np.roll(f[:500], 1, axis=1)],
+                           process=False)
+    out, n = drop_duplicate_faces(mesh)
+    rolled = np.array([np.roll(r, -int(np.argmin(r))) for r in mesh.faces])
+    first = sorted({tuple(r): i for i, r in reversed(list(enumerate(rolled.tolist())))}.values())
+    assert out.faces.tolist() == mesh.faces[first].tolist() and n == len(mesh.faces) - len(first)
 
 
 def test_coordinate_precision_follows_the_stored_values() -> None:

@@ -69,7 +69,7 @@ _KEY_MULT = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9
 def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """Equal rows of ``q`` (m, 3) int: the first row of each distinct value, in order of
     first occurrence (u,), and each row's value's position among them (m,); None when two
-    different rows share a key (then nothing is merged here)."""
+    different rows share a key (the caller then finds them another way)."""
     m = len(q)
     if m == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
@@ -125,11 +125,13 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None 
     reach = _NEEDLE_FACTOR * height if max_move is None else float(max_move)
     drift = np.zeros(len(v))  # how far the corners merged into each vertex have travelled
     fixed = 0
+    clean = False  # the last pass found nothing to repair: its heights stand
     for _ in range(_PASSES):
         proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
         f, ids = f[proper], ids[proper]
         bad = np.flatnonzero(_heights(v, f) < height)
         if not len(bad):
+            clean = True
             break
         nv = len(v)
         directed = (f * nv + np.roll(f, -1, axis=1)).ravel()  # edge (j, j+1) of each face
@@ -175,9 +177,12 @@ def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None 
             f = remap[f]
         if not actions:
             break
-    proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
-    f, ids = f[proper], ids[proper]
-    keep = _heights(v, f) >= height
+    if clean:
+        keep = np.ones(len(f), bool)
+    else:
+        proper = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])
+        f, ids = f[proper], ids[proper]
+        keep = _heights(v, f) >= height
     out = trimesh.Trimesh(v, f[keep], process=False, validate=False)
     out.remove_unreferenced_vertices()
     return out, fixed, int((~keep).sum()), ids[keep]
@@ -223,7 +228,8 @@ def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
     first = np.argmin(f, axis=1)
     # rotate each row to start at its smallest index (keeps the orientation)
     rolled = np.take_along_axis(f, (first[:, None] + np.arange(3)) % 3, axis=1)
-    _, keep = np.unique(rolled, axis=0, return_index=True)
+    merged = _merge_rows(rolled)  # the first of each repeated row (as np.unique's index)
+    keep = np.unique(rolled, axis=0, return_index=True)[1] if merged is None else merged[0]
     if len(keep) == len(f):
         return mesh, 0
     keep = np.sort(keep)

@@ -501,7 +501,7 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     verdicts = np.concatenate([v.ravel() for v in decided])
     if traced:  # the traces decided sweeps both ways, and took the bound's steps far out
         assert (verdicts == 1).any() and ((verdicts == -1).any() or shape == "blob")
-        # (on the blob: the I-beam's faces are too large for the bound to take any step)
+        # (the I-beam's faces are too large for the bound to take a step; the blob's are not)
         assert np.concatenate(bounded).mean() > 0.1 or shape == "ibeam"
     else:  # every certificate decided some sweeps: the hull's planes (the I-beam's hull has
         # 6; the blob's, thousands, which are not used), a sunk tip, the balls

@@ -353,6 +353,10 @@ def test_distance_bound_never_exceeds_the_distance(scale: float, offset: float) 
     assert np.all(lb <= exact)
     assert np.all(exact - lb <= 2 * bound.radius * (1 + 1e-9))
     assert (lb > 0.5 * exact)[1500:].mean() > 0.9  # and it is not vacuous far out
+    # on the surface: the corners themselves, at distance 0
+    assert np.all(bound(np.asarray(mesh.vertices)) <= 0.0)
+    # a mesh with no faces has no bound
+    assert np.all(DistanceBound(mesh.vertices, np.zeros((0, 3), int))(pts) == -np.inf)
 
 
 def test_a_part_pickles_and_answers_the_same_after() -> None:

@@ -104,11 +104,12 @@ _TRACE_FACES = 50_000
 _TRACE_STEPS = 64
 _TRACE_MIN_STEP = 1e-3
 #: A traced point whose :class:`~synth.part.closest.DistanceBound` is at least this many times
-#: the bound's slack (and at least the capsule's radius) steps by the bound instead of an
-#: exact distance: there the bound is at least f / (f + 2) of the distance, and an exact query
-#: costs most. On a 1.3M-face blob's default plan, the traces' distance queries took 1.19 s;
-#: with the bound (128 cells a side), 0.17 s of exact queries and 0.10 s of bounds, once the
-#: bound is built (0.25 s), with the same grasps.
+#: the bound's slack, and above the capsule's radius by at least that slack, steps by the bound
+#: instead of an exact distance: there the bound is at least f / (f + 2) of the distance, its
+#: step at least sqrt(2 radius slack) (not the grazing step that leaves a sweep undecided), and
+#: an exact query costs most. On a 1.3M-face blob's default plan, the traces' distance queries
+#: took 1.19 s; with the bound (128 cells a side), 0.17 s of exact queries and 0.10 s of
+#: bounds, once the bound is built (0.25 s), with the same grasps.
 _FAR_BOUND = 4.0
 #: The hull's planes certify sweeps only on parts whose hull has at most this many distinct
 #: facet planes (every corpus part: 6 to 1,992): the certificate is a product of the fingers
@@ -402,13 +403,14 @@ class FingerChecker:
     def _trace_distance(self, points: np.ndarray, radius: float) -> np.ndarray:
         """Distances (n,) of points (n, 3) to the surface for :meth:`_trace`: exact, except
         where the mesh's :class:`~synth.part.closest.DistanceBound` already puts a point
-        farther than ``radius`` and ``_FAR_BOUND`` times the bound's slack, which is then the
-        distance taken (a shorter step than the exact distance allows; the same verdict,
-        since neither is below ``radius`` there)."""
+        farther than ``_FAR_BOUND`` times the bound's slack and than ``radius`` plus that
+        slack, which is then the distance taken (a shorter step than the exact distance
+        allows; the same verdict, since neither is below ``radius`` there)."""
         if self._bound is None:
             self._bound = DistanceBound(self.mesh.vertices, self.mesh.faces)
         out = self._bound(points)
-        near = np.flatnonzero(out < max(radius, _FAR_BOUND * self._bound.radius))
+        slack = self._bound.radius
+        near = np.flatnonzero(out < max(radius + slack, _FAR_BOUND * slack))
         out[near] = self._distance(points[near])
         return out
 

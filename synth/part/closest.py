@@ -196,8 +196,11 @@ class DistanceBound:
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, cells: int = 128) -> None:
         v = np.asarray(vertices, np.float64)
         f = np.asarray(faces, np.int64)
-        lo = v.min(axis=0)
-        size = float((v.max(axis=0) - lo).max())
+        if not len(f):  # no surface: no bound (every point is "near", measured exactly)
+            self.radius, self._tree = np.inf, None
+            return
+        lo = v[f].reshape(-1, 3).min(axis=0)
+        size = float((v[f].reshape(-1, 3).max(axis=0) - lo).max())
         step = size / cells if size > 0 else 1.0
         cent = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
         ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)
@@ -217,5 +220,8 @@ class DistanceBound:
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Lower bounds (n,) of the distances of points (n, 3) to the mesh (may be
         negative near it)."""
-        return self._tree.query(np.asarray(points, np.float64))[0] - self.radius
+        points = np.asarray(points, np.float64)
+        if self._tree is None:
+            return np.full(len(points), -np.inf)
+        return self._tree.query(points)[0] - self.radius
 

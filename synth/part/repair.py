@@ -49,7 +49,8 @@ def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
     used = np.zeros(len(v), bool)
     used[f] = True
     rows = np.flatnonzero(used)
-    merged = _merge_rows(np.round(v[rows] * 10**digits).astype(np.int64))
+    # (with no faces trimesh merges every vertex: left to it)
+    merged = _merge_rows(np.round(v[rows] * 10**digits).astype(np.int64)) if len(f) else None
     if merged is None:
         out = trimesh.Trimesh(v, f, process=False, validate=False)
         out.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=digits)

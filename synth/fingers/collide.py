@@ -108,8 +108,9 @@ _TRACE_MIN_STEP = 1e-3
 #: instead of an exact distance: there the bound is at least f / (f + 2) of the distance, its
 #: step at least sqrt(2 radius slack) (not the grazing step that leaves a sweep undecided), and
 #: an exact query costs most. On a 1.3M-face blob's default plan, the traces' distance queries
-#: took 1.19 s; with the bound (128 cells a side), 0.17 s of exact queries and 0.10 s of
-#: bounds, once the bound is built (0.25 s), with the same grasps.
+#: took 1.19 s; with the bound (128 cells a side), 0.30 s of exact queries and 0.10 s of
+#: bounds, once the bound is built (0.25 s), with the same grasps (0.17 s of exact queries
+#: without the margin above the radius, which the blob's sweeps never needed).
 _FAR_BOUND = 4.0
 #: The hull's planes certify sweeps only on parts whose hull has at most this many distinct
 #: facet planes (every corpus part: 6 to 1,992): the certificate is a product of the fingers

@@ -229,11 +229,12 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
                          f"({why}); kept them separate")
             continue
         label = "+".join(names[i] for i in group)
+        trees: dict[int, BoxTree] = {}  # of the group's bodies, shared by the union's pieces
         for k, (v, f, src) in enumerate(pieces):
             united = trimesh.Trimesh(v + centre, f, process=False)
             # the union's faces are pieces of the input triangles, in their planes
             pieces_normals = _piece_normals(united, [meshes[i] for i in group], src,
-                                            keyed or {})
+                                            keyed or {}, trees)
             united, _, _, kept = fix_degenerate(united, height, max_move)
             out_m.append(united)
             out_s.append(np.asarray(group, np.int64)[src][kept])
@@ -247,10 +248,11 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
 
 
 def _piece_normals(united: trimesh.Trimesh, inputs: list[trimesh.Trimesh], src: np.ndarray,
-                   keyed: dict[bytes, np.ndarray]) -> np.ndarray:
+                   keyed: dict[bytes, np.ndarray], trees: dict[int, BoxTree]) -> np.ndarray:
     """The normals (f, 3) of the union's faces, those of the input triangles they are pieces
     of: their own, except where an earlier repair tilted the input triangle (``keyed``), whose
-    file triangle's normal they get (found by the face of body ``src`` nearest their centre)."""
+    file triangle's normal they get (found by the face of body ``src`` nearest their centre,
+    with the body's box tree in ``trees``, built here on first use)."""
     normals = np.array(united.face_normals, float)
     if not keyed:
         return normals
@@ -258,8 +260,9 @@ def _piece_normals(united: trimesh.Trimesh, inputs: list[trimesh.Trimesh], src: 
     for b in np.unique(src).tolist():
         rows = np.flatnonzero(src == b)
         body = inputs[b]
-        _, face, _ = BoxTree(np.asarray(body.vertices, float),
-                             np.asarray(body.faces, np.int64)).closest(centres[rows])
+        if b not in trees:
+            trees[b] = BoxTree(body.vertices, body.faces)
+        _, face, _ = trees[b].closest(centres[rows])
         for r, key in zip(rows.tolist(), face_keys(body, face).tolist(), strict=True):
             n = keyed.get(key)
             if n is not None:

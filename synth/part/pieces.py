@@ -78,8 +78,9 @@ def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
         return None
     mesh = part.mesh
     n_in = np.asarray(reg.normal, dtype=np.float64)
-    origin, corner = part._corners(face)[:2]
-    e = corner - origin
+    corners = part._corners(face)
+    origin = corners[0]
+    e = corners[1] - origin
     u = e - np.dot(e, n_in) * n_in
     u /= np.linalg.norm(u)
     v = np.cross(n_in, u)
@@ -92,7 +93,7 @@ def _grow_piece(part, face: int, margin: float) -> PlanarPiece | None:
     neighbours = _face_neighbours(part)
     chosen = [face]
     area = float(mesh.area_faces[face])
-    pts = to2(part._corners(face))
+    pts = to2(corners)
     frontier = list(neighbours[face])
     seen = {face}
     while frontier and len(chosen) < _MAX_PIECE_FACES:

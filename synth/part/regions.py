@@ -213,8 +213,11 @@ def _corner_normals(
     of a union) passes through a vertex, its two sides keep their own normals there even
     when they join elsewhere; planar faces keep their own normal."""
     faces = np.asarray(mesh.faces, np.int64)
-    # trimesh's face angles, without caching the mesh's (f, 3, 3) corners along with them
-    w = trimesh.triangles.angles(np.asarray(mesh.vertices, float)[faces]).ravel()
+    # trimesh's face angles, kept where trimesh keeps them (the solids read them again), but
+    # without caching the mesh's (f, 3, 3) corners along with them
+    angles = trimesh.triangles.angles(np.asarray(mesh.vertices, float)[faces])
+    mesh._cache["face_angles"] = angles
+    w = angles.ravel()
     n_f = len(faces)
     m = len(edges)
     a, b = np.empty(2 * m, np.int64), np.empty(2 * m, np.int64)

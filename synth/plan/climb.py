@@ -242,7 +242,7 @@ def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDA
 def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
                rng: np.random.Generator, sweeps: int, kicks: int = 0,
                seed_scores: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-               ) -> tuple[GraspBatch, int]:
+               ) -> GraspBatch:
     """Climb 7-contact seeds over the pool by exact best responses (see the module notes).
 
     Each member takes one contact at a time, in a fixed cyclic order drawn at random, and
@@ -276,10 +276,8 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
 
     Returns
     -------
-    grasps : GraspBatch
+    GraspBatch
         Every seed and kicked start after its climb.
-    screened : int
-        Replacements whose d* was computed.
     """
     pp, pn, ps = pool.points[:, 0], pool.normals[:, 0], pool.smooth[:, 0]
     n_pool, k = len(pp), seeds.shape[1]
@@ -314,7 +312,6 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
 
     cur_d, cur_fit = start(np.arange(len(members)))
     out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
-    screened = 0
     order = rng.permutation(k)
     rounds = 0
     while len(members):
@@ -340,7 +337,6 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
             np.maximum(vmin, 0.0, out=vmin)
             np.divide(vmin, np.maximum(vmax, _TINY32), out=vmin)
             np.minimum(d, vmin, out=d)
-        screened += M * n_pool
         others = np.delete(members, j, axis=1)
         d[np.arange(M)[:, None], others] = 0.0  # a contact once only
         d[np.arange(M), members[:, j]] = 0.0  # (no swap: its screened d* is the member's own)
@@ -388,7 +384,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
                    out_fit)
     if not score.timed_out:  # else the scores kept above stand (seeds never climbed stay at -2)
         score.score(b)
-    return b, screened
+    return b
 
 
 #: Kicked starts of the swap climb: how many contacts a kick replaces (one of these, at

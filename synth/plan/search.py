@@ -194,9 +194,9 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         if k == 7 and prm.mu == 0:
             n_swap = max(_MIN_SWAPS, int(POOL_SHARE * budget / SWAP_COST))
             n_kick = int(KICK_SHARE * n_swap)
-            climbed, _ = swap_climb(pool, seed_idx[:n_swap - n_kick], score, rng, _SWEEPS,
-                                    n_kick, (archive.d[:n_swap - n_kick],
-                                             archive.fit[:n_swap - n_kick]))
+            climbed = swap_climb(pool, seed_idx[:n_swap - n_kick], score, rng, _SWEEPS,
+                                 n_kick, (archive.d[:n_swap - n_kick],
+                                          archive.fit[:n_swap - n_kick]))
         else:
             climbed = pool_climb(pool, seed_idx, score, rng, int(POOL_SHARE * budget), L)
         archive = GraspBatch.concat([archive, climbed])

@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import connected_components
 from synth.part.closest import BoxTree
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
-           "solid_moments"]
+           "is_convex", "solid_moments"]
 
 #: Barycentric weights of the points at which each face's exposure is sampled: the centroid,
 #: three points near the corners, three near the edge midpoints and three in between.
@@ -51,10 +51,12 @@ _FACE_SAMPLES = np.array(
     + [np.roll([2 / 3, 1 / 6, 1 / 6], k).tolist() for k in range(3)]
 )
 _BARY_TOL = 1e-9  # barycentric coordinates are scale free
+#: How many faces' planes :func:`is_convex` tests every vertex against.
+_PLANE_SAMPLES = 64
 _CHUNK = 1 << 16
-#: The inside test of a closed body that is not convex: its faces' box tree, face normals, and
-#: corner and edge pseudo-normals (:func:`_mesh_hidden`).
-_MeshTest = tuple[BoxTree, np.ndarray, np.ndarray, np.ndarray]
+#: The inside test of a closed body that is not convex: the box tree of its faces, and their
+#: numbers in the part's mesh (None: all of them, in order) (:meth:`Solids._mesh_hidden`).
+_MeshTest = tuple[BoxTree, np.ndarray | None]
 
 
 def face_sample_weights() -> np.ndarray:
@@ -141,6 +143,73 @@ def solid_moments(triangles: np.ndarray) -> tuple[float, np.ndarray]:
     return volume, moments / volume if volume != 0 else np.zeros(3)
 
 
+def is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
+    """Whether a closed, connected body is convex.
+
+    Two tests, and the body is convex when it passes both:
+
+    1. *Local* (trimesh's ``is_convex``, computed from its cached adjacency without its
+       slower unshared-vertex table): across every edge between faces of nonzero area, the
+       far corner of one face lies below the other's plane by trimesh's threshold
+       (``trimesh.tol.planar`` times the body's diagonal).
+    2. *Global*: no vertex lies above the plane of one of ``_PLANE_SAMPLES`` faces spread
+       over the body by more than the plane's error allows. A fine tessellation of a curved,
+       non-convex surface passes the local test, since the angle across each edge shrinks
+       with its length (a 1.3M-face blob did, where the same blob at 82k faces did not).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Watertight, consistently wound with outward normals, one connected piece.
+    tolerance : float
+        How far the loader's repairs may have moved a corner
+        (:func:`synth.part.tolerances.surface_tolerance`). A face whose smallest height is
+        ``h`` has its plane tilted by up to ``4 * tolerance / h`` by such moves, so a vertex
+        refutes convexity only when it lies more than ``tolerance * (2 + 4 * d / h)`` above
+        the plane (``d`` the body's diagonal, the farthest a vertex can be).
+
+    Returns
+    -------
+    bool
+        Kept in the mesh's cache (the loader and the part ask of the same mesh).
+    """
+    known = mesh._cache["synth_is_convex"]  # None when not cached (or the mesh changed)
+    if known is not None and known[0] == tolerance:
+        return bool(known[1])
+    verdict = _is_convex(mesh, tolerance)
+    mesh._cache["synth_is_convex"] = (tolerance, verdict)
+    return verdict
+
+
+def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
+    faces = np.asarray(mesh.faces, np.int64)
+    vertices = np.asarray(mesh.vertices, float)
+    normals = np.asarray(mesh.face_normals, float)
+    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
+    edges = np.asarray(mesh.face_adjacency_edges, np.int64).reshape(-1, 2)
+    area = np.asarray(mesh.area_faces, float)
+    ok = (area[adj] > trimesh.tol.zero).all(axis=1)
+    if not ok.any():
+        return False
+    far = faces[adj[:, 1]].sum(axis=1) - edges.sum(axis=1)  # the other face's third corner
+    rise = np.einsum("ij,ij->i", vertices[far] - vertices[edges[:, 0]], normals[adj[:, 0]])
+    diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    if not rise[ok].max() < trimesh.tol.planar * diagonal:
+        return False
+    rows = np.unique(np.linspace(0, len(faces) - 1, _PLANE_SAMPLES).astype(np.int64))
+    tri = vertices[faces[rows]]
+    longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    height = 2.0 * area[rows] / longest
+    with np.errstate(divide="ignore"):  # a face of no area refutes nothing
+        allowed = tolerance * (2.0 + 4.0 * diagonal / height)
+    for s in range(0, len(rows), 8):  # (v, 8) at a time
+        n = normals[rows[s : s + 8]]
+        above = vertices @ n.T - np.einsum("ij,ij->i", tri[s : s + 8, 0], n)
+        if (above.max(axis=0) > allowed[s : s + 8]).any():
+            return False
+    return True
+
+
 def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     """Connected component of each face, numbered in order of first face.
 
@@ -163,7 +232,8 @@ def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
 
 
 def compute_bodies(
-    mesh: trimesh.Trimesh, labels: np.ndarray, names: list[str] | tuple[str, ...] | None
+    mesh: trimesh.Trimesh, labels: np.ndarray, names: list[str] | tuple[str, ...] | None,
+    tolerance: float,
 ) -> list[Body]:
     """The bodies of a mesh with component ``labels`` (exposed area set to the area).
 
@@ -175,6 +245,8 @@ def compute_bodies(
         From :func:`body_labels`.
     names : sequence of str, optional
         One per body.
+    tolerance : float
+        How far repairs may have moved a corner (for :func:`is_convex`).
 
     Returns
     -------
@@ -193,7 +265,7 @@ def compute_bodies(
         if sub.is_watertight and sub.is_winding_consistent:
             volume, center = solid_moments(sub.triangles)
         closed = volume > 0
-        convex = bool(closed and sub.is_convex)
+        convex = closed and is_convex(sub, tolerance)
         faces.flags.writeable = False
         box = np.asarray(sub.bounds, float)
         center = np.asarray(center if closed else sub.centroid, float)
@@ -216,37 +288,41 @@ class Solids:
     edges, face_edges : (e, 2) and (f, 3) int
         The mesh's unique edges and each face's three of them (``mesh.edges_unique`` and
         ``mesh.faces_unique_edges``, as :class:`synth.part.features.Features` keeps them).
+    index : BoxTree
+        The box tree of the whole mesh (the part's own), which serves a body that is the
+        whole mesh; other non-convex bodies get a tree of their faces.
     """
 
     def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...],
-                 edges: np.ndarray, face_edges: np.ndarray) -> None:
+                 edges: np.ndarray, face_edges: np.ndarray, index: BoxTree) -> None:
         fn = np.asarray(mesh.face_normals, float)
-        tri = np.asarray(mesh.triangles, float)
+        vertices = np.asarray(mesh.vertices, float)
         faces = np.asarray(mesh.faces, np.int64)
         # per closed body: its index, its box and its test (a convex body's planes)
         self._tests: list[tuple[int, np.ndarray, np.ndarray | _MeshTest]] = []
-        need_pseudo = any(b.closed and not b.convex for b in bodies)
-        if need_pseudo:
-            ang = np.asarray(mesh.face_angles, float)
-            vpn = np.zeros((len(mesh.vertices), 3))
-            np.add.at(vpn, faces.ravel(), (ang[..., None] * fn[:, None, :]).reshape(-1, 3))
+        if any(b.closed and not b.convex for b in bodies):
+            # angle-weighted corner normals and summed edge normals, for every face's test
+            ang = np.asarray(mesh.face_angles, float).ravel()
+            flat = faces.ravel()
+            self._corner = np.column_stack([
+                np.bincount(flat, np.repeat(fn[:, k], 3) * ang, len(vertices))
+                for k in range(3)])
             fue = np.asarray(face_edges, np.int64)
-            epn = np.zeros((len(edges), 3))
-            np.add.at(epn, fue.ravel(), np.repeat(fn, 3, axis=0))
+            self._edge = np.column_stack([
+                np.bincount(fue.ravel(), np.repeat(fn[:, k], 3), len(edges)) for k in range(3)])
+            self._normals, self._faces, self._face_edges = fn, faces, fue
         for b in bodies:
             if not b.closed:
                 continue
             f = b.faces
             if b.convex:
-                planes = np.hstack([fn[f], -np.einsum("ij,ij->i", fn[f], tri[f, 0])[:, None]])
+                planes = np.hstack([fn[f], -np.einsum("ij,ij->i", fn[f],
+                                                      vertices[faces[f, 0]])[:, None]])
                 self._tests.append((b.index, b.bounds, planes))
+            elif len(f) == len(faces):  # the whole mesh: the part's tree
+                self._tests.append((b.index, b.bounds, (index, None)))
             else:
-                body_tri = tri[f]
-                boxes = BoxTree(body_tri.reshape(-1, 3),
-                                np.arange(3 * len(f), dtype=np.int64).reshape(-1, 3))
-                corner = vpn[faces[f]]  # (m, 3, 3): pseudo-normal at each corner
-                edge = epn[fue[f]]  # (m, 3, 3): at edges (0,1), (1,2), (2,0)
-                self._tests.append((b.index, b.bounds, (boxes, fn[f], corner, edge)))
+                self._tests.append((b.index, b.bounds, (BoxTree(vertices, faces[f]), f)))
 
     @property
     def bodies(self) -> list[int]:
@@ -281,8 +357,36 @@ class Solids:
             if isinstance(test, np.ndarray):
                 out[rows] = _convex_hidden(test, pts[rows], margin)
             else:
-                out[rows] = _mesh_hidden(*test, pts[rows], margin, reach)
+                out[rows] = self._mesh_hidden(*test, pts[rows], margin, reach)
         return out
+
+    def _mesh_hidden(self, boxes: BoxTree, faces: np.ndarray | None, pts: np.ndarray,
+                     margin: float, reach: float) -> np.ndarray:
+        """Inside or within ``margin`` of a closed mesh, by its closest point and its
+        angle-weighted pseudo-normal there (face, edge or corner). A point with no surface
+        within ``reach`` is outside."""
+        q, f, d = boxes.closest(pts)
+        found = d <= reach
+        hidden = np.zeros(len(pts), bool)
+        rows = np.flatnonzero(found)
+        if not len(rows):
+            return hidden
+        q, f, d, p = q[rows], f[rows], d[rows], pts[rows]
+        bary = trimesh.triangles.points_to_barycentric(boxes.vertices[boxes.faces[f]], q,
+                                                       method="cramer")
+        face = f if faces is None else faces[f]  # in the part's mesh
+        small = bary < _BARY_TOL
+        pn = self._normals[face].copy()
+        on_edge = small.sum(axis=1) == 1
+        at_vertex = small.sum(axis=1) >= 2
+        # the edge opposite corner k is edge slot (k + 1) % 3: (0,1), (1,2), (2,0)
+        k = np.argmax(small, axis=1)
+        pn[on_edge] = self._edge[self._face_edges[face[on_edge], (k[on_edge] + 1) % 3]]
+        v = np.argmax(bary, axis=1)
+        pn[at_vertex] = self._corner[self._faces[face[at_vertex], v[at_vertex]]]
+        outside = np.einsum("ij,ij->i", p - q, pn) > 0
+        hidden[rows] = (d < margin) | ~outside
+        return hidden
 
 
 def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.ndarray:
@@ -293,32 +397,3 @@ def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.nda
         lower = (p @ planes[:, :3].T + planes[:, 3]).max(axis=1)  # <= true distance outside
         res[s : s + _CHUNK] = lower < margin
     return res
-
-
-def _mesh_hidden(boxes: BoxTree, normals: np.ndarray, corner: np.ndarray, edge: np.ndarray,
-                 pts: np.ndarray, margin: float, reach: float) -> np.ndarray:
-    """Inside or within ``margin`` of a closed mesh, by its closest point and pseudo-normal.
-
-    A point with no surface within ``reach`` is outside.
-    """
-    q, f, d = boxes.closest(pts)
-    found = d <= reach
-    hidden = np.zeros(len(pts), bool)
-    rows = np.flatnonzero(found)
-    if not len(rows):
-        return hidden
-    q, f, d, p = q[rows], f[rows], d[rows], pts[rows]
-    bary = trimesh.triangles.points_to_barycentric(boxes.vertices[boxes.faces[f]], q,
-                                                   method="cramer")
-    small = bary < _BARY_TOL
-    pn = normals[f].copy()
-    on_edge = small.sum(axis=1) == 1
-    at_vertex = small.sum(axis=1) >= 2
-    # the edge opposite corner k is edge slot (k + 1) % 3
-    k = np.argmax(small, axis=1)
-    pn[on_edge] = edge[f[on_edge], (k[on_edge] + 1) % 3]
-    v = np.argmax(bary, axis=1)
-    pn[at_vertex] = corner[f[at_vertex], v[at_vertex]]
-    outside = np.einsum("ij,ij->i", p - q, pn) > 0
-    hidden[rows] = (d < margin) | ~outside
-    return hidden

@@ -34,7 +34,7 @@ from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
-from synth.part.bodies import body_labels, solid_moments
+from synth.part.bodies import body_labels, is_convex, solid_moments
 from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
 from synth.part.repair import (
@@ -495,8 +495,9 @@ def load_part(
     # the closed convex bodies of the file, by their index among those chosen: a body united
     # from such pieces is exactly their union, so a consumer that needs convex pieces (the
     # simulator) takes them instead of decomposing the union again
+    moved = tol.surface_tolerance(length, precision)
     convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
-                     if bodies[i][2] and bodies[i][1].is_convex}
+                     if bodies[i][2] and is_convex(bodies[i][1], moved)}
     repairs.extend(notes)
     if len(meshes) == 1 and type(meshes[0]) is trimesh.Trimesh:
         # one body, as the repairs above built it (plain arrays, no visuals): kept, with the

@@ -149,7 +149,8 @@ class Part:
         labels = body_labels(mesh)
         labels.flags.writeable = False
         self.face_body: np.ndarray = labels
-        bodies = compute_bodies(mesh, labels, body_names)
+        bodies = compute_bodies(mesh, labels, body_names,
+                                tol.surface_tolerance(self.length, self.precision))
         closed = [b for b in bodies if b.closed]
         self.volume = float(sum(b.volume for b in closed))
         if closed:
@@ -177,11 +178,11 @@ class Part:
         self.regions: tuple[Region, ...] = self._regions.regions
         self.face_region: np.ndarray = self._regions.face_region
         self._vertex_cone = self._build_vertex_cone()
-        needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
-        self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges)
-                        if needs else None)
-        _drop_build_tables(mesh)  # the corner angles the regions and solids read
         self._index = BoxTree(mesh.vertices, mesh.faces).build()
+        needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
+        self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges,
+                               self._index) if needs else None)
+        _drop_build_tables(mesh)  # the corner angles the regions and solids read
         self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
 

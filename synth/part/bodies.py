@@ -40,7 +40,7 @@ from scipy.sparse.csgraph import connected_components
 from synth.part.closest import BoxTree
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
-           "is_convex", "solid_moments"]
+           "is_convex", "mesh_moments", "solid_moments"]
 
 #: Barycentric weights of the points at which each face's exposure is sampled: the centroid,
 #: three points near the corners, three near the edge midpoints and three in between.
@@ -141,6 +141,16 @@ def solid_moments(triangles: np.ndarray) -> tuple[float, np.ndarray]:
     volume = float(cross[:, 0] @ f1[:, 0]) / 6.0
     moments = np.einsum("ij,ij->j", cross, f2) / 24.0
     return volume, moments / volume if volume != 0 else np.zeros(3)
+
+
+def mesh_moments(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray]:
+    """:func:`solid_moments` of a mesh's triangles, kept in its cache: the loader's orienting,
+    its test of a closed body and the part's bodies ask of the same mesh (0.16 s each at
+    1.3M faces)."""
+    known = mesh._cache["synth_moments"]  # None when not cached (or the mesh changed)
+    if known is None:
+        known = mesh._cache["synth_moments"] = solid_moments(mesh.triangles)
+    return known
 
 
 def is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
@@ -263,7 +273,7 @@ def compute_bodies(
                                                                           repair=False))
         volume, center = 0.0, None
         if sub.is_watertight and sub.is_winding_consistent:
-            volume, center = solid_moments(sub.triangles)
+            volume, center = mesh_moments(sub)
         closed = volume > 0
         convex = closed and is_convex(sub, tolerance)
         faces.flags.writeable = False

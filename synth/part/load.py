@@ -34,7 +34,7 @@ from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
 from synth.part import tolerances as tol
-from synth.part.bodies import body_labels, is_convex, solid_moments
+from synth.part.bodies import body_labels, is_convex, mesh_moments
 from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.model import Part
 from synth.part.repair import (
@@ -286,7 +286,7 @@ def _repair_bodies(pieces: list[tuple[str, trimesh.Trimesh]], name: str, repairs
             if what:
                 closes.append(what if len(pieces) == 1 else f"{what} ({pname})")
         closed = bool(m.is_watertight and m.is_winding_consistent
-                      and solid_moments(m.triangles)[0] > 0)
+                      and mesh_moments(m)[0] > 0)
         if not closed:
             still_open.append((pname, open_edges(m)))
         out.append((pname, m, closed))

@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 
 from synth.isolate import call_isolated
-from synth.part.bodies import body_labels, solid_moments
+from synth.part.bodies import body_labels, mesh_moments
 
 __all__ = ["weld", "fix_degenerate", "tilted_normals", "face_keys", "drop_duplicate_faces",
            "orient", "close", "open_edges",
@@ -252,7 +252,7 @@ def orient(mesh: trimesh.Trimesh, one_piece: bool = False) -> tuple[trimesh.Trim
     if not one_piece and body_labels(mesh).max() > 0:
         trimesh.repair.fix_inversion(mesh, multibody=True)
     elif (len(mesh.faces) >= 4 and mesh.is_watertight and mesh.is_winding_consistent
-            and solid_moments(mesh.triangles)[0] < 0.0):
+            and mesh_moments(mesh)[0] < 0.0):
         mesh.invert()
     return mesh, int((~(mesh.faces == before).all(axis=1)).sum())
 

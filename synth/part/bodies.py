@@ -318,8 +318,12 @@ class Solids:
                 np.bincount(flat, np.repeat(fn[:, k], 3) * ang, len(vertices))
                 for k in range(3)])
             fue = np.asarray(face_edges, np.int64)
-            self._edge = np.column_stack([
-                np.bincount(fue.ravel(), np.repeat(fn[:, k], 3), len(edges)) for k in range(3)])
+            # an edge's normal is the sum of its faces' (two on a closed body, so the order
+            # of the sum does not matter), one face slot at a time
+            self._edge = np.zeros((len(edges), 3))
+            for k in range(3):
+                self._edge += np.column_stack([np.bincount(fue[:, k], fn[:, j], len(edges))
+                                               for j in range(3)])
             self._normals, self._faces, self._face_edges = fn, faces, fue
         for b in bodies:
             if not b.closed:

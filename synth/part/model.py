@@ -178,11 +178,12 @@ class Part:
         self.regions: tuple[Region, ...] = self._regions.regions
         self.face_region: np.ndarray = self._regions.face_region
         self._vertex_cone = self._build_vertex_cone()
-        self._index = BoxTree(mesh.vertices, mesh.faces).build()
+        self._index = BoxTree(mesh.vertices, mesh.faces)
         needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
         self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges,
                                self._index) if needs else None)
         _drop_build_tables(mesh)  # the corner angles the regions and solids read
+        self._index.build()  # after the solids' temporaries are freed
         self.face_exposure, self.bodies = self._exposure(bodies)
         self._frozen = True
 

@@ -199,14 +199,18 @@ class DistanceBound:
         if not len(f):  # no surface: no bound (every point is "near", measured exactly)
             self.radius, self._tree = np.inf, None
             return
-        lo = v[f].reshape(-1, 3).min(axis=0)
-        size = float((v[f].reshape(-1, 3).max(axis=0) - lo).max())
+        used = np.zeros(len(v), bool)
+        used[f.ravel()] = True
+        corners = v[used]
+        lo = corners.min(axis=0)
+        size = float((corners.max(axis=0) - lo).max())
         step = size / cells if size > 0 else 1.0
         cent = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
         ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)
-        _, group = np.unique((ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2],
-                             return_inverse=True)
-        group = group.ravel()
+        key = (ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2]
+        # the occupied cells, numbered in the order of their keys
+        occupied = np.bincount(key, minlength=(cells + 1) ** 3) > 0
+        group = (np.cumsum(occupied) - 1)[key]
         count = np.bincount(group)
         centers = np.stack([np.bincount(group, weights=cent[:, c]) / count for c in range(3)],
                            axis=1)

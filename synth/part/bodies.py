@@ -156,7 +156,8 @@ def mesh_moments(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray]:
 def is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
     """Whether a closed, connected body is convex.
 
-    Two tests, and the body is convex when it passes both:
+    Two tests, and the body is convex when it passes both (the second is run first, as it
+    refutes most non-convex bodies at a fraction of the cost):
 
     1. *Local* (trimesh's ``is_convex``, computed from its cached adjacency without its
        slower unshared-vertex table): across every edge between faces of nonzero area, the
@@ -195,17 +196,9 @@ def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
     faces = np.asarray(mesh.faces, np.int64)
     vertices = np.asarray(mesh.vertices, float)
     normals = np.asarray(mesh.face_normals, float)
-    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
-    edges = np.asarray(mesh.face_adjacency_edges, np.int64).reshape(-1, 2)
     area = np.asarray(mesh.area_faces, float)
-    ok = (area[adj] > trimesh.tol.zero).all(axis=1)
-    if not ok.any():
-        return False
-    far = faces[adj[:, 1]].sum(axis=1) - edges.sum(axis=1)  # the other face's third corner
-    rise = np.einsum("ij,ij->i", vertices[far] - vertices[edges[:, 0]], normals[adj[:, 0]])
     diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
-    if not rise[ok].max() < trimesh.tol.planar * diagonal:
-        return False
+    # the global test first: it refutes most non-convex bodies at a fraction of the cost
     rows = np.unique(np.linspace(0, len(faces) - 1, _PLANE_SAMPLES).astype(np.int64))
     tri = vertices[faces[rows]]
     longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
@@ -217,7 +210,14 @@ def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
         above = vertices @ n.T - np.einsum("ij,ij->i", tri[s : s + 8, 0], n)
         if (above.max(axis=0) > allowed[s : s + 8]).any():
             return False
-    return True
+    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
+    edges = np.asarray(mesh.face_adjacency_edges, np.int64).reshape(-1, 2)
+    ok = (area[adj] > trimesh.tol.zero).all(axis=1)
+    if not ok.any():
+        return False
+    far = faces[adj[:, 1]].sum(axis=1) - edges.sum(axis=1)  # the other face's third corner
+    rise = np.einsum("ij,ij->i", vertices[far] - vertices[edges[:, 0]], normals[adj[:, 0]])
+    return bool(rise[ok].max() < trimesh.tol.planar * diagonal)
 
 
 def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
@@ -230,7 +230,11 @@ def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     Returns
     -------
     labels : (f,) int
+        Read-only; kept in the mesh's cache (the loader splits a mesh the part then labels).
     """
+    known = mesh._cache["synth_body_labels"]  # None when not cached (or the mesh changed)
+    if known is not None:
+        return known
     n = len(mesh.faces)
     adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
     graph = coo_matrix((np.ones(len(adj), np.int8), (adj[:, 0], adj[:, 1])), shape=(n, n))
@@ -238,7 +242,10 @@ def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     _, first = np.unique(lab, return_index=True)
     remap = np.empty(len(first), np.int64)
     remap[np.argsort(first)] = np.arange(len(first))
-    return remap[lab]
+    labels = remap[lab]
+    labels.flags.writeable = False
+    mesh._cache["synth_body_labels"] = labels
+    return labels
 
 
 def compute_bodies(

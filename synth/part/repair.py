@@ -100,10 +100,14 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
 def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Smallest height of each face; 0 where trimesh could not give the face a normal."""
     tri = v[f]
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    longest = np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=2).max(axis=1)
+    sides = tri - np.roll(tri, -1, axis=1)  # a - b, b - c, c - a
+    # twice the area, as trimesh.triangles.normals measures it (cross of b - a and c - b,
+    # the same norm), so that its test of a normal is the same without a second cross
+    cross = np.cross(sides[:, 0], sides[:, 1])
+    area2 = np.sqrt(np.dot(cross * cross, [1.0, 1.0, 1.0]))
+    longest = np.sqrt(np.einsum("fkx,fkx->fk", sides, sides).max(axis=1))
     h = np.where(longest > 0, area2 / np.where(longest > 0, longest, 1.0), 0.0)
-    return np.where(trimesh.triangles.normals(tri)[1], h, 0.0)
+    return np.where(area2 > trimesh.util.TOL_ZERO, h, 0.0)
 
 
 def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None = None

@@ -302,16 +302,16 @@ class Solids:
     mesh : trimesh.Trimesh
         The part's mesh, outward normals.
     bodies : sequence of Body
-    edges, face_edges : (e, 2) and (f, 3) int
-        The mesh's unique edges and each face's three of them (``mesh.edges_unique`` and
-        ``mesh.faces_unique_edges``, as :class:`synth.part.features.Features` keeps them).
+    edge_faces, face_edges : (e, 2) and (f, 3) int
+        The two faces of each unique edge and each face's three edges
+        (:class:`synth.part.features.Features`).
     index : BoxTree
         The box tree of the whole mesh (the part's own), which serves a body that is the
         whole mesh; other non-convex bodies get a tree of their faces.
     """
 
     def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...],
-                 edges: np.ndarray, face_edges: np.ndarray, index: BoxTree) -> None:
+                 edge_faces: np.ndarray, face_edges: np.ndarray, index: BoxTree) -> None:
         fn = np.asarray(mesh.face_normals, float)
         vertices = np.asarray(mesh.vertices, float)
         faces = np.asarray(mesh.faces, np.int64)
@@ -324,14 +324,10 @@ class Solids:
             self._corner = np.column_stack([
                 np.bincount(flat, np.repeat(fn[:, k], 3) * ang, len(vertices))
                 for k in range(3)])
-            fue = np.asarray(face_edges, np.int64)
-            # an edge's normal is the sum of its faces' (two on a closed body, so the order
-            # of the sum does not matter), one face slot at a time
-            self._edge = np.zeros((len(edges), 3))
-            for k in range(3):
-                self._edge += np.column_stack([np.bincount(fue[:, k], fn[:, j], len(edges))
-                                               for j in range(3)])
-            self._normals, self._faces, self._face_edges = fn, faces, fue
+            # an edge's is the sum of its two faces' normals, taken when asked
+            self._normals, self._faces = fn, faces
+            self._face_edges = np.asarray(face_edges, np.int64)
+            self._edge_faces = np.asarray(edge_faces, np.int64)
         for b in bodies:
             if not b.closed:
                 continue
@@ -402,7 +398,8 @@ class Solids:
         at_vertex = small.sum(axis=1) >= 2
         # the edge opposite corner k is edge slot (k + 1) % 3: (0,1), (1,2), (2,0)
         k = np.argmax(small, axis=1)
-        pn[on_edge] = self._edge[self._face_edges[face[on_edge], (k[on_edge] + 1) % 3]]
+        two = self._edge_faces[self._face_edges[face[on_edge], (k[on_edge] + 1) % 3]]
+        pn[on_edge] = self._normals[two[:, 0]] + self._normals[two[:, 1]]
         v = np.argmax(bary, axis=1)
         pn[at_vertex] = self._corner[self._faces[face[at_vertex], v[at_vertex]]]
         outside = np.einsum("ij,ij->i", p - q, pn) > 0

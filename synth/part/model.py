@@ -180,7 +180,7 @@ class Part:
         self._vertex_cone = self._build_vertex_cone()
         self._index = BoxTree(mesh.vertices, mesh.faces)
         needs = len(bodies) > 1 or any(b.closed and not b.convex for b in bodies)
-        self._solids = (Solids(mesh, bodies, self.features.edges, self.features.face_edges,
+        self._solids = (Solids(mesh, bodies, self.features.edge_faces, self.features.face_edges,
                                self._index) if needs else None)
         _drop_build_tables(mesh)  # the corner angles the regions and solids read
         self._index.build()  # after the solids' temporaries are freed

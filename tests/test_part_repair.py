@@ -174,6 +174,30 @@ def test_orient_turns_an_inside_out_piece_outward_and_counts_its_faces() -> None
     assert flipped == 1 and fixed.is_winding_consistent and fixed.volume == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("shape", ["box", "icosphere"])
+def test_an_inside_out_triangle_soup_loads_with_outward_normals(shape: str,
+                                                                 tmp_path: Path) -> None:
+    """review: an inside-out OBJ whose corners are stored per triangle (welded, so its normals
+    were read before orienting) kept trimesh's cached inward normals after the turn."""
+    src = trimesh.creation.box() if shape == "box" else trimesh.creation.icosphere(3)
+    tri = np.asarray(src.triangles)[:, ::-1]  # every face wound inward
+    path = tmp_path / "soup.obj"
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in tri.reshape(-1, 3).tolist())
+                    + "".join(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n"
+                              for i in range(len(tri))))
+    part = load_part(path)
+    mesh = part.mesh
+    assert any(r.startswith("re-oriented") for r in part.repairs)
+    # the normals are those of the faces' own corners, and they point away from the centre
+    geometric, valid = trimesh.triangles.normals(np.asarray(mesh.triangles))
+    assert valid.all()
+    np.testing.assert_allclose(mesh.face_normals, geometric, atol=1e-12)
+    outward = np.einsum("ij,ij->i", mesh.triangles_center - part.center_mass, mesh.face_normals)
+    assert (outward > 0).all()
+    assert part.volume == pytest.approx(abs(src.volume), rel=1e-9)
+    assert [b.convex for b in part.bodies] == [True]
+
+
 def test_orient_turns_each_inside_out_piece_of_a_mesh_of_several() -> None:
     # review: a large box beside a small inside-out one; the total volume is positive, so a
     # sign test of the whole mesh would leave the small box inside out

@@ -258,6 +258,11 @@ def orient(mesh: trimesh.Trimesh, one_piece: bool = False) -> tuple[trimesh.Trim
     elif (len(mesh.faces) >= 4 and mesh.is_watertight and mesh.is_winding_consistent
             and mesh_moments(mesh)[0] < 0.0):
         mesh.invert()
+        # trimesh's invert keeps the cached normals unturned when it cannot set the turned
+        # ones (its setter checks them against the faces before it flips them): measured
+        # again from the turned faces
+        for key in ("face_normals", "vertex_normals"):
+            mesh._cache.delete(key)
     return mesh, int((~(mesh.faces == before).all(axis=1)).sum())
 
 

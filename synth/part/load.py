@@ -492,12 +492,6 @@ def load_part(
                                              [bodies[i][2] for i in chosen],
                                              max(tol.DEGENERATE_RTOL * length, precision),
                                              tol.surface_tolerance(length, precision), keyed)
-    # the closed convex bodies of the file, by their index among those chosen: a body united
-    # from such pieces is exactly their union, so a consumer that needs convex pieces (the
-    # simulator) takes them instead of decomposing the union again
-    moved = tol.surface_tolerance(length, precision)
-    convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
-                     if bodies[i][2] and is_convex(bodies[i][1], moved)}
     repairs.extend(notes)
     if len(meshes) == 1 and type(meshes[0]) is trimesh.Trimesh:
         # one body, as the repairs above built it (plain arrays, no visuals): kept, with the
@@ -509,6 +503,14 @@ def load_part(
         mesh = trimesh.Trimesh(np.asarray(both.vertices, float),
                                np.asarray(both.faces, np.int64), process=False)
     _keep_triangle_normals(mesh, meshes, tilted, keyed)
+    # the closed convex bodies of the file, by their index among those chosen: a body united
+    # from such pieces is exactly their union, so a consumer that needs convex pieces (the
+    # simulator) takes them instead of decomposing the union again. Judged with the part's
+    # tolerance, as the part judges its bodies (a file's other objects far away make its
+    # length, and so its tolerance, larger)
+    part_tol = tol.surface_tolerance(float(np.linalg.norm(mesh.extents)), precision)
+    convex_inputs = {k: np.asarray(bodies[i][1].vertices, float) for k, i in enumerate(chosen)
+                     if bodies[i][2] and is_convex(bodies[i][1], part_tol)}
     # trimesh stores str(unit).lower(): "none" when the unit is unknown (GLB files carry it)
     mesh.units = str(unit)
     return Part(mesh, units=unit, sharp_angle=sharp_angle, repairs=repairs,

@@ -146,8 +146,7 @@ class Part:
         self.length = float(np.linalg.norm(mesh.extents))
         self.precision = float(tol.coordinate_precision(mesh.vertices) if precision is None
                                else precision)
-        labels = body_labels(mesh)
-        labels.flags.writeable = False
+        labels = body_labels(mesh)  # read-only
         self.face_body: np.ndarray = labels
         bodies = compute_bodies(mesh, labels, body_names,
                                 tol.surface_tolerance(self.length, self.precision))

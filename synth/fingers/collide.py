@@ -64,6 +64,7 @@ from synth.fingers.model import (
 )
 from synth.native import bvh_model, mesh_problem
 from synth.part.closest import BoxTree, DistanceBound
+from synth.part.tolerances import bounds
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -223,7 +224,7 @@ class FingerChecker:
             raise InputError(f"part: a mesh FCL cannot check: {problem}")
         # the surface's distance for the near-tip certificate and the traces
         self._distance = distance or BoxTree(vertices, faces).distance
-        lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        lo, hi = bounds(vertices)
         self.center: np.ndarray = (lo + hi) / 2.0
         self.radius: float = float(np.linalg.norm(hi - lo)) / 2.0
         # FCL works with absolute tolerances: give it the part centred and of unit size, so

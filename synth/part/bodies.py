@@ -38,6 +38,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.closest import BoxTree
+from synth.part.tolerances import bounds
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
            "is_convex", "mesh_moments", "solid_moments"]
@@ -205,7 +206,8 @@ def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
     vertices = np.asarray(mesh.vertices, float)
     normals = np.asarray(mesh.face_normals, float)
     area = np.asarray(mesh.area_faces, float)
-    diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    lo, hi = bounds(vertices)
+    diagonal = float(np.linalg.norm(hi - lo))
     # the global test first: it refutes most non-convex bodies at a fraction of the cost
     rows = np.unique(np.linspace(0, len(faces) - 1, _PLANE_SAMPLES).astype(np.int64))
     tri = vertices[faces[rows]]

@@ -29,6 +29,8 @@ import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
+from synth.part.tolerances import bounds
+
 __all__ = ["BoxTree", "DistanceBound", "closest_on_triangles"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
@@ -202,8 +204,8 @@ class DistanceBound:
         used = np.zeros(len(v), bool)
         used[f.ravel()] = True
         corners = v[used]
-        lo = corners.min(axis=0)
-        size = float((corners.max(axis=0) - lo).max())
+        lo, hi = bounds(corners)
+        size = float((hi - lo).max())
         step = size / cells if size > 0 else 1.0
         cent = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
         ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)

@@ -210,11 +210,11 @@ def _classify_vertices(
 
     n_cvx, n_ccv, n_bnd = _count(k2 == 1), _count(k2 == 2), _count(k2 == 3)
     # unit directions of sharp edges pointing away from each end vertex
-    d = (verts[edges[:, 1]] - verts[edges[:, 0]]) / np.maximum(length, 1e-300)[:, None]
-    dirs = np.stack([d, -d], axis=1).reshape(-1, 3)
-    sharp2 = (k2 == 1) | (k2 == 2)
+    sharp = np.flatnonzero((kind == 1) | (kind == 2))
+    ab = edges[sharp]
+    d = (verts[ab[:, 1]] - verts[ab[:, 0]]) / np.maximum(length[sharp], 1e-300)[:, None]
     dsum = np.zeros((n_v, 3))
-    np.add.at(dsum, ends[sharp2], dirs[sharp2])
+    np.add.at(dsum, ab.ravel(), np.stack([d, -d], axis=1).reshape(-1, 3))
     straight = np.linalg.norm(dsum, axis=1) < 2.0 * np.sin(sharp_angle / 2.0)
     n_sharp = n_cvx + n_ccv
     vk = np.zeros(n_v, np.int8)

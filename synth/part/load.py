@@ -209,7 +209,8 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
         raise _fail(name, f"a vertex coordinate has magnitude {biggest:.3g}, above the "
                     f"{MAX_COORDINATE:g} synth can score meaningfully (wrong unit, or a corrupt "
                     "file?); scale the mesh or move it near the origin")
-    length = float(np.linalg.norm(np.ptp(allv, axis=0)))
+    lo, hi = tol.bounds(allv)
+    length = float(np.linalg.norm(hi - lo))
     if length <= 0:
         raise _fail(name, "all vertices coincide")
     precision = tol.coordinate_precision(allv)
@@ -380,7 +381,8 @@ def _decimated(raw: list[tuple[str, trimesh.Trimesh]], target: object, name: str
         d = decimate_mesh(v, f, int(target))
     except InputError as e:
         raise MeshError(f"{name}: {e}") from e
-    repairs.append(d.describe(float(np.linalg.norm(np.ptp(v, axis=0)))))
+    lo, hi = tol.bounds(v)
+    repairs.append(d.describe(float(np.linalg.norm(hi - lo))))
     return [("decimated", d.mesh)]
 
 

@@ -70,6 +70,7 @@ __all__ = [
     "EXPOSURE_MARGIN_RTOL",
     "GROUP_GAP_RTOL",
     "PRECISION_FACTOR",
+    "bounds",
     "coordinate_precision",
     "surface_tolerance",
 ]
@@ -96,6 +97,15 @@ def surface_tolerance(length: float, precision: float) -> float:
     precision, is on its surface (``Part.surface_tolerance``); no repair moves the surface
     farther than this."""
     return max(ON_SURFACE_RTOL * length, PRECISION_FACTOR * precision)
+
+
+def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest coordinates (3,) and (3,) of points (n, 3), one column at a time:
+    numpy's reductions along the first axis of an (n, 3) array took 10x as long (86 against
+    8 ms for 3.9M points)."""
+    p = np.asarray(points, dtype=np.float64)
+    return (np.array([p[:, c].min() for c in range(p.shape[1])]),
+            np.array([p[:, c].max() for c in range(p.shape[1])]))
 
 
 def coordinate_precision(vertices: np.ndarray) -> float:

@@ -233,6 +233,11 @@ def drop_duplicate_faces(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, int]:
     first = np.argmin(f, axis=1)
     # rotate each row to start at its smallest index (keeps the orientation)
     rolled = np.take_along_axis(f, (first[:, None] + np.arange(3)) % 3, axis=1)
+    n = len(mesh.vertices)
+    if float(n) ** 3 < 2.0**62:  # each row as one exact key: none repeated, nothing to do
+        key = np.sort((rolled[:, 0] * n + rolled[:, 1]) * n + rolled[:, 2])
+        if not (key[1:] == key[:-1]).any():
+            return mesh, 0
     merged = _merge_rows(rolled)  # the first of each repeated row (as np.unique's index)
     keep = np.unique(rolled, axis=0, return_index=True)[1] if merged is None else merged[0]
     if len(keep) == len(f):

@@ -135,7 +135,11 @@ def solid_moments(triangles: np.ndarray) -> tuple[float, np.ndarray]:
         Meaningless when ``volume`` is zero.
     """
     t = np.asarray(triangles, np.float64)
-    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    return _moments(t[:, 0], t[:, 1], t[:, 2])
+
+
+def _moments(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[float, np.ndarray]:
+    """:func:`solid_moments` of the triangles of corners (m, 3) ``a``, ``b`` and ``c``."""
     cross = np.cross(b - a, c - a)
     f1 = a + b + c
     f2 = a * a + b * b + a * b + c * f1
@@ -147,10 +151,13 @@ def solid_moments(triangles: np.ndarray) -> tuple[float, np.ndarray]:
 def mesh_moments(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray]:
     """:func:`solid_moments` of a mesh's triangles, kept in its cache: the loader's orienting,
     its test of a closed body and the part's bodies ask of the same mesh (0.16 s each at
-    1.3M faces)."""
+    1.3M faces). The corners are gathered a column of faces at a time, not as trimesh's
+    (f, 3, 3) ``triangles``, which it would keep (0.09 against 0.15 s at 1.3M faces)."""
     known = mesh._cache["synth_moments"]  # None when not cached (or the mesh changed)
     if known is None:
-        volume, center = solid_moments(mesh.triangles)
+        v = np.asarray(mesh.vertices, np.float64)
+        f = np.asarray(mesh.faces, np.int64)
+        volume, center = _moments(v[f[:, 0]], v[f[:, 1]], v[f[:, 2]])
         center.flags.writeable = False
         known = mesh._cache["synth_moments"] = (volume, center)
     return known

@@ -95,6 +95,13 @@ def _components(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
+def _sums(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """``np.add.at(np.zeros((n, 3)), index, values)`` for values (m, 3): the same sums in the
+    same order, a column at a time with bincount (several times faster)."""
+    return np.column_stack([np.bincount(index, weights=values[:, c], minlength=n)
+                            for c in range(3)])
+
+
 def _icosahedron() -> np.ndarray:
     return np.asarray(trimesh.creation.icosahedron().vertices, float)
 
@@ -154,8 +161,10 @@ def _label_faces(
     # 1. coplanar components and which of them are planar facets
     tol = np.full(len(fa), coplanar_angle)
     if precision > 0:
-        edge_len = features.edge_length[features.face_edges]
-        height = 2.0 * areas / np.maximum(edge_len.max(axis=1), 1e-300)
+        fe = features.face_edges
+        length = features.edge_length
+        longest = np.maximum(np.maximum(length[fe[:, 0]], length[fe[:, 1]]), length[fe[:, 2]])
+        height = 2.0 * areas / np.maximum(longest, 1e-300)
         tol += 2.0 * precision / np.maximum(np.minimum(height[fa], height[fb]), 1e-300)
         tol = np.minimum(tol, max(coplanar_angle, 0.25 * features.sharp_angle))  # slivers
     cop = ang_in < tol
@@ -166,12 +175,14 @@ def _label_faces(
     lb = np.where(ef[:, 1] >= 0, lab_cp[np.maximum(ef[:, 1], 0)], -1)
     on_outline = la != lb
     sharp = kind != 0
-    total = np.zeros(n_cp)
-    sharp_len = np.zeros(n_cp)
-    for side in (la, lb):
-        m = on_outline & (side >= 0)
-        np.add.at(total, side[m], length[m])
-        np.add.at(sharp_len, side[m], np.where(sharp[m], length[m], 0.0))
+    # each outline edge's length to the components on both sides (both sides' sums in one
+    # pass, in the order np.add.at would add them)
+    ma, mb = on_outline & (la >= 0), on_outline & (lb >= 0)
+    side = np.concatenate([la[ma], lb[mb]])
+    run = np.concatenate([length[ma], length[mb]])
+    total = np.bincount(side, weights=run, minlength=n_cp)
+    sharp_len = np.bincount(side, weights=np.where(np.concatenate([sharp[ma], sharp[mb]]),
+                                                   run, 0.0), minlength=n_cp)
     planar_cp = sharp_len >= 0.5 * total
     face_planar = planar_cp[lab_cp]
 
@@ -184,8 +195,7 @@ def _label_faces(
     sm_faces = np.flatnonzero(~face_planar)
     if len(sm_faces):
         n_sm = lab_sm.max() + 1
-        mean = np.zeros((n_sm, 3))
-        np.add.at(mean, lab_sm[sm_faces], normals[sm_faces] * areas[sm_faces, None])
+        mean = _sums(lab_sm[sm_faces], normals[sm_faces] * areas[sm_faces, None], n_sm)
         mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-300)[:, None]
         cosf = np.einsum("ij,ij->i", normals[sm_faces], mean[lab_sm[sm_faces]])
         min_cos = np.ones(n_sm)
@@ -251,8 +261,7 @@ def _build_regions(
     order = np.argsort(face_region, kind="stable")
     bounds = np.searchsorted(face_region[order], np.arange(n_r + 1))
     area = np.bincount(face_region, weights=areas, minlength=n_r)
-    axis = np.zeros((n_r, 3))
-    np.add.at(axis, face_region, normals * areas[:, None])
+    axis = _sums(face_region, normals * areas[:, None], n_r)
     axis /= np.maximum(np.linalg.norm(axis, axis=1), 1e-300)[:, None]
     cosf = np.einsum("ij,ij->i", normals, axis[face_region])
     min_cos = np.ones(n_r)

@@ -216,9 +216,14 @@ class DistanceBound:
         count = np.bincount(group)
         centers = np.stack([np.bincount(group, weights=cent[:, c]) / count for c in range(3)],
                            axis=1)
-        reach = 0.0
-        for c in range(3):  # the farthest corner of any face from its group's centre
-            reach = max(reach, float(np.linalg.norm(v[f[:, c]] - centers[group], axis=1).max()))
+        # the farthest corner of any face from its group's centre, a coordinate at a time
+        # (the squares summed in the order np.linalg.norm sums them; its root is monotone)
+        mine = [centers[group, k] for k in range(3)]
+        far = 0.0
+        for c in range(3):
+            d = [v[f[:, c], k] - mine[k] for k in range(3)]
+            far = max(far, float((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).max()))
+        reach = float(np.sqrt(far))
         # round-off of the distances above and of the query's, at these coordinates
         self.radius = reach * (1.0 + 1e-9) + 1e-12 * (size + float(np.abs(lo).max()))
         self._tree = cKDTree(centers)

@@ -157,7 +157,7 @@ def mesh_moments(mesh: trimesh.Trimesh) -> tuple[float, np.ndarray]:
     if known is None:
         v = np.asarray(mesh.vertices, np.float64)
         f = np.asarray(mesh.faces, np.int64)
-        volume, center = _moments(v[f[:, 0]], v[f[:, 1]], v[f[:, 2]])
+        volume, center = _moments(*(np.take(v, f[:, k], axis=0) for k in range(3)))
         center.flags.writeable = False
         known = mesh._cache["synth_moments"] = (volume, center)
     return known
@@ -233,7 +233,8 @@ def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
     if not ok.any():
         return False
     far = faces[adj[:, 1]].sum(axis=1) - edges.sum(axis=1)  # the other face's third corner
-    rise = np.einsum("ij,ij->i", vertices[far] - vertices[edges[:, 0]], normals[adj[:, 0]])
+    rise = np.einsum("ij,ij->i", np.take(vertices, far, axis=0)
+                     - np.take(vertices, edges[:, 0], axis=0), np.take(normals, adj[:, 0], axis=0))
     return bool(rise[ok].max() < trimesh.tol.planar * diagonal)
 
 

@@ -207,7 +207,8 @@ class DistanceBound:
         lo, hi = bounds(corners)
         size = float((hi - lo).max())
         step = size / cells if size > 0 else 1.0
-        cent = (v[f[:, 0]] + v[f[:, 1]] + v[f[:, 2]]) / 3.0
+        cent = (np.take(v, f[:, 0], axis=0) + np.take(v, f[:, 1], axis=0)
+                + np.take(v, f[:, 2], axis=0)) / 3.0
         ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)
         key = (ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2]
         # the occupied cells, numbered in the order of their keys

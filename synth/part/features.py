@@ -126,22 +126,27 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     verts = np.asarray(mesh.vertices, float)
     angle = np.full(n_e, np.nan)
     fa, fb = edge_faces[two, 0], edge_faces[two, 1]
-    cos = np.clip(np.einsum("ij,ij->i", normals[fa], normals[fb]), -1.0, 1.0)
+    # (np.take: 3x as fast as indexing for (n, 3) rows)
+    na = np.take(normals, fa, axis=0)
+    cos = np.clip(np.einsum("ij,ij->i", na, np.take(normals, fb, axis=0)), -1.0, 1.0)
     angle[two] = np.arccos(cos)
     # convexity: the far vertex of face b lies below the plane of face a
-    fb_verts = np.asarray(mesh.faces, np.int64)[fb]
+    fb_verts = np.take(np.asarray(mesh.faces, np.int64), fb, axis=0)
     e2 = edges[two]
     far = fb_verts[(fb_verts != e2[:, :1]) & (fb_verts != e2[:, 1:])]
     if len(far) != len(fb):  # degenerate faces were removed upstream; be safe
         far = fb_verts[:, 0]
-    proj = np.einsum("ij,ij->i", normals[fa], verts[far] - verts[e2[:, 0]])
+    proj = np.einsum("ij,ij->i", na, np.take(verts, far, axis=0)
+                     - np.take(verts, e2[:, 0], axis=0))
+    del na
     kind = np.full(n_e, 3, np.int8)
     sharp = angle[two] > sharp_angle
     if face_source is not None:
         sharp |= (face_source[fa] != face_source[fb]) & (angle[two] > seam_angle)
     kind[two] = np.where(sharp, np.where(proj < 0, 1, 2), 0)
 
-    length = np.linalg.norm(verts[edges[:, 1]] - verts[edges[:, 0]], axis=1)
+    length = np.linalg.norm(np.take(verts, edges[:, 1], axis=0)
+                            - np.take(verts, edges[:, 0], axis=0), axis=1)
     vertex_kind, vertex_edge = _classify_vertices(verts, edges, kind, length, n_v, sharp_angle)
     arrays = (edges, edge_faces, angle, kind, length, face_edges, vertex_kind, vertex_edge)
     for a in arrays:

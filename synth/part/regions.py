@@ -225,7 +225,7 @@ def _corner_normals(
     faces = np.asarray(mesh.faces, np.int64)
     # trimesh's face angles, kept where trimesh keeps them (the solids read them again), but
     # without caching the mesh's (f, 3, 3) corners along with them
-    angles = trimesh.triangles.angles(np.asarray(mesh.vertices, float)[faces])
+    angles = trimesh.triangles.angles(np.take(np.asarray(mesh.vertices, float), faces, axis=0))
     mesh._cache["face_angles"] = angles
     w = angles.ravel()
     n_f = len(faces)
@@ -235,7 +235,8 @@ def _corner_normals(
         v = edges[:, end]
         for out, f in ((a, edge_faces[:, 0]), (b, edge_faces[:, 1])):
             # which corner of f is v, a column at a time (no (e, 3) temporaries)
-            corner_of_v = np.where(faces[f, 0] == v, 0, np.where(faces[f, 1] == v, 1, 2))
+            corner_of_v = np.where(np.take(faces[:, 0], f) == v, 0,
+                                   np.where(np.take(faces[:, 1], f) == v, 1, 2))
             out[end * m:(end + 1) * m] = 3 * f + corner_of_v
     fan = _components(3 * n_f, a, b)
     del a, b
@@ -244,7 +245,7 @@ def _corner_normals(
         acc[:, c] = np.bincount(fan, weights=np.repeat(normals[:, c], 3) * w,
                                 minlength=len(acc))
     acc /= np.maximum(np.linalg.norm(acc, axis=1), 1e-300)[:, None]
-    corner = acc[fan].reshape(-1, 3, 3)
+    corner = np.take(acc, fan, axis=0).reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]
     return np.negative(corner, out=corner)
 

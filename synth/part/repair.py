@@ -52,7 +52,8 @@ def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
     used[f] = True
     rows = np.flatnonzero(used)
     # (with no faces trimesh merges every vertex: left to it)
-    merged = _merge_rows(np.round(v[rows] * 10**digits).astype(np.int64)) if len(f) else None
+    merged = _merge_rows(np.round(np.take(v, rows, axis=0) * 10**digits).astype(np.int64)) \
+        if len(f) else None
     if merged is None:
         out = trimesh.Trimesh(v, f, process=False, validate=False)
         out.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=digits)
@@ -87,10 +88,14 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     np.not_equal(sk[1:], sk[:-1], out=new[1:])
     group = np.cumsum(new) - 1  # of each sorted row
     first_sorted = order[new]  # the stable sort puts each value's first row first
-    rep = first_sorted[group]
+    # every row of a group equals the one before it in the sorted order, so all equal its
+    # first: one gather of the rows
+    inside = ~new[1:]
+    rows = np.take(q, order, axis=0)  # (3x as fast as q[order] for (m, 3) rows)
     for c in range(3):
-        if not np.array_equal(q[order, c], q[rep, c]):
+        if ((rows[1:, c] != rows[:-1, c]) & inside).any():
             return None
+    del rows
     by_first = np.argsort(first_sorted)
     place = np.empty(len(by_first), np.int64)
     place[by_first] = np.arange(len(by_first))
@@ -101,7 +106,7 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
 
 def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Smallest height of each face; 0 where trimesh could not give the face a normal."""
-    tri = v[f]
+    tri = np.take(v, f, axis=0)
     sides = tri - np.roll(tri, -1, axis=1)  # a - b, b - c, c - a
     # twice the area, as trimesh.triangles.normals measures it (cross of b - a and c - b,
     # the same norm), so that its test of a normal is the same without a second cross

@@ -3,9 +3,13 @@ convex hull holds no more volume than the body itself, up to round-off)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
 from synth import load_part
@@ -152,3 +156,31 @@ def test_what_the_mesh_cache_keeps_goes_when_the_mesh_changes() -> None:
     assert body_labels(two).max() == 1
     two.faces = two.faces[:12]
     assert body_labels(two).tolist() == [0] * 12
+
+
+def _trimesh_labels(mesh: trimesh.Trimesh) -> np.ndarray:
+    """Components of trimesh's face adjacency, numbered in order of first face."""
+    n = len(mesh.faces)
+    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
+    lab = connected_components(coo_matrix((np.ones(len(adj)), (adj[:, 0], adj[:, 1])),
+                                          shape=(n, n)), directed=False)[1]
+    _, first = np.unique(lab, return_index=True)
+    return np.argsort(np.argsort(first))[lab]
+
+
+def test_body_labels_are_the_components_of_trimeshs_face_adjacency() -> None:
+    """Two boxes touching at a corner (two bodies), three faces on one edge (a fin: trimesh
+    joins no face across an edge of three), a V-HACD decomposition and an open scan."""
+    corner = trimesh.util.concatenate([trimesh.creation.box(),
+                                       trimesh.creation.box().apply_translation((1, 1, 1))])
+    corner.merge_vertices()
+    fin = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]],
+                          [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
+    root = Path(__file__).resolve().parents[1] / "meshes" / "corpus"
+    files = [root / "pybullet_duck_vhacd.obj", root / "pybullet_bunny.obj"]
+    meshes = [corner, fin] + [trimesh.load(f, force="mesh") for f in files if f.exists()]
+    assert len(meshes) == 4
+    for mesh in meshes:
+        ours = body_labels(trimesh.Trimesh(mesh.vertices, mesh.faces, process=False))
+        np.testing.assert_array_equal(ours, _trimesh_labels(mesh))
+    assert body_labels(corner).max() == 1 and body_labels(fin).tolist() == [0, 1, 2]

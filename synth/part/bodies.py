@@ -38,6 +38,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.closest import BoxTree
+from synth.part.features import mesh_edge_table
 from synth.part.tolerances import bounds
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
@@ -254,8 +255,13 @@ def body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     if known is not None:
         return known
     n = len(mesh.faces)
-    adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
-    graph = coo_matrix((np.ones(len(adj), np.int8), (adj[:, 0], adj[:, 1])), shape=(n, n))
+    # faces joined by an edge that has exactly two (trimesh's face adjacency), from the edge
+    # table the features are built from (cheaper than trimesh's, and built once)
+    _, _, order, starts = mesh_edge_table(mesh)
+    count = np.diff(np.append(starts, len(order)))
+    two = starts[count == 2]
+    a, b = order[two] // 3, order[two + 1] // 3
+    graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n))
     lab = connected_components(graph, directed=False)[1]
     _, first = np.unique(lab, return_index=True)
     remap = np.empty(len(first), np.int64)

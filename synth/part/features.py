@@ -112,7 +112,8 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     Features
     """
     n_v = len(mesh.vertices)
-    edges, face_edges, order, starts = edge_table(np.asarray(mesh.faces, np.int64), n_v)
+    edges, face_edges, order, starts = mesh_edge_table(mesh)
+    mesh._cache.delete("synth_edge_table")  # its sort order is not kept past here
     n_e = len(edges)
     edge_faces = np.full((n_e, 2), -1, np.int64)
     # first and last face of each edge (for a manifold edge: its two faces)
@@ -152,6 +153,18 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     for a in arrays:
         a.flags.writeable = False
     return Features(float(sharp_angle), *arrays)
+
+
+def mesh_edge_table(mesh: trimesh.Trimesh
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`edge_table` of a mesh, kept in its cache until :func:`compute_features` takes
+    it: the loader finds a mesh's pieces with it (:func:`synth.part.bodies.body_labels`), and
+    the part's features are built from the same table."""
+    known = mesh._cache["synth_edge_table"]  # None when not cached (or the mesh changed)
+    if known is None:
+        known = edge_table(np.asarray(mesh.faces, np.int64), len(mesh.vertices))
+        mesh._cache["synth_edge_table"] = known
+    return known
 
 
 def edge_table(faces: np.ndarray, n_v: int

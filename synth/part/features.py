@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from synth.part.meshcache import cached
+
 __all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features", "edge_table"]
 
 #: Names of the codes in ``Features.edge_kind``.
@@ -160,11 +162,8 @@ def mesh_edge_table(mesh: trimesh.Trimesh
     """:func:`edge_table` of a mesh, kept in its cache until :func:`compute_features` takes
     it: the loader finds a mesh's pieces with it (:func:`synth.part.bodies.body_labels`), and
     the part's features are built from the same table."""
-    known = mesh._cache["synth_edge_table"]  # None when not cached (or the mesh changed)
-    if known is None:
-        known = edge_table(np.asarray(mesh.faces, np.int64), len(mesh.vertices))
-        mesh._cache["synth_edge_table"] = known
-    return known
+    return cached(mesh, "synth_edge_table",
+                  lambda: edge_table(np.asarray(mesh.faces, np.int64), len(mesh.vertices)))
 
 
 def edge_table(faces: np.ndarray, n_v: int

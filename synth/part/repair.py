@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import breadth_first_order, connected_components
+from scipy.sparse.csgraph import breadth_first_order
 
 from synth.isolate import call_isolated
 from synth.part.bodies import body_labels, mesh_moments
@@ -276,13 +276,11 @@ def fix_winding(mesh: trimesh.Trimesh) -> None:
     faces = np.array(mesh.faces, np.int64)
     n = len(faces)
     adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
-    # one root per piece: the first face of the piece in the adjacency's order, joined to a
-    # node of its own (n), from which one breadth-first walk reaches every piece
+    # one root per piece (body_labels: the components of this adjacency): the first face of
+    # the piece in the adjacency's order, joined to a node of its own (n), from which one
+    # breadth-first walk reaches every piece
     first = adj.ravel()
-    piece = connected_components(
-        coo_matrix((np.ones(len(adj), np.int8), (adj[:, 0], adj[:, 1])), shape=(n, n)),
-        directed=False)[1]
-    roots = first[np.unique(piece[first], return_index=True)[1]]
+    roots = first[np.unique(body_labels(mesh)[first], return_index=True)[1]]
     rows = np.concatenate([adj[:, 0], np.full(len(roots), n)])
     cols = np.concatenate([adj[:, 1], roots])
     graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n + 1, n + 1))
@@ -292,7 +290,8 @@ def fix_winding(mesh: trimesh.Trimesh) -> None:
     child = child[parent[child] < n]  # the roots keep their winding
     up = parent[child]
     # the shared edge's corners: their slots in the child and in its parent
-    match = faces[child][:, :, None] == faces[up][:, None, :]  # (m, 3, 3)
+    below, above = faces[child], faces[up]
+    match = below[:, :, None] == above[:, None, :]  # (m, 3, 3)
 
     def tail(rows: np.ndarray, shared: np.ndarray) -> np.ndarray:
         """The corner the face runs the shared edge from: slots (0, 1) and (1, 2) run it
@@ -300,7 +299,7 @@ def fix_winding(mesh: trimesh.Trimesh) -> None:
         slot = np.where(shared[:, 0] & shared[:, 2], 2, np.argmax(shared, axis=1))
         return rows[np.arange(len(rows)), slot]
 
-    same = tail(faces[child], match.any(axis=2)) == tail(faces[up], match.any(axis=1))
+    same = tail(below, match.any(axis=2)) == tail(above, match.any(axis=1))
     turn = np.zeros(n + 1, bool)
     turn[child] = same
     hop = np.full(n + 1, n)

@@ -40,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 from synth.part.closest import BoxTree
 from synth.part.features import mesh_edge_table
 from synth.part.meshcache import cached
+from synth.part.order import group_ids
 from synth.part.tolerances import bounds
 
 __all__ = ["Body", "Solids", "body_labels", "compute_bodies", "face_sample_weights",
@@ -260,7 +261,7 @@ def _body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     a, b = order[two] // 3, order[two + 1] // 3
     graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n))
     lab = connected_components(graph, directed=False)[1]
-    _, first = np.unique(lab, return_index=True)
+    first = group_ids(lab, n)[1]
     remap = np.empty(len(first), np.int64)
     remap[np.argsort(first)] = np.arange(len(first))
     labels = remap[lab]

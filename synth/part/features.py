@@ -26,8 +26,10 @@ import numpy as np
 import trimesh
 
 from synth.part.meshcache import cached
+from synth.part.order import stable_order
 
-__all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features", "edge_table"]
+__all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features", "edge_table",
+           "mesh_edge_table", "edge_closure"]
 
 #: Names of the codes in ``Features.edge_kind``.
 EDGE_KINDS: tuple[str, ...] = ("smooth", "convex", "concave", "boundary")
@@ -166,6 +168,31 @@ def mesh_edge_table(mesh: trimesh.Trimesh
                   lambda: edge_table(np.asarray(mesh.faces, np.int64), len(mesh.vertices)))
 
 
+def edge_closure(mesh: trimesh.Trimesh) -> tuple[bool, bool]:
+    """trimesh's ``is_watertight`` and ``is_winding_consistent`` of ``mesh``, from
+    :func:`mesh_edge_table`, and kept in the mesh's cache where trimesh looks for them.
+
+    The same answers as trimesh's: watertight when every edge has exactly two faces;
+    consistently wound when the two faces of every such edge run it in opposite directions.
+    trimesh finds them from a second grouping of the edges (0.36 s at 1.3M faces, against
+    0.03 s here once the loader has the edge table, which it needs for the pieces).
+    """
+    if len(mesh.faces) == 0:  # trimesh: an empty mesh is neither
+        return False, False
+    faces = np.asarray(mesh.faces, np.int64).ravel()
+    _, _, order, starts = mesh_edge_table(mesh)
+    count = np.diff(starts, append=len(order))
+    pair = starts[count == 2]
+    first, second = np.take(order, pair), np.take(order, pair + 1)
+    # half-edge h = 3 face + corner runs from corner h of its face to the next corner
+    head = np.take(faces, first - first % 3 + (first % 3 + 1) % 3)
+    watertight = len(pair) == len(starts)
+    consistent = bool((head == np.take(faces, second)).all())
+    mesh._cache["is_watertight"] = watertight
+    mesh._cache["is_winding_consistent"] = consistent
+    return watertight, consistent
+
+
 def edge_table(faces: np.ndarray, n_v: int
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The unique edges of triangles, in one sort, as trimesh numbers them.
@@ -194,18 +221,19 @@ def edge_table(faces: np.ndarray, n_v: int
     starts : (e,) int
         Where each edge's half-edges begin in ``order``.
     """
-    half = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    half.sort(axis=1)
-    key = half[:, 1] * np.int64(n_v) + half[:, 0]
-    order = np.argsort(key, kind="stable")
-    key = key[order]
+    tail = faces.ravel()  # half-edge 3 face + corner runs from its corner to the next
+    head = faces[:, [1, 2, 0]].ravel()
+    low, high = np.minimum(tail, head), np.maximum(tail, head)
+    del tail, head
+    order, key = stable_order(high * np.int64(n_v) + low, n_v * n_v)
     new = np.empty(len(key), bool)
     new[:1] = True
     np.not_equal(key[1:], key[:-1], out=new[1:])
     del key
     starts = np.flatnonzero(new)
-    edges = half[order[starts]]
-    del half
+    first = np.take(order, starts)
+    edges = np.column_stack([np.take(low, first), np.take(high, first)])
+    del low, high, first
     inverse = np.empty(len(order), np.int64)
     inverse[order] = np.cumsum(new) - 1
     return edges, inverse.reshape(-1, 3), order, starts

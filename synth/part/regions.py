@@ -21,6 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.features import Features
+from synth.part.order import group_ids, stable_order
 
 __all__ = ["Region", "RegionSet", "compute_regions"]
 
@@ -212,11 +213,8 @@ def _label_faces(
                 cell[s:s + _BLOCK] = np.argmax(normals[s:s + _BLOCK] @ ico, axis=1)
             keep = both & (cell[fa] == cell[fb]) | (both & ~wide[lab_sm[fa]])
             patch = _components(n_f, fa[keep], fb[keep])
-    key = np.where(face_planar, lab_cp, n_f + patch)
-    _, face_region = np.unique(key, return_inverse=True)
-    face_region = face_region.astype(np.int64)
-    _, face_group = np.unique(np.where(face_planar, lab_cp, n_f + lab_sm), return_inverse=True)
-    face_group = face_group.astype(np.int64)
+    face_region = group_ids(np.where(face_planar, lab_cp, n_f + patch), 2 * n_f)[2]
+    face_group = group_ids(np.where(face_planar, lab_cp, n_f + lab_sm), 2 * n_f)[2]
     return face_planar, face_region, face_group, np.flatnonzero(inner)[both]
 
 
@@ -266,8 +264,8 @@ def _build_regions(
     areas: np.ndarray,
 ) -> tuple[Region, ...]:
     n_r = int(face_region.max()) + 1
-    order = np.argsort(face_region, kind="stable")
-    bounds = np.searchsorted(face_region[order], np.arange(n_r + 1))
+    order, sorted_region = stable_order(face_region, n_r)
+    bounds = np.searchsorted(sorted_region, np.arange(n_r + 1))
     area = np.bincount(face_region, weights=areas, minlength=n_r)
     axis = _sums(face_region, normals * areas[:, None], n_r)
     axis /= np.maximum(np.linalg.norm(axis, axis=1), 1e-300)[:, None]
@@ -285,8 +283,8 @@ def _build_regions(
     edge_ids = np.concatenate([out, out])
     m = owner >= 0
     owner, edge_ids = owner[m], edge_ids[m]
-    b_order = np.argsort(owner, kind="stable")
-    b_bounds = np.searchsorted(owner[b_order], np.arange(n_r + 1))
+    b_order, sorted_owner = stable_order(owner, n_r)
+    b_bounds = np.searchsorted(sorted_owner, np.arange(n_r + 1))
     verts = np.asarray(mesh.vertices, float)
 
     regions = []

@@ -18,6 +18,7 @@ from scipy.sparse.csgraph import breadth_first_order
 
 from synth.isolate import call_isolated
 from synth.part.bodies import body_labels, mesh_moments
+from synth.part.features import edge_closure
 
 __all__ = ["weld", "fix_degenerate", "tilted_normals", "face_keys", "drop_duplicate_faces",
            "orient", "close", "open_edges",
@@ -81,13 +82,15 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     for c in range(3):  # a multiply-xor mix, wrapping around
         key ^= q[:, c].astype(np.uint64) * _KEY_MULT[c]
         key ^= key >> np.uint64(29)
-    order = np.argsort(key, kind="stable")
+    # numpy's quicksort: 3x as fast as its stable sort at 3.9M keys; each group's first row
+    # is then its smallest position
+    order = np.argsort(key)
     sk = key[order]
     new = np.empty(m, bool)
     new[0] = True
     np.not_equal(sk[1:], sk[:-1], out=new[1:])
     group = np.cumsum(new) - 1  # of each sorted row
-    first_sorted = order[new]  # the stable sort puts each value's first row first
+    first_sorted = np.minimum.reduceat(order, np.flatnonzero(new))
     # every row of a group equals the one before it in the sorted order, so all equal its
     # first: one gather of the rows
     inside = ~new[1:]
@@ -322,6 +325,7 @@ def orient(mesh: trimesh.Trimesh, one_piece: bool = False) -> tuple[trimesh.Trim
     enclosed volume is then inside out (trimesh's ``fix_inversion`` without its second
     moments). Otherwise trimesh's ``fix_inversion`` turns each closed piece."""
     before = mesh.faces.copy()
+    edge_closure(mesh)  # trimesh's closure answers, from the edge table the pieces came from
     fix_winding(mesh)
     if not one_piece and body_labels(mesh).max() > 0:
         trimesh.repair.fix_inversion(mesh, multibody=True)

@@ -14,7 +14,10 @@ machine does not count; imports excluded), its peak resident memory (``ru_maxrss
 included), the plan's evaluations and first d*, and the ratios to trimesh's time and memory
 (the targets at 1.3M faces: load and plan within 2x the time and 1.5x the peak memory).
 
-    python scripts/bench_scale.py [--sizes 5 6 7 8] [--keep DIR]
+With ``--repeat N`` the three steps run N times in turn and each column is the median; the
+ratio is of the medians, and the ratios of the single rounds are printed below it.
+
+    python scripts/bench_scale.py [--sizes 5 6 7 8] [--keep DIR] [--repeat N]
 """
 
 from __future__ import annotations
@@ -80,6 +83,9 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="*", default=[5, 6, 7, 8],
                     help="icosphere subdivisions (5: 20k faces ... 8: 1.3M)")
     ap.add_argument("--keep", default=None, help="folder to keep the STL files in")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="rounds of the three steps, interleaved; each column is the median "
+                         "(trimesh's own time varies up to 2x from run to run here)")
     args = ap.parse_args()
     folder = Path(args.keep or tempfile.mkdtemp(prefix="synth-scale-"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -90,12 +96,26 @@ def main() -> None:
         path = folder / f"blob{s}.stl"
         if not path.exists():
             blob(s).export(path)
-        t, ld, pl = _run(path, "trimesh"), _run(path, "load"), _run(path, "plan")
+        rounds = [(_run(path, "trimesh"), _run(path, "load"), _run(path, "plan"))
+                  for _ in range(args.repeat)]
+        t, ld, pl = (_median([r[i] for r in rounds]) for i in range(3))
         print(f"{pl['faces']:>9,} {t['cpu']:>9.2f} {t['rss'] / 1e6:>6.0f} {ld['cpu']:>7.2f} "
               f"{ld['rss'] / 1e6:>6.0f} {pl['cpu']:>7.2f} {pl['search']:>8.2f} "
               f"{pl['rss'] / 1e6:>6.0f} {pl['evals']:>6} {pl['d']:>6.3f} "
               f"{pl['cpu'] / t['cpu']:>6.1f} {pl['rss'] / t['rss']:>6.2f}"
               f"{'  (cut by the time cap)' if pl['cut'] else ''}", flush=True)
+        if args.repeat > 1:
+            each = sorted(r[2]["cpu"] / r[0]["cpu"] for r in rounds)
+            print(f"{'':>9} medians of {args.repeat} rounds; x time round by round: "
+                  + ", ".join(f"{x:.1f}" for x in each), flush=True)
+
+
+def _median(runs: list[dict[str, float]]) -> dict[str, float]:
+    """The times' and memories' medians over the rounds; the rest (faces, evaluations, d*,
+    cut) from the first round (a plan at a fixed seed and budget does not vary)."""
+    timed = ("cpu", "rss", "load", "search")
+    return {k: float(np.median([r[k] for r in runs])) if k in timed else v
+            for k, v in runs[0].items()}
 
 
 if __name__ == "__main__":

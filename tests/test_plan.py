@@ -312,3 +312,17 @@ def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for(name, mu, ties
     assert sum(d == ties for d, _, _ in rows[30]) >= 3  # the ties this is about
     for top in (1, 2, 10):
         assert rows[top] == rows[30][:top]
+
+
+def test_a_plan_with_fewer_grasps_than_asked_says_why() -> None:
+    """A small budget finds fewer distinct grasps than ``top``: the message counts them in
+    the singular or plural as they are and says why the rest are missing; a full plan's
+    message does not."""
+    part = load_part(MESHES / "bracket.stl", units="dm")
+    few = plan_part(part, PlanParams(top=3, evals=5000, seed=0))
+    assert len(few.grasps) == 1, few.message
+    assert few.message.startswith("1 form-closure grasp of the 3 asked for (")
+    assert "within 5% of the part's size of one of these" in few.message
+    full = plan_part(part, PlanParams(top=2, evals=5000, seed=0, diversity=0.0))
+    assert len(full.grasps) == 2
+    assert full.message.startswith("2 form-closure grasps, best d*"), full.message

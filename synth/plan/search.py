@@ -216,7 +216,8 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     escape = None
     if grasps:
         kind = "frictional form" if prm.mu > 0 else "form"
-        message = (f"{len(grasps)} {kind}-closure grasps, best d* {grasps[0].d_star:.4f} "
+        message = (f"{len(grasps)} {kind}-closure grasp{'s' * (len(grasps) > 1)}"
+                   f"{_fewer(len(grasps), rejected, prm)}, best d* {grasps[0].d_star:.4f} "
                    f"({score.evaluations} grasps evaluated in {total:.1f} s)")
     elif prm.min_d_star > 0 and (archive.fit > 0).any():
         message = (f"no grasp reached --min-d-star {prm.min_d_star:g}: the best closure grasp "
@@ -375,6 +376,18 @@ def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
         parts.append(f"{rejected[_ABOVE_FLOOR]} whose fingers would need more than "
                      f"--max-squeeze {prm.max_squeeze:g} times the part's weight to hold it")
     return "; ".join(parts)
+
+
+def _fewer(n: int, rejected: dict[str, int], prm: PlanParams) -> str:
+    """Why a plan kept fewer grasps than ``--top`` asked for, in words ("" when it did not)."""
+    if n >= prm.top:
+        return ""
+    why = [_dropped(rejected, prm)] if rejected else []
+    if prm.min_d_star > 0:
+        why.append(f"below --min-d-star {prm.min_d_star:g}")
+    return (f" of the {prm.top} asked for (the other closure grasps found had their contacts "
+            f"within {100 * prm.diversity:g}% of the part's size of one of these"
+            f"{''.join('; or ' + w for w in why)}; a larger --evals finds more)")
 
 
 #: The fitness of a candidate whose fingertips overlap (:mod:`synth.plan.batch`).

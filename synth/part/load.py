@@ -191,7 +191,7 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
             raise _fail(name, f"a face refers to vertex {bad}, but there are "
                         f"{len(m.vertices)} vertices (a corrupt file?)")
     verts = [np.asarray(m.vertices, float) for _, m in raw]
-    allv = np.concatenate(verts) if verts else np.zeros((0, 3))
+    allv = verts[0] if len(verts) == 1 else np.concatenate(verts) if verts else np.zeros((0, 3))
     n_faces = sum(len(m.faces) for _, m in raw)
     if n_faces == 0 or len(allv) == 0:
         raise _fail(name, "no triangles")
@@ -204,12 +204,12 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     if not np.isfinite(allv).all():
         bad = int((~np.isfinite(allv).all(axis=1)).sum())
         raise _fail(name, f"{bad} vertices have NaN or infinite coordinates")
-    biggest = float(np.abs(allv).max())
+    lo, hi = tol.bounds(allv)
+    biggest = float(np.abs(np.concatenate([lo, hi])).max())
     if biggest > MAX_COORDINATE:
         raise _fail(name, f"a vertex coordinate has magnitude {biggest:.3g}, above the "
                     f"{MAX_COORDINATE:g} synth can score meaningfully (wrong unit, or a corrupt "
                     "file?); scale the mesh or move it near the origin")
-    lo, hi = tol.bounds(allv)
     length = float(np.linalg.norm(hi - lo))
     if length <= 0:
         raise _fail(name, "all vertices coincide")

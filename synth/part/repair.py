@@ -53,8 +53,7 @@ def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
     used[f] = True
     rows = np.flatnonzero(used)
     # (with no faces trimesh merges every vertex: left to it)
-    merged = _merge_rows(np.round(np.take(v, rows, axis=0) * 10**digits).astype(np.int64)) \
-        if len(f) else None
+    merged = _merge_rows(_rounded(v, rows, digits)) if len(f) else None
     if merged is None:
         out = trimesh.Trimesh(v, f, process=False, validate=False)
         out.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=digits)
@@ -64,6 +63,15 @@ def weld(mesh: trimesh.Trimesh, tol: float) -> tuple[trimesh.Trimesh, int]:
         renumber[rows] = inverse
         out = trimesh.Trimesh(v[rows[first]], renumber[f], process=False, validate=False)
     return out, len(v) - len(out.vertices)
+
+
+def _rounded(v: np.ndarray, rows: np.ndarray, digits: int) -> np.ndarray:
+    """``np.round(v[rows] * 10**digits).astype(np.int64)``, the same values, with one
+    temporary instead of three (at 3.9M rows each is 94 MB of fresh pages)."""
+    q = np.take(v, rows, axis=0)
+    q *= 10**digits
+    np.round(q, out=q)
+    return q.astype(np.int64)
 
 
 #: Odd 64-bit multipliers of the weld's row keys (any distinct odd constants: equal keys are

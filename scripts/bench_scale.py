@@ -10,9 +10,16 @@ file, in separate fresh processes, so that each peak memory is that step's alone
 * ``plan``: ``load_part`` then ``plan_part`` at the defaults (seed 0, top 1).
 
 Columns: CPU seconds of the process's work (``time.process_time``, so other load on the
-machine does not count; imports excluded), its peak resident memory (``ru_maxrss``, imports
-included), the plan's evaluations and first d*, and the ratios to trimesh's time and memory
-(the targets at 1.3M faces: load and plan within 2x the time and 1.5x the peak memory).
+machine does not count; imports excluded) and the system's share of them (``sys``), its peak
+resident memory (``ru_maxrss``, imports included), the plan's evaluations and first d*, and
+the ratios to trimesh's time and memory (the targets at 1.3M faces: load and plan within 2x
+the time and 1.5x the peak memory); ``x user`` is the ratio without the system's share.
+
+The system's share is mostly the kernel clearing fresh pages: numpy asks for transparent huge
+pages for arrays of 4 MB and more, and on a machine whose kernel then compacts memory on the
+spot (``/sys/kernel/mm/transparent_hugepage/defrag``: ``madvise``) its time varies from run
+to run, for trimesh's load as for synth's (0.2 to 1.0 s and 0.7 to 2.3 s at 1.3M faces on
+the project's VM); ``x user`` does not.
 
 With ``--repeat N`` the three steps run N times in turn and each column is the median; the
 ratio is of the medians, and the ratios of the single rounds are printed below it.
@@ -41,6 +48,7 @@ import numpy as np, trimesh
 from synth import PlanParams, load_part, plan_part
 path, what = sys.argv[1], sys.argv[2]
 out = {}
+r0 = resource.getrusage(resource.RUSAGE_SELF)
 c0 = time.process_time()
 if what == "trimesh":
     m = trimesh.load(path, process=False)
@@ -58,6 +66,9 @@ else:
         out["d"] = plan.grasps[0].d_star if plan.grasps else 0.0
         out["cut"] = plan.stopped_by_time
 out["cpu"] = time.process_time() - c0
+r1 = resource.getrusage(resource.RUSAGE_SELF)
+out["sys"] = r1.ru_stime - r0.ru_stime
+out["user"] = out["cpu"] - out["sys"]
 out["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps(out))
 """
@@ -90,8 +101,9 @@ def main() -> None:
     folder = Path(args.keep or tempfile.mkdtemp(prefix="synth-scale-"))
     folder.mkdir(parents=True, exist_ok=True)
     print("CPU seconds (time.process_time) and peak RSS of one fresh process per step")
-    print(f"{'faces':>9} {'trimesh s':>9} {'MB':>6} {'load s':>7} {'MB':>6} {'plan s':>7} "
-          f"{'search s':>8} {'MB':>6} {'evals':>6} {'d*':>6} {'x time':>6} {'x mem':>6}")
+    print(f"{'faces':>9} {'trimesh s':>9} {'sys':>5} {'MB':>6} {'load s':>7} {'MB':>6} "
+          f"{'plan s':>7} {'sys':>5} {'search s':>8} {'MB':>6} {'evals':>6} {'d*':>6} "
+          f"{'x time':>6} {'x user':>6} {'x mem':>6}")
     for s in args.sizes:
         path = folder / f"blob{s}.stl"
         if not path.exists():
@@ -99,10 +111,11 @@ def main() -> None:
         rounds = [(_run(path, "trimesh"), _run(path, "load"), _run(path, "plan"))
                   for _ in range(args.repeat)]
         t, ld, pl = (_median([r[i] for r in rounds]) for i in range(3))
-        print(f"{pl['faces']:>9,} {t['cpu']:>9.2f} {t['rss'] / 1e6:>6.0f} {ld['cpu']:>7.2f} "
-              f"{ld['rss'] / 1e6:>6.0f} {pl['cpu']:>7.2f} {pl['search']:>8.2f} "
-              f"{pl['rss'] / 1e6:>6.0f} {pl['evals']:>6} {pl['d']:>6.3f} "
-              f"{pl['cpu'] / t['cpu']:>6.1f} {pl['rss'] / t['rss']:>6.2f}"
+        user = pl["user"] / t["user"]
+        print(f"{pl['faces']:>9,} {t['cpu']:>9.2f} {t['sys']:>5.2f} {t['rss'] / 1e6:>6.0f} "
+              f"{ld['cpu']:>7.2f} {ld['rss'] / 1e6:>6.0f} {pl['cpu']:>7.2f} {pl['sys']:>5.2f} "
+              f"{pl['search']:>8.2f} {pl['rss'] / 1e6:>6.0f} {pl['evals']:>6} {pl['d']:>6.3f} "
+              f"{pl['cpu'] / t['cpu']:>6.1f} {user:>6.1f} {pl['rss'] / t['rss']:>6.2f}"
               f"{'  (cut by the time cap)' if pl['cut'] else ''}", flush=True)
         if args.repeat > 1:
             each = sorted(r[2]["cpu"] / r[0]["cpu"] for r in rounds)
@@ -113,7 +126,7 @@ def main() -> None:
 def _median(runs: list[dict[str, float]]) -> dict[str, float]:
     """The times' and memories' medians over the rounds; the rest (faces, evaluations, d*,
     cut) from the first round (a plan at a fixed seed and budget does not vary)."""
-    timed = ("cpu", "rss", "load", "search")
+    timed = ("cpu", "sys", "user", "rss", "load", "search")
     return {k: float(np.median([r[k] for r in runs])) if k in timed else v
             for k, v in runs[0].items()}
 

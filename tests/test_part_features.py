@@ -132,12 +132,12 @@ def test_edge_table_numbers_edges_as_trimesh_does(name: str) -> None:
 
 @pytest.mark.parametrize("name", ["corpus/pybullet_bunny.obj", "corpus/pybullet_lego_vhacd.obj",
                                   "nut.stl", "torus.stl", "open", "nonmanifold", "turned",
-                                  "doubled", "empty"])
+                                  "doubled", "empty", "no faces"])
 def test_edge_closure_answers_as_trimesh_does(name: str) -> None:
     """Watertightness and consistent winding from the edge table equal trimesh's own on
     closed, open and non-manifold meshes, with faces turned or repeated (a face repeated
-    the same way round, or turned, puts three or four faces on its edges), and on a mesh
-    with no faces; and trimesh's properties then read the same answers."""
+    the same way round, or turned, puts three or four faces on its edges), on an empty mesh
+    and on vertices without faces; and trimesh's properties then read the same answers."""
     rng = np.random.default_rng(3)
     if name == "open":
         mesh = trimesh.creation.icosphere(2)
@@ -158,6 +158,8 @@ def test_edge_closure_answers_as_trimesh_does(name: str) -> None:
                                process=False)
     elif name == "empty":
         mesh = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), process=False)
+    elif name == "no faces":  # vertices only: trimesh calls it watertight and wound
+        mesh = trimesh.Trimesh(rng.random((5, 3)), np.zeros((0, 3), np.int64), process=False)
     else:
         mesh = trimesh.load(MESHES / name, force="mesh")
     reference = trimesh.Trimesh(mesh.vertices.copy(), mesh.faces.copy(), process=False)

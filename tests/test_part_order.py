@@ -30,3 +30,15 @@ def test_stable_order_with_a_bound() -> None:
     order, sorted_key = stable_order(key, bound=10)
     assert order.tolist() == [3, 1, 4, 0, 2, 5]
     assert sorted_key.tolist() == [0, 1, 1, 3, 3, 3]
+
+
+def test_stable_order_at_the_limit_of_its_packing() -> None:
+    """Two keys below 2**62 pack up to 2**63 - 2, the largest room there is (one plain sort);
+    three do not fit (numpy's merge sort then); a bound given as a numpy integer does not
+    wrap."""
+    for key in ([2**62 - 1, 0], [2**62 - 1, 0, 2**62 - 1]):
+        k = np.array(key)
+        for bound in (2**62, np.int64(2**62)):
+            order, sorted_key = stable_order(k, bound)
+            assert np.array_equal(order, np.argsort(k, kind="stable"))
+            assert np.array_equal(sorted_key, np.sort(k))

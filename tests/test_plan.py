@@ -316,13 +316,35 @@ def test_the_first_grasps_do_not_depend_on_how_many_are_asked_for(name, mu, ties
 
 def test_a_plan_with_fewer_grasps_than_asked_says_why() -> None:
     """A small budget finds fewer distinct grasps than ``top``: the message counts them in
-    the singular or plural as they are and says why the rest are missing; a full plan's
-    message does not."""
+    the singular or plural as they are and names only the causes that happened (the rest
+    within --diversity of a kept one; with no diversity, no others found); a full plan's
+    message says nothing of it."""
     part = load_part(MESHES / "bracket.stl", units="dm")
     few = plan_part(part, PlanParams(top=3, evals=5000, seed=0))
     assert len(few.grasps) == 1, few.message
-    assert few.message.startswith("1 form-closure grasp of the 3 asked for (")
-    assert "within 5% of the part's size of one of these" in few.message
+    assert few.message.startswith("1 form-closure grasp of the 3 asked for (the other closure "
+                                  "grasps found had their contacts within 5% of the part's "
+                                  "size of one of these; a larger --evals may find more)")
+    alone = plan_part(part, PlanParams(top=40, evals=5000, seed=0, diversity=0.0))
+    assert 1 < len(alone.grasps) < 40
+    assert "(the search found no other closure grasps;" in alone.message
+    assert "within" not in alone.message
     full = plan_part(part, PlanParams(top=2, evals=5000, seed=0, diversity=0.0))
     assert len(full.grasps) == 2
     assert full.message.startswith("2 form-closure grasps, best d*"), full.message
+
+
+def test_the_fewer_note_names_what_happened() -> None:
+    """The note of a plan short of ``top``: the time limit alone when it stopped the checks;
+    otherwise each cause that happened, joined by "or"; nothing when ``top`` was met."""
+    from synth.plan.search import _ABOVE_FLOOR, _fewer
+
+    prm = PlanParams(top=5, min_d_star=0.3)
+    assert _fewer(5, {}, 3, False, 0, prm) == ""
+    assert _fewer(2, {"x": 1}, 3, True, 4, prm) == (
+        " of the 5 asked for (the time limit passed before the rest were checked)")
+    note = _fewer(2, {_ABOVE_FLOOR: 2}, 0, False, 4, prm)
+    assert note.startswith(" of the 5 asked for (the other closure grasps found were dropped: "
+                           "2 whose fingers would need more than --max-squeeze")
+    assert note.endswith(" or had d* below --min-d-star 0.3; a larger --evals may find more)")
+    assert "within" not in note

@@ -14,7 +14,8 @@ import numpy as np
 
 __all__ = ["stable_order", "group_ids"]
 
-_LIMIT = 1 << 62
+#: The packed values run up to ``bound * n - 1``, which must fit a signed 64-bit integer.
+_LIMIT = 1 << 63
 
 
 def stable_order(key: np.ndarray, bound: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -23,7 +24,7 @@ def stable_order(key: np.ndarray, bound: int | None = None) -> tuple[np.ndarray,
     Parameters
     ----------
     key : (n,) int
-        Non-negative keys.
+        Non-negative keys below 2**63.
     bound : int, optional
         A number above every key (found when not given).
 
@@ -38,9 +39,8 @@ def stable_order(key: np.ndarray, bound: int | None = None) -> tuple[np.ndarray,
     key = np.asarray(key, np.int64)
     if n == 0:
         return np.zeros(0, np.int64), key.copy()
-    if bound is None:
-        bound = int(key.max()) + 1
-    if bound * n >= _LIMIT or int(key.min()) < 0:  # no room for the position: merge sort
+    bound = int(key.max()) + 1 if bound is None else int(bound)
+    if bound * n > _LIMIT or int(key.min()) < 0:  # no room for the position: merge sort
         order = np.argsort(key, kind="stable")
         return order, key[order]
     both = key * np.int64(n)

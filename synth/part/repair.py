@@ -131,7 +131,9 @@ def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     cz = a[0] * b[1] - a[1] * b[0]
     area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
     del cx, cy, cz
-    sq = [c[0] * c[0] + c[1] * c[1] + c[2] * c[2] for c in s]
+    # squared lengths summed in the order numpy's einsum sums a row of three (x, z, then y),
+    # so that the heights equal the former (f, 3, 3) einsum's bit for bit
+    sq = [(c[0] * c[0] + c[2] * c[2]) + c[1] * c[1] for c in s]
     longest = np.sqrt(np.maximum(np.maximum(sq[0], sq[1]), sq[2]))
     h = np.where(longest > 0, area2 / np.where(longest > 0, longest, 1.0), 0.0)
     return np.where(area2 > trimesh.util.TOL_ZERO, h, 0.0)

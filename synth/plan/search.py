@@ -210,14 +210,15 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
     archive = GraspBatch.concat([archive, climbed])
 
     say(0.9, "checking fingers")
-    grasps, rejected = _select(part, archive, prm, fingers, score, deadline)
+    grasps, rejected, near, cut = _select(part, archive, prm, fingers, score, deadline)
     stopped_by_time = score.timed_out or time.perf_counter() > deadline
     total = time.perf_counter() - t0
     escape = None
     if grasps:
         kind = "frictional form" if prm.mu > 0 else "form"
         message = (f"{len(grasps)} {kind}-closure grasp{'s' * (len(grasps) > 1)}"
-                   f"{_fewer(len(grasps), rejected, prm)}, best d* {grasps[0].d_star:.4f} "
+                   f"{_fewer(len(grasps), rejected, near, cut, _below(archive, prm), prm)}, "
+                   f"best d* {grasps[0].d_star:.4f} "
                    f"({score.evaluations} grasps evaluated in {total:.1f} s)")
     elif prm.min_d_star > 0 and (archive.fit > 0).any():
         message = (f"no grasp reached --min-d-star {prm.min_d_star:g}: the best closure grasp "
@@ -305,8 +306,8 @@ def _search_fingers(part: Part, prm: PlanParams, fingers: Fingers, score: Scorer
         for kk, parts in archives.items():
             if kk < need:
                 continue
-            picked, rej = _select(part, GraspBatch.concat(parts), prm, fingers, score,
-                                  deadline)
+            picked, rej, _, _ = _select(part, GraspBatch.concat(parts), prm, fingers, score,
+                                        deadline)
             found.extend(picked)
             for key, v in rej.items():
                 rejected[key] = rejected.get(key, 0) + v
@@ -378,16 +379,32 @@ def _dropped(rejected: dict[str, int], prm: PlanParams) -> str:
     return "; ".join(parts)
 
 
-def _fewer(n: int, rejected: dict[str, int], prm: PlanParams) -> str:
-    """Why a plan kept fewer grasps than ``--top`` asked for, in words ("" when it did not)."""
+def _fewer(n: int, rejected: dict[str, int], near: int, cut: bool, below: int,
+           prm: PlanParams) -> str:
+    """Why a plan kept fewer grasps than ``--top`` asked for, in words ("" when it did not):
+    only the causes that happened (``near``: candidates within ``diversity`` of a kept one;
+    ``cut``: the time limit stopped the checks; ``below``: closure grasps under
+    ``--min-d-star``)."""
     if n >= prm.top:
         return ""
-    why = [_dropped(rejected, prm)] if rejected else []
-    if prm.min_d_star > 0:
-        why.append(f"below --min-d-star {prm.min_d_star:g}")
-    return (f" of the {prm.top} asked for (the other closure grasps found had their contacts "
-            f"within {100 * prm.diversity:g}% of the part's size of one of these"
-            f"{''.join('; or ' + w for w in why)}; a larger --evals finds more)")
+    if cut:
+        return f" of the {prm.top} asked for (the time limit passed before the rest were checked)"
+    why = []
+    if near:
+        why.append(f"had their contacts within {100 * prm.diversity:g}% of the part's size of "
+                   f"one of these")
+    if rejected:
+        why.append(f"were dropped: {_dropped(rejected, prm)}")
+    if below:
+        why.append(f"had d* below --min-d-star {prm.min_d_star:g}")
+    found = (f"the other closure grasps found {' or '.join(why)}" if why
+             else "the search found no other closure grasps")
+    return f" of the {prm.top} asked for ({found}; a larger --evals may find more)"
+
+
+def _below(archive: GraspBatch, prm: PlanParams) -> int:
+    """Closure grasps of the search under ``--min-d-star``."""
+    return int(((archive.fit > 0) & (archive.fit < prm.min_d_star)).sum())
 
 
 #: The fitness of a candidate whose fingertips overlap (:mod:`synth.plan.batch`).
@@ -569,9 +586,11 @@ def part_weight(part: Part, prm: PlanParams) -> float | None:
 
 
 def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, score: Scorer,
-            deadline: float) -> tuple[list[PlannedGrasp], dict[str, int]]:
+            deadline: float) -> tuple[list[PlannedGrasp], dict[str, int], int, bool]:
     """Best valid grasps that pass the finger checks, ``min_d_star`` and the diversity filter,
-    ranked by ``prm.rank_by``; and a count of the finger-check failures by kind.
+    ranked by ``prm.rank_by``; a count of the finger-check failures by kind; how many
+    candidates the diversity filter passed over; and whether the deadline stopped the checks
+    with candidates left.
 
     Ranking by d*, candidates are taken in the order of the ranking itself (shown d*, ties
     by conditioning, computed for all at once), so the first grasps do not depend on
@@ -607,18 +626,23 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
     def epsilon_of(P: NDArray[np.float64], n: NDArray[np.float64]) -> float:
         return epsilon_quality(P, n, score.center, score.length, prm.mu, prm.edges)
 
+    near, cut = 0, False
     for s in range(0, len(order), 64):
         if s > 0 and time.perf_counter() > deadline:  # the first block is always checked
+            cut = True
             break
         block = order[s : s + 64]
+        size = len(block)
         block = np.array([i for i in block if all(
             _hausdorff(archive.points[i], q) >= min_gap for q in picked)], dtype=np.int64)
+        near += size - len(block)
         if block.size == 0:
             continue
         chk = check_fingers(part, archive.points[block], archive.normals[block], fingers,
                             archive.finger[block])
         for j, i in enumerate(block.tolist()):
             if chosen and time.perf_counter() > deadline:
+                cut = True
                 break
             if not chk.mask[j]:
                 kind = " ".join(w for w in chk.reasons[j].split() if not any(
@@ -627,6 +651,7 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                 continue
             P = archive.points[i]
             if any(_hausdorff(P, q) < min_gap for q in picked):
+                near += 1
                 continue
             N, S = archive.normals[i], archive.smooth[i]
             where = chk.placement(j)
@@ -659,8 +684,8 @@ def _select(part: Part, archive: GraspBatch, prm: PlanParams, fingers: Fingers, 
                                        spw, model, least, margin))
             picked.append(P)
             if len(chosen) == want:
-                return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
-    return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected
+                return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected, near, False
+    return rank_grasps(chosen, prm.rank_by)[: prm.top], rejected, near, cut
 
 
 def _features(part: Part, P: NDArray[np.float64], faces: NDArray[np.int64]) -> tuple[str, ...]:

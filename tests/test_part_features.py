@@ -103,20 +103,46 @@ def test_sharp_angle_is_settable() -> None:
     assert all(r.planar for r in coarse.regions)
 
 
-@pytest.mark.parametrize("name", ["corpus/pybullet_bunny.obj", "corpus/pybullet_lego_vhacd.obj",
-                                  "nut.stl", "torus.stl", "open", "nonmanifold"])
+#: Edge-table cases: scans, convex decompositions, closed parts, an open sheet, a fin of three
+#: faces on one edge, faces turned or repeated, and meshes without faces.
+_EDGE_CASES = ["corpus/pybullet_bunny.obj", "corpus/pybullet_lego_vhacd.obj", "nut.stl",
+               "torus.stl", "open", "nonmanifold"]
+
+
+def _edge_case(name: str) -> trimesh.Trimesh:
+    """The mesh of an edge-table case (a sample or corpus file, or one built here)."""
+    rng = np.random.default_rng(3)
+    if name == "open":
+        mesh = trimesh.creation.icosphere(2)
+        mesh.update_faces(np.arange(len(mesh.faces)) % 5 != 0)
+        return mesh
+    if name == "nonmanifold":
+        v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        return trimesh.Trimesh(v, [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
+    if name == "turned":
+        mesh = trimesh.creation.icosphere(3)
+        f = mesh.faces.copy()
+        turn = rng.random(len(f)) < 0.05
+        f[turn] = f[turn, ::-1]
+        return trimesh.Trimesh(mesh.vertices, f, process=False)
+    if name == "doubled":
+        box = trimesh.creation.box()
+        return trimesh.Trimesh(box.vertices, np.concatenate([box.faces, box.faces[:2],
+                                                             box.faces[4:5, ::-1]]),
+                               process=False)
+    if name == "empty":
+        return trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), process=False)
+    if name == "no faces":  # vertices only: trimesh calls it watertight and wound
+        return trimesh.Trimesh(rng.random((5, 3)), np.zeros((0, 3), np.int64), process=False)
+    return trimesh.load(MESHES / name, force="mesh")
+
+
+@pytest.mark.parametrize("name", _EDGE_CASES)
 def test_edge_table_numbers_edges_as_trimesh_does(name: str) -> None:
     """The one-sort edge table gives trimesh's unique edges, their order, each face's edges
     and each edge's first two faces (``edges_face`` through the inverse), on scans, convex
     decompositions, closed parts, an open sheet and a fin of three faces on one edge."""
-    if name == "open":
-        mesh = trimesh.creation.icosphere(2)
-        mesh.update_faces(np.arange(len(mesh.faces)) % 5 != 0)
-    elif name == "nonmanifold":
-        v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
-        mesh = trimesh.Trimesh(v, [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
-    else:
-        mesh = trimesh.load(MESHES / name, force="mesh")
+    mesh = _edge_case(name)
     faces = np.asarray(mesh.faces, np.int64)
     edges, face_edges, order, starts = edge_table(faces, len(mesh.vertices))
     assert np.array_equal(edges, mesh.edges_unique)
@@ -130,38 +156,13 @@ def test_edge_table_numbers_edges_as_trimesh_does(name: str) -> None:
     assert np.array_equal(order[starts] // 3, mesh.edges_face[first])
 
 
-@pytest.mark.parametrize("name", ["corpus/pybullet_bunny.obj", "corpus/pybullet_lego_vhacd.obj",
-                                  "nut.stl", "torus.stl", "open", "nonmanifold", "turned",
-                                  "doubled", "empty", "no faces"])
+@pytest.mark.parametrize("name", _EDGE_CASES + ["turned", "doubled", "empty", "no faces"])
 def test_edge_closure_answers_as_trimesh_does(name: str) -> None:
     """Watertightness and consistent winding from the edge table equal trimesh's own on
     closed, open and non-manifold meshes, with faces turned or repeated (a face repeated
     the same way round, or turned, puts three or four faces on its edges), on an empty mesh
     and on vertices without faces; and trimesh's properties then read the same answers."""
-    rng = np.random.default_rng(3)
-    if name == "open":
-        mesh = trimesh.creation.icosphere(2)
-        mesh.update_faces(np.arange(len(mesh.faces)) % 5 != 0)
-    elif name == "nonmanifold":
-        v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
-        mesh = trimesh.Trimesh(v, [[0, 1, 2], [1, 0, 3], [0, 1, 4]], process=False)
-    elif name == "turned":
-        mesh = trimesh.creation.icosphere(3)
-        f = mesh.faces.copy()
-        turn = rng.random(len(f)) < 0.05
-        f[turn] = f[turn, ::-1]
-        mesh = trimesh.Trimesh(mesh.vertices, f, process=False)
-    elif name == "doubled":
-        box = trimesh.creation.box()
-        mesh = trimesh.Trimesh(box.vertices, np.concatenate([box.faces, box.faces[:2],
-                                                             box.faces[4:5, ::-1]]),
-                               process=False)
-    elif name == "empty":
-        mesh = trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), process=False)
-    elif name == "no faces":  # vertices only: trimesh calls it watertight and wound
-        mesh = trimesh.Trimesh(rng.random((5, 3)), np.zeros((0, 3), np.int64), process=False)
-    else:
-        mesh = trimesh.load(MESHES / name, force="mesh")
+    mesh = _edge_case(name)
     reference = trimesh.Trimesh(mesh.vertices.copy(), mesh.faces.copy(), process=False)
     expected = (reference.is_watertight, reference.is_winding_consistent)
     assert edge_closure(mesh) == expected

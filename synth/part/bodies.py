@@ -38,7 +38,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.closest import BoxTree
-from synth.part.features import mesh_edge_table
+from synth.part.features import paired_half_edges
 from synth.part.meshcache import cached
 from synth.part.order import group_ids
 from synth.part.tolerances import bounds
@@ -255,10 +255,8 @@ def _body_labels(mesh: trimesh.Trimesh) -> np.ndarray:
     n = len(mesh.faces)
     # faces joined by an edge that has exactly two (trimesh's face adjacency), from the edge
     # table the features are built from (cheaper than trimesh's, and built once)
-    _, _, order, starts = mesh_edge_table(mesh)
-    count = np.diff(np.append(starts, len(order)))
-    two = starts[count == 2]
-    a, b = order[two] // 3, order[two + 1] // 3
+    first, second = paired_half_edges(mesh)
+    a, b = first // 3, second // 3
     graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n))
     lab = connected_components(graph, directed=False)[1]
     first = group_ids(lab, n)[1]

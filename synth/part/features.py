@@ -29,7 +29,7 @@ from synth.part.meshcache import cached
 from synth.part.order import stable_order
 
 __all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features", "edge_table",
-           "mesh_edge_table", "edge_closure"]
+           "mesh_edge_table", "paired_half_edges", "edge_closure"]
 
 #: Names of the codes in ``Features.edge_kind``.
 EDGE_KINDS: tuple[str, ...] = ("smooth", "convex", "concave", "boundary")
@@ -168,6 +168,15 @@ def mesh_edge_table(mesh: trimesh.Trimesh
                   lambda: edge_table(np.asarray(mesh.faces, np.int64), len(mesh.vertices)))
 
 
+def paired_half_edges(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+    """The two half-edges (``3 face + corner``) (m,) and (m,) of every edge of exactly two
+    faces, from :func:`mesh_edge_table`, the first by position: the faces they join are
+    trimesh's face adjacency."""
+    _, _, order, starts = mesh_edge_table(mesh)
+    pair = starts[np.diff(starts, append=len(order)) == 2]
+    return np.take(order, pair), np.take(order, pair + 1)
+
+
 def edge_closure(mesh: trimesh.Trimesh) -> tuple[bool, bool]:
     """trimesh's ``is_watertight`` and ``is_winding_consistent`` of ``mesh``, from
     :func:`mesh_edge_table`, and kept in the mesh's cache where trimesh looks for them.
@@ -180,13 +189,10 @@ def edge_closure(mesh: trimesh.Trimesh) -> tuple[bool, bool]:
     if mesh.is_empty:  # trimesh: a mesh without faces or vertices is neither
         return False, False
     faces = np.asarray(mesh.faces, np.int64).ravel()
-    _, _, order, starts = mesh_edge_table(mesh)
-    count = np.diff(starts, append=len(order))
-    pair = starts[count == 2]
-    first, second = np.take(order, pair), np.take(order, pair + 1)
+    first, second = paired_half_edges(mesh)
     # half-edge h = 3 face + corner runs from corner h of its face to the next corner
     head = np.take(faces, first - first % 3 + (first % 3 + 1) % 3)
-    watertight = len(pair) == len(starts)
+    watertight = len(first) == len(mesh_edge_table(mesh)[3])
     consistent = bool((head == np.take(faces, second)).all())
     mesh._cache["is_watertight"] = watertight
     mesh._cache["is_winding_consistent"] = consistent

@@ -19,6 +19,7 @@ from scipy.sparse.csgraph import breadth_first_order
 from synth.isolate import call_isolated
 from synth.part.bodies import body_labels, mesh_moments
 from synth.part.features import edge_closure
+from synth.part.order import stable_order
 
 __all__ = ["weld", "fix_degenerate", "tilted_normals", "face_keys", "drop_duplicate_faces",
            "orient", "close", "open_edges",
@@ -90,15 +91,38 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     for c in range(3):  # a multiply-xor mix, wrapping around
         key ^= q[:, c].astype(np.uint64) * _KEY_MULT[c]
         key ^= key >> np.uint64(29)
-    # numpy's quicksort: 3x as fast as its stable sort at 3.9M keys; each group's first row
-    # is then its smallest position
-    order = np.argsort(key)
-    sk = key[order]
-    new = np.empty(m, bool)
-    new[0] = True
-    np.not_equal(sk[1:], sk[:-1], out=new[1:])
+    # the key's high bits above each row's position, in one plain sort (0.02 s at 3.9M rows,
+    # against 0.11 s for numpy's argsort of the keys); different rows that share those bits
+    # (at 655k distinct rows, one file in twenty) are told apart by sorting the whole keys
+    bits = np.uint64(m.bit_length())
+    packed = key >> bits << bits | np.arange(m, dtype=np.uint64)
+    packed.sort()
+    order = (packed & np.uint64((1 << m.bit_length()) - 1)).astype(np.int64)
+    runs = _runs(q, order, packed >> bits)
+    del packed
+    if runs is None:
+        order = np.argsort(key)  # numpy's quicksort
+        runs = _runs(q, order, key[order])
+        if runs is None:
+            return None
+    new, first_sorted = runs
     group = np.cumsum(new) - 1  # of each sorted row
-    first_sorted = np.minimum.reduceat(order, np.flatnonzero(new))
+    by_first = stable_order(first_sorted, m)[0]
+    place = np.empty(len(by_first), np.int64)
+    place[by_first] = np.arange(len(by_first))
+    inverse = np.empty(m, np.int64)
+    inverse[order] = place[group]
+    return first_sorted[by_first], inverse
+
+
+def _runs(q: np.ndarray, order: np.ndarray, sorted_key: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where a new key begins (m,) bool among the rows of ``q`` (m, 3) in ``order`` (m,),
+    sorted by their keys ``sorted_key`` (m,), and the smallest position of each key (u,);
+    None when two different rows share a key."""
+    new = np.empty(len(order), bool)
+    new[0] = True
+    np.not_equal(sorted_key[1:], sorted_key[:-1], out=new[1:])
     # every row of a group equals the one before it in the sorted order, so all equal its
     # first: one gather of the rows
     inside = ~new[1:]
@@ -106,13 +130,7 @@ def _merge_rows(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     for c in range(3):
         if ((rows[1:, c] != rows[:-1, c]) & inside).any():
             return None
-    del rows
-    by_first = np.argsort(first_sorted)
-    place = np.empty(len(by_first), np.int64)
-    place[by_first] = np.arange(len(by_first))
-    inverse = np.empty(m, np.int64)
-    inverse[order] = place[group]
-    return first_sorted[by_first], inverse
+    return new, np.minimum.reduceat(order, np.flatnonzero(new))
 
 
 def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ from scipy.sparse.csgraph import connected_components
 
 from synth.part.closest import BoxTree
 from synth.part.features import paired_half_edges
-from synth.part.meshcache import cached
+from synth.part.meshcache import cached, face_geometry
 from synth.part.order import group_ids
 from synth.part.tolerances import bounds
 
@@ -209,8 +209,7 @@ def is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
 def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
     faces = np.asarray(mesh.faces, np.int64)
     vertices = np.asarray(mesh.vertices, float)
-    normals = np.asarray(mesh.face_normals, float)
-    area = np.asarray(mesh.area_faces, float)
+    normals, area = face_geometry(mesh)
     lo, hi = bounds(vertices)
     diagonal = float(np.linalg.norm(hi - lo))
     # the global test first: it refutes most non-convex bodies at a fraction of the cost

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from synth.part.meshcache import cached
+from synth.part.meshcache import cached, face_geometry
 from synth.part.order import stable_order
 
 __all__ = ["EDGE_KINDS", "VERTEX_KINDS", "Features", "compute_features", "edge_table",
@@ -127,7 +127,7 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     edge_faces[two, 1] = order[starts[two] + 1] // 3
     del order, starts, counts
 
-    normals = np.asarray(mesh.face_normals, float)
+    normals = face_geometry(mesh)[0]
     verts = np.asarray(mesh.vertices, float)
     angle = np.full(n_e, np.nan)
     fa, fb = edge_faces[two, 0], edge_faces[two, 1]

@@ -21,6 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.features import Features
+from synth.part.meshcache import face_geometry
 from synth.part.order import group_ids, stable_order
 
 __all__ = ["Region", "RegionSet", "compute_regions"]
@@ -137,8 +138,7 @@ def compute_regions(
     -------
     RegionSet
     """
-    normals = np.asarray(mesh.face_normals, float)
-    areas = np.asarray(mesh.area_faces, float)
+    normals, areas = face_geometry(mesh)
     face_planar, face_region, face_group, smooth = _label_faces(
         features, normals, areas, coplanar_angle, patch_half_angle, precision)
     corner = _corner_normals(mesh, features.edges[smooth], features.edge_faces[smooth],

@@ -207,22 +207,27 @@ class DistanceBound:
         lo, hi = bounds(corners)
         size = float((hi - lo).max())
         step = size / cells if size > 0 else 1.0
-        cent = (np.take(v, f[:, 0], axis=0) + np.take(v, f[:, 1], axis=0)
-                + np.take(v, f[:, 2], axis=0)) / 3.0
-        ijk = np.minimum(((cent - lo) / step).astype(np.int64), cells)
-        key = (ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2]
+        # a coordinate at a time, from (v,) columns and (f,) corner indices (gathers from
+        # them take a third of the time of (f, 3) rows), with the same arithmetic
+        cols = [np.ascontiguousarray(v[:, k]) for k in range(3)]
+        corner = [np.ascontiguousarray(f[:, c]) for c in range(3)]
+        cent = [(np.take(x, corner[0]) + np.take(x, corner[1]) + np.take(x, corner[2])) / 3.0
+                for x in cols]
+        ijk = [np.minimum(((cent[k] - lo[k]) / step).astype(np.int64), cells) for k in range(3)]
+        key = (ijk[0] * (cells + 1) + ijk[1]) * (cells + 1) + ijk[2]
+        del ijk
         # the occupied cells, numbered in the order of their keys
         occupied = np.bincount(key, minlength=(cells + 1) ** 3) > 0
         group = (np.cumsum(occupied) - 1)[key]
         count = np.bincount(group)
-        centers = np.stack([np.bincount(group, weights=cent[:, c]) / count for c in range(3)],
-                           axis=1)
-        # the farthest corner of any face from its group's centre, a coordinate at a time
+        centers = np.stack([np.bincount(group, weights=c) / count for c in cent], axis=1)
+        del cent
+        # the farthest corner of any face from its group's centre, a corner at a time
         # (the squares summed in the order np.linalg.norm sums them; its root is monotone)
-        mine = [centers[group, k] for k in range(3)]
+        mine = [np.take(centers[:, k], group) for k in range(3)]
         far = 0.0
         for c in range(3):
-            d = [v[f[:, c], k] - mine[k] for k in range(3)]
+            d = [np.take(cols[k], corner[c]) - mine[k] for k in range(3)]
             far = max(far, float((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).max()))
         reach = float(np.sqrt(far))
         # round-off of the distances above and of the query's, at these coordinates

@@ -228,9 +228,8 @@ def _corner_normals(
     of a union) passes through a vertex, its two sides keep their own normals there even
     when they join elsewhere; planar faces keep their own normal."""
     faces = np.asarray(mesh.faces, np.int64)
-    # trimesh's face angles, kept where trimesh keeps them (the solids read them again), but
-    # without caching the mesh's (f, 3, 3) corners along with them
-    angles = trimesh.triangles.angles(np.take(np.asarray(mesh.vertices, float), faces, axis=0))
+    # trimesh's face angles, kept where trimesh keeps them (the solids read them again)
+    angles = _face_angles(np.asarray(mesh.vertices, float), faces)
     mesh._cache["face_angles"] = angles
     w = angles.ravel()
     n_f = len(faces)
@@ -253,6 +252,35 @@ def _corner_normals(
     corner = np.take(acc, fan, axis=0).reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]
     return np.negative(corner, out=corner)
+
+
+def _face_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``trimesh.triangles.angles`` of the triangles ``faces`` (f, 3) of ``vertices`` (v, 3):
+    the angles (f, 3) at their corners, the same values, found a coordinate at a time from
+    (f,) arrays instead of the (f, 3, 3) corners (0.09 against 0.12 s at 1.3M faces)."""
+    cols = [np.ascontiguousarray(vertices[:, k]) for k in range(3)]
+    corner = [np.ascontiguousarray(faces[:, c]) for c in range(3)]
+    x = [[np.take(col, corner[c]) for c in range(3)] for col in cols]  # coordinate, corner
+    u = _unit([x[k][1] - x[k][0] for k in range(3)])
+    v = _unit([x[k][2] - x[k][0] for k in range(3)])
+    w = _unit([x[k][2] - x[k][1] for k in range(3)])
+    del x
+    out = np.empty((len(faces), 3))
+    # trimesh's row dot products (np.dot with ones) sum x, y, then z
+    out[:, 0] = np.arccos(np.clip((u[0] * v[0] + u[1] * v[1]) + u[2] * v[2], -1, 1))
+    out[:, 1] = np.arccos(np.clip(((-u[0]) * w[0] + (-u[1]) * w[1]) + (-u[2]) * w[2], -1, 1))
+    out[:, 2] = np.pi - out[:, 0] - out[:, 1]
+    out[(out < trimesh.tol.merge).any(axis=1), :] = 0.0  # a degenerate triangle has none
+    return out
+
+
+def _unit(d: list[np.ndarray]) -> list[np.ndarray]:
+    """``trimesh.util.unitize`` of vectors given as their three coordinates (n,) each (a
+    vector of no length is scaled by its length, as trimesh scales it)."""
+    norm = np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
+    valid = norm > trimesh.util.TOL_ZERO
+    norm[valid] **= -1
+    return [c * norm for c in d]
 
 
 def _build_regions(

@@ -34,14 +34,21 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from synth.fingers import Fingers, check_fingers
+from synth.part.clearance import sharp_clearance
 from synth.part.resolve import closest_points
 from synth.plan.ascent import ascent_directions
 from synth.plan.batch import GraspBatch, Scorer
 from synth.scores.surface import differs
 
-__all__ = ["GROW", "SHRINK", "FIRST_STEP", "Population", "pool_climb", "surface_climb",
-           "swap_climb", "reachable"]
+__all__ = ["GROW", "SHRINK", "FIRST_STEP", "CLEARANCE", "Population", "pool_climb",
+           "surface_climb", "swap_climb", "reachable", "clear_of_edges"]
 
+#: A planned contact lies more than this many feature tolerances from every sharp edge of the
+#: part, so that it is a face contact on the file's own vertices as on the
+#: welded mesh (a contact just past the tolerance from a sharp edge of a narrow neighbouring
+#: face was called a face contact, with the normal of its face, where the file's vertices put
+#: the face across that edge within the tolerance: tests/test_part_scale.py).
+CLEARANCE = 2.0
 #: Step-size factors after a round with and without an improvement.
 GROW, SHRINK = 1.5, 0.7
 #: First (and largest) step of the pool climb and the placement climb, relative to the part's
@@ -76,6 +83,12 @@ _SCREEN_TOL = 1e-6
 _TINY32 = np.finfo(np.float32).tiny
 #: Swap climb: members climbing side by side.
 _SWAP_MEMBERS = 32
+
+
+def clear_of_edges(part: Any, points: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Which points (n, 3) lie more than ``CLEARANCE`` feature tolerances from every sharp
+    edge of the part (:mod:`synth.part.clearance`)."""
+    return np.isinf(sharp_clearance(part, points, CLEARANCE * part.feature_tolerance))
 
 
 def reachable(part: Any, points: NDArray[np.float64], normals: NDArray[np.float64],
@@ -539,6 +552,7 @@ def _settle(part: Any, members: GraspBatch, who: NDArray[np.int64], P: NDArray[n
     first[c.finger[::-1]] = np.arange(len(c))[::-1]
     good = one & (first >= 0)
     good[good] &= c.features[first[good]] == "face"
+    good[good] &= clear_of_edges(part, c.points[first[good]])
     ok = np.ones(len(who), bool)
     np.logical_and.at(ok, rows, good)
     g = np.flatnonzero(good)

@@ -41,7 +41,7 @@ from synth.errors import InputError, InternalError
 from synth.fingers import Fingers, check_fingers, default_fingers, tip_sinks
 from synth.part import Part
 from synth.plan.batch import GraspBatch, Scorer, distinct_top
-from synth.plan.climb import pool_climb, reachable, surface_climb, swap_climb
+from synth.plan.climb import clear_of_edges, pool_climb, reachable, surface_climb, swap_climb
 from synth.plan.params import AUTO_MAX_FINGERS, PlanParams
 from synth.plan.pieces import best_positions, convex_piece
 from synth.plan.placements import (
@@ -447,6 +447,7 @@ def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> Gra
                               sample_contacts(part, n_reg, seed=rng, method="regions")])
     single = np.bincount(c.finger)[c.finger] == 1
     keep = (c.features == "face") & single
+    keep[keep] &= clear_of_edges(part, c.points[keep])
     if keep.sum() < k:
         keep = single
     keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
@@ -510,7 +511,8 @@ def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer
         if sol is None:
             continue
         c = part.resolve(sol[0], snap=True)
-        if len(c) != k or not part.exposed(c.points, c.normals).all():
+        if (len(c) != k or not clear_of_edges(part, c.points).all()
+                or not part.exposed(c.points, c.normals).all()):
             continue
         found.append(GraspBatch(c.points[None], c.normals[None], c.smooth_normals[None],
                                 c.faces[None], c.region[None], np.zeros(1), np.zeros(1)))

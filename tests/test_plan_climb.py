@@ -1,10 +1,10 @@
-"""The swap climb's screen (against a plain scipy LP) and its kicked starts (synth.plan.climb)."""
+"""The swap climb's screen and its kicked starts (synth.plan.climb), against a plain scipy LP."""
 
 import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from synth.plan.climb import _kick, _screen
+from synth.plan.climb import _KICK_TOP, _kick, _screen
 
 
 def _pool(n, seed):
@@ -83,20 +83,51 @@ def test_a_swap_whose_fingertip_overlaps_another_is_screened_out():
     assert np.array_equal(np.delete(d[0], q), np.delete(free[0], q))
 
 
-def test_a_kick_replaces_one_or_two_contacts_of_one_of_the_three_best_optima():
-    k, n_pool, hi = 7, 500, 60
-    rng = np.random.default_rng(0)
+def _kicked(d, lo=0, hi=40, seed=0, n_pool=500):
+    k = 7
+    rng = np.random.default_rng(seed)
+    seeds = np.zeros((hi, k), np.int64)
     out = np.array([rng.choice(n_pool, k, replace=False) for _ in range(10)])
     out_fit = np.linspace(0.1, 0.9, 10)
-    seeds = np.zeros((10 + hi, k), np.int64)
-    _kick(seeds, np.concatenate([out, np.zeros((hi, k), np.int64)]),
-          np.concatenate([out_fit, np.zeros(hi)]), np.r_[np.ones(10, bool), np.zeros(hi, bool)],
-          10, 10 + hi, n_pool, rng)
-    elite = out[[9, 8, 7]]
-    changed = []
-    for row in seeds[10:]:
-        assert len(set(row.tolist())) == k  # a contact once only
-        diff = [int((row != e).sum()) for e in elite]
-        assert min(diff) in (1, 2)
-        changed.append(min(diff))
-    assert set(changed) == {1, 2}
+    finished = np.ones(10, bool)
+    calls = []
+
+    def screen(members, j):  # as the climb's screen: the member's own contacts are no swap
+        calls.append((members.copy(), j))
+        out = d[None].copy()
+        out[0, members[0]] = 0.0
+        return out
+
+    seeds_all = np.zeros((10 + hi, k), np.int64)
+    _kick(seeds_all, np.concatenate([out, seeds]), np.concatenate([out_fit, np.zeros(hi)]),
+          np.concatenate([finished, np.zeros(hi, bool)]), 10 + lo, 10 + hi, n_pool, rng, screen)
+    return seeds_all[10 + lo:], out, calls
+
+
+def test_a_kick_takes_one_contact_from_the_best_screened_swaps_and_one_at_random():
+    n_pool = 500
+    d = np.zeros(n_pool, np.float32)
+    good = np.arange(100, 300)
+    d[good] = np.linspace(0.2, 0.9, len(good))  # the 64 best: 236..299
+    kicked, out, calls = _kicked(d, n_pool=n_pool)
+    elite = out[[9, 8, 7]]  # the three best optima
+    top = set(range(300 - _KICK_TOP, 300))
+    for row, (member, j) in zip(kicked, calls, strict=True):
+        assert len(set(row.tolist())) == 7
+        source = [e for e in elite if np.array_equal(e, member[0])]
+        assert source, "kicks start from the three best optima"
+        changed = np.flatnonzero(row != source[0])
+        assert len(changed) == 2 and j in changed
+        assert row[j] in top
+    # and the random one is not always from the screen's best
+    others = [row[c] for row, (member, j) in zip(kicked, calls, strict=True)
+              for c in np.flatnonzero(row != member[0]) if c != j]
+    assert any(o not in top for o in others)
+
+
+def test_a_kick_without_a_screened_swap_replaces_both_at_random():
+    kicked, out, calls = _kicked(np.zeros(500, np.float32))
+    for row, (member, j) in zip(kicked, calls, strict=True):
+        assert len(set(row.tolist())) == 7
+        changed = np.flatnonzero(row != member[0])
+        assert len(changed) == 2 and j in changed  # the contact the screen was asked about

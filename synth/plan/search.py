@@ -14,7 +14,8 @@ much each does; every candidate scored is one evaluation):
    one contact for a nearby pool contact, one score each (:func:`synth.plan.climb.pool_climb`).
    With 7 contacts without friction the swap climb takes its place (exact best responses,
    :func:`synth.plan.climb.swap_climb`), and ``KICK_SHARE`` of its starts are the best optima
-   so far with one or two contacts replaced at random (iterated local search).
+   so far with two contacts replaced, one by a swap the screen rates highly, the other at
+   random (iterated local search).
 5. **Surface climb** (the rest). The best distinct grasps climb on the surface itself, along
    the ascent direction of d* and by single-contact moves that may cross edges onto
    neighbouring faces (:func:`synth.plan.climb.surface_climb`).
@@ -93,8 +94,8 @@ _PLACEMENT_POOL, PLACEMENT_SEED_SHARE, PLACEMENT_SHARE = 3000, 0.3, 0.65
 #: 0.545 s. 150 gave 0.9577 (13 parts >= 0.99 at seed 0) for a median of 0.395 s, 6% more;
 #: 200: 0.9486; 150 with the random order: 0.9545 at a median of 0.458 s.
 SWAP_COST = 175
-#: Share of the swap climb's starts that are kicks (one or two contacts of one of the best
-#: optima so far replaced at random, :func:`synth.plan.climb.swap_climb`) instead of fresh
+#: Share of the swap climb's starts that are kicks (contacts of one of the best optima so far
+#: replaced, :func:`synth.plan.climb.swap_climb`) instead of fresh
 #: seeds: a swap climb's optimum is the best single swap of every contact over the pool, and
 #: a better one is often one or two swaps away. On 4 hard parts at seed 0, the best optimum of
 #: 400 fresh seeds came from the first 25 to 200, and 100 kicks of it climbed higher (coffee
@@ -102,7 +103,9 @@ SWAP_COST = 175
 #: 47 corpus and held-out parts x seeds 0-3 (one process, interleaved), first grasp /
 #: reference: mean 0.9289 -> 0.9472, at seed 0 median 0.921 -> 0.956, runs >= 0.99 36 -> 45
 #: of 188, median CPU 0.385 -> 0.378 s. A share of 0.75: mean 0.9429; 0.25: 0.9454 against
-#: 0.9497 for 0.5 (every second part x seeds 0-1).
+#: 0.9497 for 0.5 (every second part x seeds 0-1), with one or two contacts replaced at
+#: random; with one of two from the screen's best swaps, 0.7: 0.9608 against 0.9636 (every
+#: second part x seeds 0-3).
 KICK_SHARE = 0.5
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40

@@ -190,20 +190,12 @@ class Pieces:
         return -self.normals[np.union1d(faces, ring)]
 
 
-def lp_d_star(points: np.ndarray, normals: np.ndarray, equilibrate: bool = False
-              ) -> tuple[float, int]:
-    """Trinkle's d* by scipy's linprog, and the rank of the wrench matrix.
-
-    With ``equilibrate`` every row of the wrench matrix is first scaled to a largest entry of
-    1. That changes nothing for a matrix of full rank; for one that has lost rank, whose
-    smallest row can be 1e-7 of the largest, it decides whether that row constrains the LP
-    at all (HiGHS's feasibility tolerance is 1e-7), and so the d* of an ill-posed LP."""
+def lp_d_star(points: np.ndarray, normals: np.ndarray) -> tuple[float, int]:
+    """Trinkle's d* by scipy's linprog, and the rank of the wrench matrix."""
     k = len(points)
     r = points - points.mean(axis=0)
     scale = np.linalg.norm(r, axis=1).max() or 1.0
     W = np.vstack([normals.T, np.cross(r / scale, normals).T])  # moments scaled: same null space
-    if equilibrate:
-        W = W / np.abs(W).max(axis=1, keepdims=True)
     cost = np.r_[np.zeros(k), -1.0]
     A_eq = np.hstack([W, np.zeros((6, 1))])
     A_ub = np.hstack([-np.eye(k), np.ones((k, 1))])  # d - c_i <= 0

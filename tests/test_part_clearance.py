@@ -1,5 +1,5 @@
-"""Clearance of face contacts from the sharp features around their face (synth.part.clearance),
-against distances measured by brute force over every sharp edge and by hand."""
+"""Distances from points to the part's sharp edges within a radius (synth.part.clearance),
+against brute force over every sharp edge and a distance worked out by hand."""
 
 import numpy as np
 import pytest
@@ -86,3 +86,18 @@ def test_no_sharp_edge_is_inf_and_no_points_is_empty():
     assert (part.features.edge_kind == 0).all()
     assert np.isinf(sharp_clearance(part, part.mesh.vertices[:5], 10.0)).all()
     assert sharp_clearance(part, np.zeros((0, 3)), 1.0).shape == (0,)
+
+
+def test_two_parts_of_one_mesh_keep_their_own_sharp_edges():
+    from synth.part.model import Part
+
+    mesh = trimesh.creation.cylinder(radius=1.0, height=2.0, sections=24)  # 15 deg between sides
+    fine = Part(mesh, sharp_angle=np.radians(10.0))  # the sides' edges are sharp
+    coarse = Part(mesh, sharp_angle=np.radians(40.0))  # only the rims are
+    q = np.array([[np.cos(np.radians(7.5)), np.sin(np.radians(7.5)), 0.0]])  # mid-side
+    q *= np.cos(np.radians(7.5))  # on the side's plane, halfway between two side edges
+    near = sharp_clearance(fine, q, 2.0)
+    far = sharp_clearance(coarse, q, 2.0)
+    assert near[0] == pytest.approx(np.sin(np.radians(7.5)), rel=1e-9)
+    assert far[0] == pytest.approx(1.0, rel=1e-9)  # to the rims, 1 above and below
+    assert sharp_clearance(fine, q, 2.0)[0] == near[0]

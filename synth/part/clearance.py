@@ -26,8 +26,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from synth.part.meshcache import cached
-
 __all__ = ["SharpEdges", "sharp_clearance"]
 
 #: The sharp edges' pieces are at most the part's length over this.
@@ -66,9 +64,6 @@ class SharpEdges:
         self.reach = float(np.linalg.norm(self.end - self.start, axis=1).max() / 2) \
             if len(edge) else 0.0
         self._tree = cKDTree(mid) if len(edge) else None
-
-    def __len__(self) -> int:
-        return len(self.start)
 
     def distance(self, points: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
         """Distance (n,) from each point (n, 3) to the nearest sharp edge, where that is at
@@ -111,8 +106,11 @@ def sharp_clearance(part: Any, points: NDArray[np.float64], radius: float
         The distance to the nearest convex, concave or open-boundary edge where it is at most
         ``radius``, else inf.
     """
-    feats = part.features
-    mesh = part.mesh
-    edges = cached(mesh, "synth_sharp_edges", lambda: SharpEdges(
-        mesh.vertices, feats.edges[feats.edge_kind != 0], float(part.length)))
+    # kept on the part, not the mesh: two parts of one mesh can differ in their sharp edges
+    # (``sharp_angle``)
+    edges = part.__dict__.get("_synth_sharp_edges")
+    if edges is None:
+        feats = part.features
+        edges = part.__dict__["_synth_sharp_edges"] = SharpEdges(
+            part.mesh.vertices, feats.edges[feats.edge_kind != 0], float(part.length))
     return edges.distance(points, radius)

@@ -266,7 +266,8 @@ def _face_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     w = _unit([x[k][2] - x[k][1] for k in range(3)])
     del x
     out = np.empty((len(faces), 3))
-    # trimesh's row dot products (np.dot with ones) sum x, y, then z
+    # trimesh's row dot products (np.dot with ones, a BLAS call) sum x, y, then z with this
+    # machine's OpenBLAS; another BLAS may round them otherwise, in the last bit
     out[:, 0] = np.arccos(np.clip((u[0] * v[0] + u[1] * v[1]) + u[2] * v[2], -1, 1))
     out[:, 1] = np.arccos(np.clip(((-u[0]) * w[0] + (-u[1]) * w[1]) + (-u[2]) * w[2], -1, 1))
     out[:, 2] = np.pi - out[:, 0] - out[:, 1]

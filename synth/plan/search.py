@@ -4,7 +4,9 @@ Stages, all reproducible from the seed (the evaluation budget ``PlanParams.evals
 much each does; every candidate scored is one evaluation):
 
 1. **Pool.** Contacts sampled uniformly on the exposed surface, kept when they are single face
-   contacts a finger can make on its own (exposed, tip fits, approach clear).
+   contacts a finger can make on its own (exposed, tip fits, approach clear), more than
+   ``synth.plan.climb.CLEARANCE`` feature tolerances from every sharp edge (when fewer than
+   k are, every single contact is kept); the climbs keep their moves to such contacts too.
 2. **Seeds** (``SEED_SHARE`` of the budget). Random k-subsets of the pool, scored in batches
    (:func:`synth.form_closure_batch`).
 3. **Region LP** (planar parts). For the best seeds on planar facets, each contact's face grows
@@ -104,8 +106,8 @@ SWAP_COST = 175
 #: reference: mean 0.9289 -> 0.9472, at seed 0 median 0.921 -> 0.956, runs >= 0.99 36 -> 45
 #: of 188, median CPU 0.385 -> 0.378 s. A share of 0.75: mean 0.9429; 0.25: 0.9454 against
 #: 0.9497 for 0.5 (every second part x seeds 0-1), with one or two contacts replaced at
-#: random; with one of two from the screen's best swaps, 0.7: 0.9608 against 0.9636 (every
-#: second part x seeds 0-3).
+#: random; with the first of one or two from the screen's best swaps, 0.7: 0.9608 against
+#: 0.9636 (every second part x seeds 0-3).
 KICK_SHARE = 0.5
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40

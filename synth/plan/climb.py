@@ -8,13 +8,12 @@ unused seed. Restarts beat long climbs on parts with many local optima.
 
 * :func:`swap_climb` (7 contacts without friction) moves over a pool of contacts already
   checked (exposed, reachable by a finger, single face contacts clear of sharp edges, see
-  ``CLEARANCE``) by best responses: for one
-  contact at a time it scores *every* pool contact as its replacement and takes the best. The
-  null vector of a 6 x 7 wrench matrix is its generalised cross product, ``v_i = (-1)^i
-  det(W without column i)``; with column ``j`` replaced by ``x`` every ``v_i`` (i != j) is a
-  linear function ``c_i . x`` of ``x`` (its cofactors) and ``v_j`` does not change, so the d*
-  of all replacements costs one 6 x 6 by 6 x n product: exact, and a few microseconds for a
-  thousand candidates.
+  ``CLEARANCE``) by best responses: for one contact at a time it scores *every* pool contact
+  as its replacement and takes the best. The null vector of a 6 x 7 wrench matrix is its
+  generalised cross product, ``v_i = (-1)^i det(W without column i)``; with column ``j``
+  replaced by ``x`` every ``v_i`` (i != j) is a linear function ``c_i . x`` of ``x`` (its
+  cofactors) and ``v_j`` does not change, so the d* of all replacements costs one 6 x 6 by
+  6 x n product: exact, and a few microseconds for a thousand candidates.
 * :func:`pool_climb` (any other case) moves over the same pool: a move swaps one contact for
   the pool contact nearest a Gaussian step away from it, one score each.
 * :func:`surface_climb` moves on the surface itself: steps of all contacts along the ascent
@@ -46,10 +45,10 @@ __all__ = ["GROW", "SHRINK", "FIRST_STEP", "CLEARANCE", "Population", "pool_clim
            "surface_climb", "swap_climb", "reachable", "clear_of_edges"]
 
 #: A planned contact lies more than this many feature tolerances from every sharp edge of the
-#: part, so that it is a face contact on the file's own vertices as on the
-#: welded mesh (a contact just past the tolerance from a sharp edge of a narrow neighbouring
-#: face was called a face contact, with the normal of its face, where the file's vertices put
-#: the face across that edge within the tolerance: tests/test_part_scale.py).
+#: part, so that it is a face contact on the file's own vertices as on the welded mesh (a
+#: contact just past the tolerance from a sharp edge of a narrow neighbouring face was called
+#: a face contact, with the normal of its face, where the file's vertices put the face across
+#: that edge within the tolerance: tests/test_part_scale.py).
 CLEARANCE = 2.0
 #: Step-size factors after a round with and without an improvement.
 GROW, SHRINK = 1.5, 0.7

@@ -269,6 +269,38 @@ def test_closest_kernel_exact_at_any_scale_and_placement(scale: float, offset: f
     assert np.all(d[3000:] <= err)  # points on the triangle are their own closest point
 
 
+@pytest.mark.parametrize("scale, offset", [(1.0, 0.0), (1e-3, 1.0), (1e3, 1e6)])
+def test_closest_kernel_on_needles(scale: float, offset: float) -> None:
+    """Needles, one edge a millionth of the others: points on them are their own closest point
+    to within the needle's width, points off them get the nearest of their edges' closest points.
+
+    The short edge's region test passed for every point and sent it to a corner: robosuite's
+    soccer goal has a needle 1e-8 wide and 0.011 long, and points on it were put 1.5e-3 away.
+    """
+    from synth.part.closest import closest_on_triangles
+
+    rng = np.random.default_rng(5)
+    n = 3000
+    a, b = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    # the short edge c-a across the long ones, as a needle's is (its region test then sees
+    # dot products with c - a of nothing but round-off)
+    across = np.cross(b - a, rng.normal(size=(n, 3)))
+    c = a + 1e-6 * across / np.linalg.norm(across, axis=1, keepdims=True)
+    tri = np.stack([a, b, c], axis=1)
+    on = np.einsum("ij,ijk->ik", rng.dirichlet([1, 1, 1], size=n), tri)
+    off = on + rng.normal(size=(n, 3))
+    tri, on, off = tri * scale + offset, on * scale + offset, off * scale + offset
+    width = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) / \
+        np.linalg.norm(tri[:, 1] - tri[:, 0], axis=1)  # twice the area over the long edge
+    err = 1e-12 * scale + 1e-14 * abs(offset)
+    d_on = np.linalg.norm(closest_on_triangles(tri, on) - on, axis=1)
+    assert np.all(d_on <= width + err)
+    q = closest_on_triangles(tri, off)
+    d, d_ref = np.linalg.norm(q - off, axis=1), np.linalg.norm(_closest_reference(tri, off) - off,
+                                                               axis=1)
+    assert np.all(np.abs(d - d_ref) <= width + err)
+
+
 @pytest.mark.parametrize("name", [*ALL_MESHES, "fine_torus"])
 def test_closest_points_exact(name: str) -> None:
     """Against a brute force over all faces and trimesh.proximity.closest_point."""

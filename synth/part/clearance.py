@@ -26,6 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from synth.part.closest import closest_on_segments
+
 __all__ = ["SharpEdges", "sharp_clearance"]
 
 #: The sharp edges' pieces are at most the part's length over this.
@@ -78,12 +80,9 @@ class SharpEdges:
             return out
         owner = np.repeat(np.arange(len(q)), counts)
         piece = np.concatenate([np.asarray(x, np.int64) for x in near])
-        a, ab = self.start[piece], self.end[piece] - self.start[piece]
-        rel = q[owner] - a
-        length2 = np.einsum("ij,ij->i", ab, ab)
-        t = np.clip(np.einsum("ij,ij->i", rel, ab) / np.where(length2 > 0, length2, 1.0),
-                    0.0, 1.0)
-        dist = np.linalg.norm(rel - t[:, None] * ab, axis=1)
+        p = q[owner]
+        dist = np.linalg.norm(closest_on_segments(self.start[piece], self.end[piece], p) - p,
+                              axis=1)
         np.minimum.at(out, owner, dist)
         out[out > radius] = np.inf
         return out

@@ -31,7 +31,7 @@ from scipy.spatial import cKDTree
 
 from synth.part.tolerances import bounds
 
-__all__ = ["BoxTree", "DistanceBound", "closest_on_triangles"]
+__all__ = ["BoxTree", "DistanceBound", "closest_on_triangles", "closest_on_segments"]
 
 #: Region tests of the kernel compare dot products (squared lengths) against this fraction of
 #: the triangle's squared size ``|ab|^2 + |ac|^2``: round-off of float64 products, nothing more.
@@ -125,14 +125,14 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     # needle 1e-8 wide and 0.011 long sent points on it to a corner 1.5e-3 away. There the
     # nearest of that answer and the three edges' closest points is taken (all on the
     # triangle); other triangles keep the answer above, bit for bit.
-    cross = np.cross(ab, ac)
-    thin = np.flatnonzero(np.dot(cross * cross, _ONES) <= _THIN * z4)
+    # va + vb + vc = |ab|^2 |ac|^2 - (ab . ac)^2 = |ab x ac|^2, the squared double area
+    thin = np.flatnonzero(va + vb + vc <= _THIN * z4)
     if len(thin):
         p = points[thin]
         best = result[thin]
         gap = np.dot((best - p) ** 2, _ONES)
         for s, e in ((a, b), (b, c), (c, a)):
-            q = _closest_on_segments(s[thin], e[thin], p)
+            q = closest_on_segments(s[thin], e[thin], p)
             d = np.dot((q - p) ** 2, _ONES)
             nearer = d < gap
             best[nearer], gap[nearer] = q[nearer], d[nearer]
@@ -140,8 +140,9 @@ def closest_on_triangles(triangles: np.ndarray, points: np.ndarray) -> np.ndarra
     return result
 
 
-def _closest_on_segments(start: np.ndarray, end: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Closest points (n, 3) of segments ``start``-``end`` (n, 3) to ``points`` (n, 3)."""
+def closest_on_segments(start: np.ndarray, end: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Closest points (n, 3) of segments ``start``-``end`` (n, 3) to ``points`` (n, 3) (a
+    segment of no length: its start)."""
     d = end - start
     length2 = np.dot(d * d, _ONES)
     t = np.zeros(len(d))

@@ -26,8 +26,8 @@ unused seed. Restarts beat long climbs on parts with many local optima.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from functools import partial
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,8 +41,8 @@ from synth.plan.ascent import ascent_directions
 from synth.plan.batch import GraspBatch, Scorer
 from synth.scores.surface import differs
 
-__all__ = ["GROW", "SHRINK", "FIRST_STEP", "CLEARANCE", "Population", "pool_climb",
-           "surface_climb", "swap_climb", "reachable", "clear_of_edges"]
+__all__ = ["GROW", "SHRINK", "FIRST_STEP", "CLEARANCE", "Population", "SwapPool", "pool_climb",
+           "surface_climb", "swap_climb", "swap_pool", "reachable", "clear_of_edges"]
 
 #: A planned contact lies more than this many feature tolerances from every sharp edge of the
 #: part, so that it is a face contact on the file's own vertices as on the welded mesh (a
@@ -253,15 +253,15 @@ def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDA
     return C, ((-1.0) ** j) * det
 
 
-def _screen(Xs: list[NDArray[np.float64]], X32s: list[NDArray[np.float32]],
+def _screen(Xs: Sequence[NDArray[np.float64]], X32s: Sequence[NDArray[np.float32]],
             clash: NDArray[np.bool_], members: NDArray[np.int64], j: int) -> NDArray[np.float32]:
     """Screened d* (M, n) of each member with contact ``j`` swapped for each pool contact.
 
     Parameters
     ----------
-    Xs : list of (6, n) float
+    Xs : sequence of (6, n) float
         The pool's wrench columns under each reading of the normals (d* is the smaller).
-    X32s : list of (6, n) float32
+    X32s : sequence of (6, n) float32
         The same in float32.
     clash : (n, n) bool
         Pairs of pool contacts whose fingertips overlap.
@@ -301,10 +301,51 @@ def _screen(Xs: list[NDArray[np.float64]], X32s: list[NDArray[np.float32]],
     return d
 
 
+@dataclass(frozen=True, eq=False)
+class SwapPool:
+    """The pool as the swap climb screens it.
+
+    Attributes
+    ----------
+    columns : tuple of (6, n) float
+        The pool's wrench columns (moments about the scorer's centre over its length) under
+        each reading of the normals the surface model scores (one when the readings agree on
+        the whole pool, as on a polyhedral part).
+    columns32 : tuple of (6, n) float32
+        The same in float32.
+    clash : (n, n) bool
+        Pairs of pool contacts whose fingertips overlap.
+    """
+
+    columns: tuple[NDArray[np.float64], ...]
+    columns32: tuple[NDArray[np.float32], ...]
+    clash: NDArray[np.bool_]
+
+    def screen(self, members: NDArray[np.int64], j: int) -> NDArray[np.float32]:
+        """Screened d* (M, n) of each member (M, 7) with contact ``j`` swapped for each pool
+        contact (:func:`_screen`)."""
+        return _screen(self.columns, self.columns32, self.clash, members, j)
+
+
+def swap_pool(pool: GraspBatch, score: Scorer) -> SwapPool:
+    """The :class:`SwapPool` of ``pool`` (one-contact grasps) under ``score``'s readings."""
+    pp, pn, ps = pool.points[:, 0], pool.normals[:, 0], pool.smooth[:, 0]
+    sets = score.readings(pn, ps)
+    if len(sets) == 2 and not differs(pn[None], ps[None])[0]:
+        sets = sets[:1]
+    Xs = tuple(np.concatenate([n, np.cross((pp - score.center) / score.length, n)], axis=1).T
+               for n in sets)
+    tips = pp - score.r * pn
+    clash = np.zeros((len(pp), len(pp)), bool)  # fingertips of the two contacts overlap
+    pairs = cKDTree(tips).query_pairs(2 * score.r * (1 - 1e-9), output_type="ndarray")
+    clash[pairs[:, 0], pairs[:, 1]] = clash[pairs[:, 1], pairs[:, 0]] = True
+    return SwapPool(Xs, tuple(X.astype(np.float32) for X in Xs), clash)
+
+
 def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
                rng: np.random.Generator, sweeps: int, kicks: int = 0,
-               seed_scores: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-               ) -> GraspBatch:
+               seed_scores: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+               swaps: SwapPool | None = None) -> GraspBatch:
     """Climb 7-contact seeds over the pool by exact best responses (see the module notes).
 
     Each member takes one contact at a time, in a fixed cyclic order drawn at random, and
@@ -336,6 +377,8 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     seed_scores : ((s,) float, (s,) float), optional
         The seeds' d* and fitness, when the caller scored them already (the scorer gives a
         grasp the same scores in any batch, so they are not scored again; kicked starts are).
+    swaps : SwapPool, optional
+        ``swap_pool(pool, score)``, when the caller has it already.
 
     Returns
     -------
@@ -344,18 +387,8 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
     """
     pp, pn, ps = pool.points[:, 0], pool.normals[:, 0], pool.smooth[:, 0]
     n_pool, k = len(pp), seeds.shape[1]
-    # the pool's wrench columns with each reading of the normals the surface model scores
-    # (one when the readings agree on the whole pool, as on a polyhedral part)
-    sets = score.readings(pn, ps)
-    if len(sets) == 2 and not differs(pn[None], ps[None])[0]:
-        sets = sets[:1]
-    Xs = [np.concatenate([n, np.cross((pp - score.center) / score.length, n)], axis=1).T
-          for n in sets]
-    X32s = [X.astype(np.float32) for X in Xs]
-    tips = pp - score.r * pn
-    clash = np.zeros((n_pool, n_pool), bool)  # fingertips of the two contacts overlap
-    pairs = cKDTree(tips).query_pairs(2 * score.r * (1 - 1e-9), output_type="ndarray")
-    clash[pairs[:, 0], pairs[:, 1]] = clash[pairs[:, 1], pairs[:, 0]] = True
+    if swaps is None:
+        swaps = swap_pool(pool, score)
     n_seeds = len(seeds)
     # the kicked starts' rows, filled in as members converge (see _kick)
     seeds = np.concatenate([seeds, np.zeros((kicks if n_seeds else 0, k), np.int64)])
@@ -373,7 +406,7 @@ def swap_climb(pool: GraspBatch, seeds: NDArray[np.int64], score: Scorer,
         ms = seeds[rows]
         return score(pp[ms], pn[ms], ps[ms])
 
-    screen = partial(_screen, Xs, X32s, clash)
+    screen = swaps.screen
     cur_d, cur_fit = start(np.arange(len(members)))
     out_d, out_fit = np.zeros(len(seeds)), np.full(len(seeds), -2.0)  # of each seed's climb
     order = rng.permutation(k)

@@ -50,7 +50,6 @@ def test_corpus_mesh_plans_and_every_grasp_passes_the_independent_check(
     if entry["expect"] == "refused":
         assert code == 2 and err.strip().count("\n") == 0 and entry["file"] in err, err
         return
-    # "floor" (the can): plans at this seed, right at the physical floor (see corpus.json)
     if entry["expect"] == "friction":  # nearly a body of revolution (see corpus.json)
         doc = json.loads(out)
         assert code == 1 and not doc["grasps"], err

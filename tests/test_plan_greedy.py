@@ -5,7 +5,9 @@ import pytest
 
 from synth.plan.climb import SwapPool
 from synth.plan.greedy import greedy_starts
-from tests.test_plan_climb import _columns, _lp_d_star, _pool
+from tests.pool_cases import columns as _columns
+from tests.pool_cases import lp_d_star as _lp_d_star
+from tests.pool_cases import pool as _pool
 
 
 def _swaps(X, clash=None):
@@ -62,6 +64,39 @@ def test_fingertips_that_overlap_are_never_taken_together():
     for s in starts:
         assert len(set(s.tolist())) == 7
         assert not clash[np.ix_(s, s)].any()
+
+
+@pytest.mark.parametrize("n", [40, 60])
+def test_a_crowded_pool_loses_starts_only_where_they_cannot_close(n):
+    """Each fingertip overlaps its two neighbours' on a ring and every step draws among all
+    the contacts still allowed (``choice`` = n): fewer allowed contacts than ``choice`` are
+    left, and a start must not be dropped for that, only when no seventh contact closes it
+    (about as often as in the same pool without clashes; drawing among the allowed and the
+    ruled-out alike dropped about half of the rest)."""
+    p, nrm = _pool(n, 11)
+    X = _columns(p, nrm)
+    ring = np.zeros((n, n), bool)
+    i = np.arange(n)
+    ring[i, (i + 1) % n] = ring[(i + 1) % n, i] = True
+    free = greedy_starts(_swaps(X), np.random.default_rng(0), 100, choice=n)
+    crowded = greedy_starts(_swaps(X, ring), np.random.default_rng(0), 100, choice=n)
+    assert len(free) >= 20
+    assert len(crowded) >= 0.7 * len(free)
+    for s in crowded:
+        assert not ring[np.ix_(s, s)].any()
+
+
+def test_small_pools():
+    p, nrm = _pool(30, 12)
+    X = _columns(p, nrm)
+    rng = np.random.default_rng(0)
+    assert greedy_starts(_swaps(X[:, :6]), rng, 10).shape == (0, 7)  # fewer than seven
+    every = np.ones((30, 30), bool)
+    np.fill_diagonal(every, False)  # every fingertip overlaps every other: no second contact
+    assert greedy_starts(_swaps(X, every), rng, 10).shape == (0, 7)
+    many = greedy_starts(_swaps(X), rng, 100)  # more starts than contacts
+    assert len(many) > 0 and many.min() >= 0 and many.max() < 30
+    assert all(len(set(s.tolist())) == 7 for s in many)
 
 
 def test_no_start_where_no_seven_contacts_make_closure():

@@ -120,7 +120,7 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     mesh._cache.delete("synth_edge_table")  # its sort order is not kept past here
     n_e = len(edges)
     edge_faces = np.full((n_e, 2), -1, np.int64)
-    # first and last face of each edge (for a manifold edge: its two faces)
+    # first and second face of each edge (for a manifold edge: its two faces)
     counts = np.diff(np.append(starts, len(order)))
     edge_faces[:, 0] = order[starts] // 3
     two = counts >= 2
@@ -133,7 +133,9 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     angle = np.full(n_e, np.nan)
     fa, fb = edge_faces[two, 0], edge_faces[two, 1]
     # convexity: the far vertex of face b lies below the plane of face a. Half-edge 3 f + c
-    # runs from corner c to corner c + 1, so the far vertex is corner c + 2.
+    # runs from corner c to corner c + 1, so the far vertex is corner c + 2 (the loader drops
+    # faces with a repeated vertex; on such a face this is one of the edge's own vertices, a
+    # height of 0, read as concave)
     far = np.take(np.asarray(mesh.faces, np.int64).ravel(),
                   second - second % 3 + (second % 3 + 2) % 3)
     del second
@@ -141,6 +143,7 @@ def compute_features(mesh: trimesh.Trimesh, sharp_angle: float,
     v_cols = [np.ascontiguousarray(verts[:, k]) for k in range(3)]
     # the cosines and the heights a coordinate at a time, from (f,) and (v,) columns (a third
     # of the time of gathering (n, 3) rows), summed (x + z) + y as einsum sums rows of three
+    # (numpy 2.4; another order may round otherwise in the last bit)
     cos, proj = [], []
     for k in range(3):
         n_k = np.ascontiguousarray(normals[:, k])

@@ -51,7 +51,7 @@ def greedy_starts(swaps: SwapPool, rng: np.random.Generator, m: int, choice: int
     (m', 7) int
         Pool indices of the starts (m' <= m), in the order built.
     """
-    X = swaps.columns[0].T  # (n, 6): the first reading's wrenches (the mesh's normals)
+    X = swaps.columns[0].T  # (n, 6): the wrenches of the surface model's first reading
     n = len(X)
     if n < 7 or m < 1:
         return np.zeros((0, 7), np.int64)
@@ -68,6 +68,11 @@ def greedy_starts(swaps: SwapPool, rng: np.random.Generator, m: int, choice: int
             q = min(choice, n - step)
             most = np.argpartition(-np.where(allowed, left, -1.0), q - 1, axis=1)[:, :q]
             c = most[ar, rng.integers(0, q, m)]
+            # fewer than q allowed contacts left (a small or crowded pool): then they are all
+            # among the q, and the pick is drawn again among them
+            for i in np.flatnonzero(~allowed[ar, c] & allowed.any(axis=1)).tolist():
+                ok = most[i][allowed[i, most[i]]]
+                c[i] = ok[rng.integers(0, len(ok))]
             valid &= allowed[ar, c]
         chosen[:, step] = c
         allowed[ar, c] = False

@@ -125,10 +125,10 @@ KICK_SHARE = 0.5
 #: for the climb's starts by their scores. On all 47 corpus and held-out parts x seeds 0-3 (one
 #: process pinned to one CPU, another on the other), first grasp / reference: mean 0.9420 ->
 #: 0.9540, runs >= 0.99 36 -> 38 of 188, min 0.847 -> 0.868 (250 starts at the default budget;
-#: under mesh 0.9649 -> 0.9733, min 0.631 -> 0.819). Twice the share gave 0.9588 (mesh 0.9727),
-#: but cost about 0.05 s a plan, and `db build` fell to 14,780-15,200 parts an hour, at or
-#: below its target of 15,000; 512 starts with the random seeds' share cut to 0.10: 0.9589
-#: against 0.9609 (before the reference was raised).
+#: under mesh 0.9649 -> 0.9733, min 0.631 -> 0.819). Twice the share (500 starts) gave 0.9588,
+#: and 512 starts 0.9727 under mesh, but they cost about 0.05 s a plan, and ``db build`` fell
+#: to 14,780-15,200 parts an hour, at or below its target of 15,000; 512 starts with the
+#: random seeds' share cut to 0.10: 0.9589 against 0.9609 (before the reference was raised).
 GREEDY_SHARE = 0.005
 #: Best seeds on planar facets given to the region LP.
 _LP_SEEDS = 40
@@ -143,6 +143,8 @@ _KEEP = 400
 _CHOICE = 4
 #: Seeds drawn and scored at a time: bounds the memory of the seed stage whatever ``evals``.
 _SEED_CHUNK = 32_768
+#: Greedy starts built at a time, for the same reason.
+_GREEDY_CHUNK = 1024
 #: Share of ``PlanParams.time`` the search may use; the finger checks of the selection have
 #: the rest, so a plan cut by the clock still returns the grasps it found.
 _SEARCH_TIME = 0.9
@@ -522,17 +524,19 @@ def _greedy_seeds(pool: GraspBatch, swaps: SwapPool, rng: np.random.Generator, s
     """The seeds ``best`` with pool indices ``best_idx`` (m, 7) and ``n`` greedy starts
     (:func:`synth.plan.greedy.greedy_starts`), scored: the best ``_KEEP`` distinct (at
     ``scale``) of both, and their pool indices."""
-    if score.out_of_time():
-        return best, best_idx
-    idx = greedy_starts(swaps, rng, n)
-    m = len(idx)
-    b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
-                   pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
-    score.score(b)
-    merged = GraspBatch.concat([best, b])
-    merged_idx = np.concatenate([best_idx, idx])
-    top = distinct_top(merged, _KEEP, scale)
-    return merged.take(top), merged_idx[top]
+    for s in range(0, n, _GREEDY_CHUNK):  # bounded memory (about 0.1 MB a start) at any budget
+        if score.out_of_time():
+            break
+        idx = greedy_starts(swaps, rng, min(_GREEDY_CHUNK, n - s))
+        m = len(idx)
+        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
+                       pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
+        score.score(b)
+        merged = GraspBatch.concat([best, b])
+        merged_idx = np.concatenate([best_idx, idx])
+        top = distinct_top(merged, _KEEP, scale)
+        best, best_idx = merged.take(top), merged_idx[top]
+    return best, best_idx
 
 
 def _region_lp(part: Part, archive: GraspBatch, fingers: Fingers, score: Scorer

@@ -347,16 +347,16 @@ def test_a_plan_with_fewer_grasps_than_asked_says_why() -> None:
     only the causes that happened (the rest within --diversity of a kept one; with no
     diversity, no others found); a full plan's message says nothing of it."""
     part = load_part(MESHES / "bracket.stl", units="dm")
-    few = plan_part(part, PlanParams(top=3, evals=5000, seed=0, diversity=0.5))
+    few = plan_part(part, PlanParams(top=3, evals=10000, seed=0, diversity=0.5))
     assert len(few.grasps) == 1, few.message
     assert few.message.startswith("1 form-closure grasp of the 3 asked for (the other closure "
                                   "grasps found had their contacts within 50% of the part's "
                                   "size of one of these; a larger --evals may find more)")
-    alone = plan_part(part, PlanParams(top=40, evals=5000, seed=0, diversity=0.0))
+    alone = plan_part(part, PlanParams(top=40, evals=10000, seed=0, diversity=0.0))
     assert 1 < len(alone.grasps) < 40
     assert "(the search found no other closure grasps;" in alone.message
     assert "within" not in alone.message
-    full = plan_part(part, PlanParams(top=2, evals=5000, seed=0, diversity=0.0))
+    full = plan_part(part, PlanParams(top=2, evals=10000, seed=0, diversity=0.0))
     assert len(full.grasps) == 2
     assert full.message.startswith("2 form-closure grasps, best d*"), full.message
 

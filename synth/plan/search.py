@@ -508,14 +508,23 @@ def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n:
         m = min(_SEED_CHUNK, n - s)
         idx = np.argsort(rng.random((m, size)), axis=1)[:, :k] if size <= 64 else (
             _distinct_rows(rng, m, size, k))
-        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
-                       pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
-        score.score(b)
-        merged = GraspBatch.concat([best, b])
-        merged_idx = np.concatenate([best_idx, idx])
-        top = distinct_top(merged, _KEEP, scale)
-        best, best_idx = merged.take(top), merged_idx[top]
+        best, best_idx = _keep_best(pool, idx, score, best, best_idx, scale)
     return best, best_idx
+
+
+def _keep_best(pool: GraspBatch, idx: NDArray[np.int64], score: Scorer, best: GraspBatch,
+               best_idx: NDArray[np.int64], scale: float
+               ) -> tuple[GraspBatch, NDArray[np.int64]]:
+    """The pool's contact sets ``idx`` (m, k) scored, and the best ``_KEEP`` distinct (at
+    ``scale``) of them and ``best`` (with its pool indices ``best_idx``), with theirs."""
+    m = len(idx)
+    b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
+                   pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
+    score.score(b)
+    merged = GraspBatch.concat([best, b])
+    merged_idx = np.concatenate([best_idx, idx])
+    top = distinct_top(merged, _KEEP, scale)
+    return merged.take(top), merged_idx[top]
 
 
 def _greedy_seeds(pool: GraspBatch, swaps: SwapPool, rng: np.random.Generator, score: Scorer,
@@ -528,14 +537,7 @@ def _greedy_seeds(pool: GraspBatch, swaps: SwapPool, rng: np.random.Generator, s
         if score.out_of_time():
             break
         idx = greedy_starts(swaps, rng, min(_GREEDY_CHUNK, n - s))
-        m = len(idx)
-        b = GraspBatch(pool.points[idx, 0], pool.normals[idx, 0], pool.smooth[idx, 0],
-                       pool.faces[idx, 0], pool.regions[idx, 0], np.zeros(m), np.zeros(m))
-        score.score(b)
-        merged = GraspBatch.concat([best, b])
-        merged_idx = np.concatenate([best_idx, idx])
-        top = distinct_top(merged, _KEEP, scale)
-        best, best_idx = merged.take(top), merged_idx[top]
+        best, best_idx = _keep_best(pool, idx, score, best, best_idx, scale)
     return best, best_idx
 
 

@@ -82,6 +82,10 @@ _SWAP_CHECKED = 1
 #: few thousand columns); a screened gain below this is round-off.
 _SCREEN_TOL = 1e-6
 _TINY32 = np.finfo(np.float32).tiny
+#: Members the screen takes at a time: its (M, 6, n) float32 products then stay in the cache
+#: (250 greedy starts over a pool of 2,000 contacts: 9.7 ms at once, 4.5 ms 64 at a time, 4.8 ms
+#: 32 at a time, on the corpus parts' pools).
+_SCREEN_ROWS = 64
 #: Swap climb: members climbing side by side.
 _SWAP_MEMBERS = 32
 
@@ -323,8 +327,12 @@ class SwapPool:
 
     def screen(self, members: NDArray[np.int64], j: int) -> NDArray[np.float32]:
         """Screened d* (M, n) of each member (M, 7) with contact ``j`` swapped for each pool
-        contact (:func:`_screen`)."""
-        return _screen(self.columns, self.columns32, self.clash, members, j)
+        contact (:func:`_screen`), ``_SCREEN_ROWS`` members at a time."""
+        if len(members) <= _SCREEN_ROWS:
+            return _screen(self.columns, self.columns32, self.clash, members, j)
+        return np.concatenate([_screen(self.columns, self.columns32, self.clash,
+                                       members[s : s + _SCREEN_ROWS], j)
+                               for s in range(0, len(members), _SCREEN_ROWS)])
 
 
 def swap_pool(pool: GraspBatch, score: Scorer) -> SwapPool:

@@ -29,6 +29,9 @@ __all__ = ["CHOICE", "greedy_starts"]
 
 #: Pool contacts a step picks among at random, those whose wrench has the most length left.
 CHOICE = 64
+#: Starts whose (n,) rows of lengths left are updated and ranked at a time, so that they stay in
+#: the cache (250 starts over 2,000 contacts: 5.2 ms a step at once, 1.9 ms 64 at a time).
+_ROWS = 64
 
 
 def greedy_starts(swaps: SwapPool, rng: np.random.Generator, m: int, choice: int = CHOICE
@@ -61,13 +64,18 @@ def greedy_starts(swaps: SwapPool, rng: np.random.Generator, m: int, choice: int
     allowed = np.ones((m, n), bool)
     valid = np.ones(m, bool)
     chosen = np.zeros((m, 7), np.int64)
+    blocks = [slice(s, s + _ROWS) for s in range(0, m, _ROWS)]
     for step in range(6):
         if step == 0:
             c = rng.choice(n, m, replace=m > n)
         else:
             q = min(choice, n - step)
-            most = np.argpartition(-np.where(allowed, left, -1.0), q - 1, axis=1)[:, :q]
-            c = most[ar, rng.integers(0, q, m)]
+            pick = rng.integers(0, q, m)
+            most = np.empty((m, q), np.int64)
+            for b in blocks:
+                most[b] = np.argpartition(-np.where(allowed[b], left[b], -1.0), q - 1,
+                                          axis=1)[:, :q]
+            c = most[ar, pick]
             # fewer than q allowed contacts left (a small or crowded pool): then they are all
             # among the q, and the pick is drawn again among them
             for i in np.flatnonzero(~allowed[ar, c] & allowed.any(axis=1)).tolist():
@@ -76,14 +84,15 @@ def greedy_starts(swaps: SwapPool, rng: np.random.Generator, m: int, choice: int
             valid &= allowed[ar, c]
         chosen[:, step] = c
         allowed[ar, c] = False
-        allowed &= ~swaps.clash[c]
         x = X[c]
         if step:
             x = x - np.einsum("mj,mjk->mk", np.einsum("mjk,mk->mj", basis[:, :step], x),
                               basis[:, :step])
         u = x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300)
         basis[:, step] = u
-        left -= (u @ X.T) ** 2
+        for b in blocks:
+            allowed[b] &= ~swaps.clash[c[b]]
+            left[b] -= (u[b] @ X.T) ** 2
     chosen[:, 6] = chosen[:, 0]  # a placeholder: the screen replaces column 6
     d = swaps.screen(chosen, 6)
     best = np.argmax(d, axis=1)

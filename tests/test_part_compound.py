@@ -70,6 +70,22 @@ def test_overlapping_closed_bodies_are_united(tmp_path: Path) -> None:
     assert len(part.features.edges_of_kind("concave")) >= 2
 
 
+def test_a_void_that_overlapping_bodies_enclose_is_filled(tmp_path: Path) -> None:
+    # six walls of a box, each overlapping its neighbours: their union is a shell around a
+    # void, which manifold3d gives as a piece of its own, of negative volume; as a body of
+    # its own it was turned outward into a solid the shape of the void
+    t = 0.1
+    walls = {f"w{i}": _box(np.where(np.arange(3) == i % 3, t, 1.0),
+                           np.where(np.arange(3) == i % 3, (0.5 - t / 2) * (1 - 2 * (i // 3)),
+                                    0.0)) for i in range(6)}
+    part = load_part(_obj(tmp_path / "hollow.obj", walls))
+    assert len(part.bodies) == 1 and part.bodies[0].closed and part.bodies[0].convex
+    assert part.volume == pytest.approx(1.0)  # the void filled: a unit cube
+    assert any("filled 1 void it enclosed (volume 0.512)" in r for r in part.repairs)
+    raw = trimesh.load(tmp_path / "hollow.obj", force="mesh")
+    assert np.allclose(part.mesh.bounds, raw.bounds)
+
+
 def test_objects_far_apart_plan_one_and_say_which(tmp_path: Path, capsys) -> None:
     path = _obj(tmp_path / "two.obj", {"big": _box((1, 1, 1), (0, 0, 0)),
                                        "small": _box((0.2, 0.2, 0.2), (10, 0, 0))})

@@ -60,6 +60,22 @@ def test_a_non_convex_body_is_its_facets_near_the_hand(mesh, units):
     assert 0 < len(few) < len(everything)
 
 
+def test_no_slab_of_a_thin_curved_wall_stands_out_of_its_far_side(tmp_path):
+    # a ring 2% thick: convex patches of its outside grown round the bend (up to 60 degrees
+    # of arc) had hulls whose chord passed through the inside wall, where a finger pressing
+    # the inside met them (on the puck goal's nets, by 40% of a fingertip's radius)
+    ring = trimesh.creation.annulus(r_min=0.98, r_max=1.0, height=0.5, sections=64)
+    path = tmp_path / "ring.stl"
+    ring.export(path)
+    part = load_part(path, units="m")
+    s = part_shape(part)
+    assert s.faceted == 1 and len(s.triangles) == len(part.mesh.faces)
+    everything, _ = s.near(lambda tri: np.ones(len(tri), bool))
+    assert len(everything) < len(part.mesh.faces)  # still patches, where they stay inside
+    mids = np.concatenate([trimesh.convex.convex_hull(v).triangles_center for v in everything])
+    assert trimesh.proximity.signed_distance(part.mesh, mids).min() >= -1e-6 * part.length
+
+
 @pytest.mark.parametrize("split", ["normal", "uv"])
 def test_split_vertex_obj_files_give_the_welded_part_s_shape(tmp_path, split):
     # a cube written with its vertices split per face (by normal) or along a texture seam:

@@ -53,6 +53,10 @@ FLAT_RTOL: float = 1e-6
 _PATCH_FACETS = 64
 #: Least cosine between the normals of two facets of one patch (60 degrees apart at most).
 _PATCH_SPREAD = 0.5
+#: How deep a patch's slab may reach behind a facet's plane, in that facet's depths (a slab's
+#: depth is at most ``WALL_SHARE`` of the wall behind its facet, so twice it stays inside a
+#: wall of even thickness).
+_PATCH_REACH = 2.0
 
 
 @dataclass(frozen=True)
@@ -127,7 +131,7 @@ class PartShape:
             tri, corners, body, n = tri[ok], corners[ok], body[ok], n[ok] / norm[ok, None]
             depth = self._depths(tri, n, body)
             tol = 1e-9 * float(np.abs(tri).max(initial=1.0)) + 1e-6 * self.slab
-            for group in _convex_patches(tri, corners, n, tol):
+            for group in _convex_patches(tri, corners, n, depth, tol):
                 v = tri[group].reshape(-1, 3)
                 inward = v - (depth[group, None] * n[group]).repeat(3, axis=0)
                 out.append(np.concatenate([v, inward]))
@@ -163,15 +167,21 @@ class PartShape:
 
 
 def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
-                    n: NDArray[np.float64], tol: float) -> list[list[int]]:
+                    n: NDArray[np.float64], depth: NDArray[np.float64], tol: float
+                    ) -> list[list[int]]:
     """Facets grouped into convex patches: each group is connected through shared edges,
     every corner of the group lies on or behind the plane of every facet of it (``n`` points
     out of the part), the facets' normals are within ``_PATCH_SPREAD`` of each other (so
     each corner's inward offset along any of them is behind every plane too), and the facets
     cover the hull of their corners seen along their mean normal: the hull of the group and
-    its inward offset is bounded on the outside by exactly those facets. Fewer,
-    larger slabs, the same surface. Greedy, grown from each facet in turn over its
-    neighbours, at most ``_PATCH_FACETS`` facets a patch."""
+    its inward offset (each facet's corners moved ``depth`` along its normal) is bounded on
+    the outside by exactly those facets. Inside, the hull reaches at most ``_PATCH_REACH``
+    times a facet's depth behind that facet's plane: a patch that bends reaches deeper than
+    its slabs by its sagitta, and on a thin curved wall (a mug's side, a bent sheet) a hull
+    grown round the bend came out of the wall's far side, where a finger pressing that side
+    met it (on the puck goal, by 40% of the tip's radius). Fewer, larger slabs, the same
+    surface. Greedy, grown from each facet in turn over its neighbours, at most
+    ``_PATCH_FACETS`` facets a patch."""
     t = len(tri)
     edges: dict[tuple[int, int], list[int]] = {}
     for i, (a, b, c) in enumerate(corners.tolist()):
@@ -186,19 +196,21 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
     for seed in range(t):
         if owner[seed] >= 0:
             continue
-        group, points = [seed], tri[seed]
+        group, points = [seed], np.concatenate([tri[seed], tri[seed] - depth[seed] * n[seed]])
         owner[seed] = len(groups)
         frontier = list(neighbours[seed])
         while frontier and len(group) < _PATCH_FACETS:
             j = frontier.pop()
             if owner[j] >= 0 or (n[group] @ n[j]).min() < _PATCH_SPREAD:
                 continue
-            both = np.concatenate([points, tri[j]])
+            both = np.concatenate([points, tri[j], tri[j] - depth[j] * n[j]])
             planes = group + [j]
-            # every corner behind every facet's plane: n . (v - p) <= tol
+            # every corner and inward corner behind every facet's plane, n . (v - p) <= tol,
+            # and none deeper than _PATCH_REACH times that facet's depth
             side = np.einsum("fk,vk->fv", n[planes], both) - np.einsum(
                 "fk,fk->f", n[planes], tri[planes, 0])[:, None]
-            if side.max() > tol or not _covers_hull(tri[planes], n[planes]):
+            if side.max() > tol or (side.min(axis=1) < -_PATCH_REACH * depth[planes] - tol
+                                    ).any() or not _covers_hull(tri[planes], n[planes]):
                 continue
             group.append(j)
             points = both

@@ -73,14 +73,15 @@ def test_overlapping_closed_bodies_are_united(tmp_path: Path) -> None:
 def test_a_void_that_overlapping_bodies_enclose_is_filled(tmp_path: Path) -> None:
     # six walls of a box, each overlapping its neighbours: their union is a shell around a
     # void, which manifold3d gives as a piece of its own, of negative volume; as a body of
-    # its own it was turned outward into a solid the shape of the void
+    # its own it was an open sheet (two bodies, the second not closed)
     t = 0.1
     walls = {f"w{i}": _box(np.where(np.arange(3) == i % 3, t, 1.0),
                            np.where(np.arange(3) == i % 3, (0.5 - t / 2) * (1 - 2 * (i // 3)),
                                     0.0)) for i in range(6)}
     part = load_part(_obj(tmp_path / "hollow.obj", walls))
     assert len(part.bodies) == 1 and part.bodies[0].closed and part.bodies[0].convex
-    assert part.volume == pytest.approx(1.0)  # the void filled: a unit cube
+    # a unit cube (as before: the outer wall counted the void as material already)
+    assert part.volume == pytest.approx(1.0)
     assert any("filled 1 void it enclosed (volume 0.512)" in r for r in part.repairs)
     raw = trimesh.load(tmp_path / "hollow.obj", force="mesh")
     assert np.allclose(part.mesh.bounds, raw.bounds)

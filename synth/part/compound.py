@@ -238,7 +238,9 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
         # filled: no finger reaches it, and the enclosing body's outer wall counted its
         # volume as material already.
         signed = [float(trimesh.Trimesh(v, f, process=False).volume) for v, f, _ in pieces]
-        voids = [k for k, vol in enumerate(signed) if vol < 0]
+        voids = [k for k, s in enumerate(signed) if s < 0]
+        if len(voids) == len(pieces):  # no solid left: the signs say nothing, keep them all
+            voids = []
         pieces = [p for k, p in enumerate(pieces) if k not in voids]
         for k, (v, f, src) in enumerate(pieces):
             united = trimesh.Trimesh(v + centre, f, process=False)

@@ -179,9 +179,11 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
     times a facet's depth behind that facet's plane: a patch that bends reaches deeper than
     its slabs by its sagitta, and on a thin curved wall (a mug's side, a bent sheet) a hull
     grown round the bend came out of the wall's far side, where a finger pressing that side
-    met it (on the puck goal, by 40% of the tip's radius). Fewer, larger slabs, the same
-    surface. Greedy, grown from each facet in turn over its neighbours, at most
-    ``_PATCH_FACETS`` facets a patch."""
+    met it (on the puck goal, by 40% of the tip's radius). The same bound keeps apart flat
+    facets whose walls (so depths) differ by more than twice, as over a pocket: their common
+    hull would reach through the thinner wall. Fewer, larger slabs, the same surface.
+    Greedy, grown from each facet in turn over its neighbours, at most ``_PATCH_FACETS``
+    facets a patch."""
     t = len(tri)
     edges: dict[tuple[int, int], list[int]] = {}
     for i, (a, b, c) in enumerate(corners.tolist()):

@@ -25,6 +25,7 @@ import trimesh
 
 from synth.isolate import NativeCrash, call_isolated
 from synth.native import bvh_model
+from synth.part.bodies import solid_moments
 from synth.part.closest import BoxTree
 from synth.part.repair import face_keys, fix_degenerate, tilted_normals
 
@@ -237,7 +238,7 @@ def unite_overlapping(meshes: list[trimesh.Trimesh], names: list[str], closed: l
         # slabs in simulation stood out of the surface and met the fingers. The void is
         # filled: no finger reaches it, and the enclosing body's outer wall counted its
         # volume as material already.
-        signed = [float(trimesh.Trimesh(v, f, process=False).volume) for v, f, _ in pieces]
+        signed = [solid_moments(v[f])[0] for v, f, _ in pieces]
         voids = [k for k, s in enumerate(signed) if s < 0]
         if len(voids) == len(pieces):  # no solid left: the signs say nothing, keep them all
             voids = []

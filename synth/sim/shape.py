@@ -130,11 +130,11 @@ class PartShape:
             ok = norm > 0
             tri, corners, body, n = tri[ok], corners[ok], body[ok], n[ok] / norm[ok, None]
             depth = self._depths(tri, n, body)
+            inner = tri - depth[:, None, None] * n[:, None, :]  # the slabs' inner corners
             tol = 1e-9 * float(np.abs(tri).max(initial=1.0)) + 1e-6 * self.slab
-            for group in _convex_patches(tri, corners, n, depth, tol):
-                v = tri[group].reshape(-1, 3)
-                inward = v - (depth[group, None] * n[group]).repeat(3, axis=0)
-                out.append(np.concatenate([v, inward]))
+            for group in _convex_patches(tri, corners, n, inner, depth, tol):
+                out.append(np.concatenate([tri[group].reshape(-1, 3),
+                                           inner[group].reshape(-1, 3)]))
                 depths.append(float(depth[group].min()))
         if not out:
             raise SimulationError("no piece of the part is near the hand")
@@ -167,23 +167,23 @@ class PartShape:
 
 
 def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
-                    n: NDArray[np.float64], depth: NDArray[np.float64], tol: float
-                    ) -> list[list[int]]:
+                    n: NDArray[np.float64], inner: NDArray[np.float64],
+                    depth: NDArray[np.float64], tol: float) -> list[list[int]]:
     """Facets grouped into convex patches: each group is connected through shared edges,
     every corner of the group lies on or behind the plane of every facet of it (``n`` points
     out of the part), the facets' normals are within ``_PATCH_SPREAD`` of each other (so
     each corner's inward offset along any of them is behind every plane too), and the facets
     cover the hull of their corners seen along their mean normal: the hull of the group and
-    its inward offset (each facet's corners moved ``depth`` along its normal) is bounded on
-    the outside by exactly those facets. Inside, the hull reaches at most ``_PATCH_REACH``
-    times a facet's depth behind that facet's plane: a patch that bends reaches deeper than
-    its slabs by its sagitta, and on a thin curved wall (a mug's side, a bent sheet) a hull
-    grown round the bend came out of the wall's far side, where a finger pressing that side
-    met it (on the puck goal, by 40% of the tip's radius). The same bound keeps apart flat
-    facets whose walls (so depths) differ by more than twice, as over a pocket: their common
-    hull would reach through the thinner wall. Fewer, larger slabs, the same surface.
-    Greedy, grown from each facet in turn over its neighbours, at most ``_PATCH_FACETS``
-    facets a patch."""
+    its inner corners ``inner`` (t, 3, 3) (each facet's corners moved ``depth`` along its
+    normal) is bounded on the outside by exactly those facets. Inside, the hull reaches at
+    most ``_PATCH_REACH`` times a facet's depth behind that facet's plane: a patch that
+    bends reaches deeper than its slabs by its sagitta, and on a thin curved wall (a mug's
+    side, a bent sheet) a hull grown round the bend came out of the wall's far side, where a
+    finger pressing that side met it (on the puck goal, by 40% of the tip's radius). The
+    same bound keeps apart flat facets whose walls (so depths) differ by more than twice, as
+    over a pocket: their common hull would reach through the thinner wall. Fewer, larger
+    slabs, the same surface. Greedy, grown from each facet in turn over its neighbours, at
+    most ``_PATCH_FACETS`` facets a patch."""
     t = len(tri)
     edges: dict[tuple[int, int], list[int]] = {}
     for i, (a, b, c) in enumerate(corners.tolist()):
@@ -198,14 +198,14 @@ def _convex_patches(tri: NDArray[np.float64], corners: NDArray[np.int64],
     for seed in range(t):
         if owner[seed] >= 0:
             continue
-        group, points = [seed], np.concatenate([tri[seed], tri[seed] - depth[seed] * n[seed]])
+        group, points = [seed], np.concatenate([tri[seed], inner[seed]])
         owner[seed] = len(groups)
         frontier = list(neighbours[seed])
         while frontier and len(group) < _PATCH_FACETS:
             j = frontier.pop()
             if owner[j] >= 0 or (n[group] @ n[j]).min() < _PATCH_SPREAD:
                 continue
-            both = np.concatenate([points, tri[j], tri[j] - depth[j] * n[j]])
+            both = np.concatenate([points, tri[j], inner[j]])
             planes = group + [j]
             # every corner and inward corner behind every facet's plane, n . (v - p) <= tol,
             # and none deeper than _PATCH_REACH times that facet's depth

@@ -98,8 +98,17 @@ def main() -> None:
                     help="rounds of the three steps, interleaved; each column is the median "
                          "(trimesh's own time varies up to 2x from run to run here)")
     args = ap.parse_args()
-    folder = Path(args.keep or tempfile.mkdtemp(prefix="synth-scale-"))
-    folder.mkdir(parents=True, exist_ok=True)
+    if args.keep:
+        folder = Path(args.keep)
+        folder.mkdir(parents=True, exist_ok=True)
+        _table(args, folder)
+    else:
+        with tempfile.TemporaryDirectory(prefix="synth-scale-") as tmp:
+            _table(args, Path(tmp))
+
+
+def _table(args: argparse.Namespace, folder: Path) -> None:
+    """Write the blobs into `folder` (unless already there) and print one row per size."""
     print("CPU seconds (time.process_time) and peak RSS of one fresh process per step")
     print(f"{'faces':>9} {'trimesh s':>9} {'sys':>5} {'MB':>6} {'load s':>7} {'MB':>6} "
           f"{'plan s':>7} {'sys':>5} {'search s':>8} {'MB':>6} {'evals':>6} {'d*':>6} "

@@ -458,14 +458,16 @@ def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None
         assert clear.min() >= fingers.tip_radius - fingers.penetration_tol
 
 
-@pytest.mark.parametrize("traced", [False, True])
+@pytest.mark.parametrize("mode", ["certified", "traced", "traced without exits"])
 @pytest.mark.parametrize("shape", ["ibeam", "blob"])
-def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypatch):
+def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch):
     """The near part of an approach sweep is certified with exact distances and only the rest
-    goes to FCL; on a large mesh the whole sweep is traced with them and FCL is left the
-    grazing cases. Every verdict, reason and approach must equal FCL's on the whole sweep (a
-    checker that certifies nothing), on a part with overhangs and blocked approaches and on
-    a finely tessellated one, tips on and off the surface."""
+    goes to FCL; on a large mesh every sweep is traced with them (the first direction, the
+    others when it is blocked, then the body) and FCL is left the grazing cases. Every
+    verdict, reason and approach must equal FCL's on the whole sweep (a checker that
+    certifies nothing), on a part with overhangs and blocked approaches and on a finely
+    tessellated one, tips on and off the surface; with the traces' exits through the
+    bounding planes and without them."""
     if shape == "ibeam":
         mesh = ibeam.subdivide().subdivide()
     else:
@@ -479,8 +481,11 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     fingers = Fingers(tip_radius=0.08, body_radius=0.05, body_length=0.6, approach_cone=0.4)
     fcl_only = _full_fcl(mesh).check(P, N, fingers)
     decided = []
+    traced = mode != "certified"
     if traced:  # as on a mesh of _TRACE_FACES or more
         monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
+        if mode == "traced without exits":
+            monkeypatch.setattr(collide_mod, "_bounding_planes", lambda v: np.zeros((0, 4)))
         trace = FingerChecker._trace
         monkeypatch.setattr(FingerChecker, "_trace", lambda self, *a: decided.append(
             trace(self, *a)) or decided[-1])
@@ -500,9 +505,18 @@ def test_exact_distance_sweeps_change_no_verdict(shape, traced, ibeam, monkeypat
     certified = checker.check(P, N, fingers)
     verdicts = np.concatenate([v.ravel() for v in decided])
     if traced:  # the traces decided sweeps both ways, and took the bound's steps far out
-        assert (verdicts == 1).any() and ((verdicts == -1).any() or shape == "blob")
-        # (the I-beam's faces are too large for the bound to take a step; the blob's are not)
-        assert np.concatenate(bounded).mean() > 0.1 or shape == "ibeam"
+        assert (verdicts == 1).any() and (verdicts == -1).any()
+        assert len(decided) >= 2 + (shape == "ibeam")  # other directions; the I-beam's bodies
+        # FCL's BVH is built only for a trace left undecided
+        assert (checker._fcl is None) == (verdicts != 0).all()
+        # (the I-beam's faces are too large for the bound to take a step; the blob's are
+        # not, but the planes end its traces before the bound would take one)
+        points = np.concatenate(bounded)
+        if mode == "traced without exits":
+            assert points.mean() > 0.1 or shape == "ibeam"
+            assert len(points) > {"ibeam": 15_000, "blob": 7_000}[shape]  # 15,797 and 7,544
+        else:  # the planes end the sweeps near the part: fewer steps, with the same verdicts
+            assert len(points) < {"ibeam": 13_500, "blob": 5_500}[shape]  # 12,847 and 5,114
     else:  # every certificate decided some sweeps: the hull's planes (the I-beam's hull has
         # 6; the blob's, thousands, which are not used), a sunk tip, the balls
         kinds = {collide_mod._SINKS, collide_mod._NEAR}
@@ -661,3 +675,19 @@ def test_hull_planes_only_for_hulls_of_few_planes():
         got, ref = FingerChecker(mesh).check(P, N, fingers), _full_fcl(mesh).check(P, N, fingers)
         assert np.array_equal(got.status, ref.status)
         assert np.array_equal(got.approach, ref.approach, equal_nan=True)
+
+
+def test_bounding_planes_support_the_vertices():
+    """Each of the traces' bounding planes has every vertex on its inner side and touches
+    one (the maximum along its normal, by brute force, to round-off: far below the traces'
+    slack of 1e-9 of the part's size and distance from the origin), off the origin and at
+    any size."""
+    rng = np.random.default_rng(5)
+    for scale, offset in ((1e-3, 0.0), (1.0, 0.0), (1e3, 1e4)):
+        v = rng.normal(size=(200_000, 3)) * scale + offset  # more than one chunk of rows
+        planes = collide_mod._bounding_planes(v)
+        n, h = planes[:, :3], planes[:, 3]
+        assert planes.shape == (42, 4)
+        assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
+        brute = np.array([max(v[:, 0] * u[0] + v[:, 1] * u[1] + v[:, 2] * u[2]) for u in n])
+        assert np.abs(h - brute).max() <= 1e-14 * (scale + offset) * 10

@@ -102,6 +102,39 @@ def test_objects_far_apart_plan_one_and_say_which(tmp_path: Path, capsys) -> Non
     assert code == 0 and err.count("dropped object") == 1 and "small" in err
 
 
+def test_bodies_are_grouped_as_by_their_exact_gap(monkeypatch) -> None:
+    """The vertex shortcut of the grouping (two bodies with vertices within the gap are one
+    object) groups as FCL's exact gap alone does: boxes whose corners are within the gap,
+    boxes with a gap smaller than the threshold but no vertices that close (face to face,
+    corners offset), boxes apart; and the corpus's compounds."""
+    from synth.part import compound
+
+    thr_rtol = 0.05
+    cases = {  # diagonal of all bodies about 2.3-3.5: threshold about 0.12-0.17
+        "corners close": [_box((1, 1, 1), (0, 0, 0)), _box((1, 1, 1), (1.05, 0, 0))],
+        "faces close, corners not": [_box((1, 1, 1), (0, 0, 0)),
+                                     _box((0.3, 0.3, 1), (0.65, 0, 0.0))],
+        "apart": [_box((1, 1, 1), (0, 0, 0)), _box((1, 1, 1), (1.5, 0, 0))],
+    }
+    for name in ("pybullet_teddy_vhacd.obj", "pybullet_random_blob086_100hulls.obj",
+                 "pybullet_mug.obj"):
+        scene = trimesh.load(CORPUS / name, group_material=False, split_object=True)
+        meshes = [g for g in scene.geometry.values()] if hasattr(scene, "geometry") else \
+            scene.split(only_watertight=False)
+        cases[name] = list(meshes)
+    shortcut = compound._close_corners
+    used = []
+    for name, meshes in cases.items():
+        closed = [m.is_watertight for m in meshes]
+        monkeypatch.setattr(compound, "_close_corners", lambda *a: used.append(shortcut(*a))
+                            or used[-1])
+        fast = compound.group_bodies(meshes, closed, thr_rtol)
+        monkeypatch.setattr(compound, "_close_corners", lambda *a: False)
+        exact = compound.group_bodies(meshes, closed, thr_rtol)
+        assert fast == exact, name
+    assert any(used) and not all(used)  # it decided some pairs, and left some to FCL
+
+
 def test_open_piece_is_kept_as_a_surface_fingers_collide_with(tmp_path: Path) -> None:
     sheet = trimesh.Trimesh([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]],
                             [[0, 1, 2], [0, 2, 3]])

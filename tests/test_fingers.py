@@ -458,7 +458,8 @@ def test_rank_seats_jittered_candidates_on_the_facets_of_a_curved_part() -> None
         assert clear.min() >= fingers.tip_radius - fingers.penetration_tol
 
 
-@pytest.mark.parametrize("mode", ["certified", "traced", "traced without exits"])
+@pytest.mark.parametrize("mode", ["certified", "traced", "traced without exits",
+                                  "traced in 2 steps"])
 @pytest.mark.parametrize("shape", ["ibeam", "blob"])
 def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch):
     """The near part of an approach sweep is certified with exact distances and only the rest
@@ -467,7 +468,8 @@ def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch
     verdict, reason and approach must equal FCL's on the whole sweep (a checker that
     certifies nothing), on a part with overhangs and blocked approaches and on a finely
     tessellated one, tips on and off the surface; with the traces' exits through the
-    bounding planes and without them."""
+    bounding planes and without them; and with traces cut at 2 steps, which leaves some
+    sweeps to FCL trees of the faces near each (never the whole part's)."""
     if shape == "ibeam":
         mesh = ibeam.subdivide().subdivide()
     else:
@@ -486,6 +488,9 @@ def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch
         monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
         if mode == "traced without exits":
             monkeypatch.setattr(collide_mod, "_bounding_planes", lambda v: np.zeros((0, 4)))
+        if mode == "traced in 2 steps":
+            monkeypatch.setattr(collide_mod, "_TRACE_STEPS", 2)
+            monkeypatch.setattr(collide_mod, "_LOCAL_TREES", 10**9)
         trace = FingerChecker._trace
         monkeypatch.setattr(FingerChecker, "_trace", lambda self, *a: decided.append(
             trace(self, *a)) or decided[-1])
@@ -504,7 +509,10 @@ def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch
     checker = FingerChecker(mesh)
     certified = checker.check(P, N, fingers)
     verdicts = np.concatenate([v.ravel() for v in decided])
-    if traced:  # the traces decided sweeps both ways, and took the bound's steps far out
+    if mode == "traced in 2 steps":  # FCL decided most, on trees of the faces near each
+        assert (verdicts == 0).sum() > 200 and checker._local_trees > 200  # 237-261, 210-632
+        assert checker._fcl is None
+    elif traced:  # the traces decided sweeps both ways, and took the bound's steps far out
         assert (verdicts == 1).any() and (verdicts == -1).any()
         assert len(decided) >= 2 + (shape == "ibeam")  # other directions; the I-beam's bodies
         # FCL's BVH is built only for a trace left undecided

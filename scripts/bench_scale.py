@@ -11,9 +11,10 @@ file, in separate fresh processes, so that each peak memory is that step's alone
 
 Columns: CPU seconds of the process's work (``time.process_time``, so other load on the
 machine does not count; imports excluded) and the system's share of them (``sys``), its peak
-resident memory (``ru_maxrss``, imports included), the plan's evaluations and first d*, and
-the ratios to trimesh's time and memory (the targets at 1.3M faces: load and plan within 2x
-the time and 1.5x the peak memory); ``x user`` is the ratio without the system's share.
+resident memory (``VmHWM`` of ``/proc/self/status``, imports included), the plan's
+evaluations and first d*, and the ratios to trimesh's time and memory (the targets at 1.3M
+faces: load and plan within 2x the time and 1.5x the peak memory); ``x user`` is the ratio
+without the system's share.
 
 The system's share is mostly the kernel clearing fresh pages: numpy asks for transparent huge
 pages for arrays of 4 MB and more, and on a machine whose kernel then compacts memory on the
@@ -24,7 +25,13 @@ the project's VM); ``x user`` does not.
 With ``--repeat N`` the three steps run N times in turn and each column is the median; the
 ratio is of the medians, and the ratios of the single rounds are printed below it.
 
+``--subdivide FILE ...`` adds rows for other meshes (as sizes 5-8 they are written as binary
+STL), each split by trimesh's ``subdivide`` until it has at least ``--faces`` faces (default
+700,000): say the corpus's bunny (closed, with ears that block approaches) and its mug (a
+closed cup and an open handle: two bodies, a cavity).
+
     python scripts/bench_scale.py [--sizes 5 6 7 8] [--keep DIR] [--repeat N]
+        [--subdivide FILE ...] [--faces N]
 """
 
 from __future__ import annotations
@@ -69,7 +76,13 @@ out["cpu"] = time.process_time() - c0
 r1 = resource.getrusage(resource.RUSAGE_SELF)
 out["sys"] = r1.ru_stime - r0.ru_stime
 out["user"] = out["cpu"] - out["sys"]
-out["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+# the process's own peak: Linux keeps ru_maxrss across fork and exec, so it would start at
+# the parent's (which may have built a 1.3M-face blob); /proc's VmHWM starts afresh
+try:
+    with open("/proc/self/status") as f:
+        out["rss"] = next(int(x.split()[1]) for x in f if x.startswith("VmHWM")) * 1024
+except (OSError, StopIteration):
+    out["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps(out))
 """
 
@@ -97,6 +110,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1,
                     help="rounds of the three steps, interleaved; each column is the median "
                          "(trimesh's own time varies up to 2x from run to run here)")
+    ap.add_argument("--subdivide", nargs="*", default=[], metavar="FILE",
+                    help="other meshes, subdivided to at least --faces faces")
+    ap.add_argument("--faces", type=int, default=700_000,
+                    help="faces the --subdivide meshes reach at least (default 700,000)")
     args = ap.parse_args()
     if args.keep:
         folder = Path(args.keep)
@@ -108,15 +125,29 @@ def main() -> None:
 
 
 def _table(args: argparse.Namespace, folder: Path) -> None:
-    """Write the blobs into `folder` (unless already there) and print one row per size."""
+    """Write the meshes into `folder` (unless already there) and print one row for each (a
+    subdivided mesh's row under its name)."""
     print("CPU seconds (time.process_time) and peak RSS of one fresh process per step")
     print(f"{'faces':>9} {'trimesh s':>9} {'sys':>5} {'MB':>6} {'load s':>7} {'MB':>6} "
           f"{'plan s':>7} {'sys':>5} {'search s':>8} {'MB':>6} {'evals':>6} {'d*':>6} "
           f"{'x time':>6} {'x user':>6} {'x mem':>6}")
+    paths = []
     for s in args.sizes:
         path = folder / f"blob{s}.stl"
         if not path.exists():
             blob(s).export(path)
+        paths.append((None, path))
+    for name in args.subdivide:
+        path = folder / f"{Path(name).stem}_fine.stl"
+        if not path.exists():
+            mesh = trimesh.load(name, force="mesh")
+            while len(mesh.faces) < args.faces:
+                mesh = mesh.subdivide()
+            mesh.export(path)
+        paths.append((Path(name).name, path))
+    for label, path in paths:
+        if label:
+            print(f"{label}, subdivided:", flush=True)
         rounds = [(_run(path, "trimesh"), _run(path, "load"), _run(path, "plan"))
                   for _ in range(args.repeat)]
         t, ld, pl = (_median([r[i] for r in rounds]) for i in range(3))

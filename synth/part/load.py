@@ -33,6 +33,7 @@ from synth.errors import InputError, MeshError
 from synth.filetype import MESH, MESH_FORMATS, require
 from synth.isolate import NativeCrash
 from synth.limits import MAX_COORDINATE, MAX_FACES
+from synth.memory import reusing_memory
 from synth.part import tolerances as tol
 from synth.part.bodies import body_labels, is_convex, mesh_moments
 from synth.part.compound import group_bodies, unite_overlapping
@@ -409,6 +410,7 @@ def _valid_unit(unit: object) -> str | None:
     return unit
 
 
+@reusing_memory
 def load_part(
     source: str | os.PathLike[str] | trimesh.Trimesh,
     units: str | None = None,

@@ -44,6 +44,7 @@ from threadpoolctl import threadpool_limits
 from synth.contacts import Contacts, sample_contacts
 from synth.errors import InputError, InternalError
 from synth.fingers import Fingers, check_fingers, default_fingers, tip_sinks
+from synth.memory import reusing_memory
 from synth.part import Part
 from synth.plan.batch import GraspBatch, Scorer, distinct_top
 from synth.plan.climb import (
@@ -150,6 +151,7 @@ _GREEDY_CHUNK = 1024
 _SEARCH_TIME = 0.9
 
 
+@reusing_memory
 def plan_part(part: Part, params: PlanParams | None = None,
               progress: Progress | None = None) -> Plan:
     """Search a part for the best collision-free grasps ranked by d*.

@@ -151,6 +151,46 @@ def test_open_piece_is_kept_as_a_surface_fingers_collide_with(tmp_path: Path) ->
     assert not under.mask[0] and beside.mask[0]
 
 
+def test_exposure_of_fine_bodies_by_trees_and_balls(tmp_path: Path, monkeypatch) -> None:
+    """A sphere of 5,120 faces (convex, tested by its tree rather than 5,120 planes) that a
+    fine open strip crosses: the strip's points inside the sphere are hidden, as trimesh's
+    own inside test says; and the faces decided at once by a ball round their samples get
+    the exposure that their samples one by one give."""
+    from synth.part import bodies as bodies_mod
+
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    x = np.linspace(-1.2, 1.2, 17)  # a strip of 16 squares through the sphere
+    strip = trimesh.Trimesh(
+        np.column_stack([np.repeat(x, 2), np.tile([-0.075, 0.075], 17), np.full(34, 0.1)]),
+        [f for i in range(16) for f in ([2 * i, 2 * i + 2, 2 * i + 3], [2 * i, 2 * i + 3,
+                                                                      2 * i + 1])])
+    for _ in range(5):
+        strip = strip.subdivide()  # 32,768 faces, smaller than the exposure step
+    path = _obj(tmp_path / "crossed.obj", {"ball": sphere, "strip": strip})
+    part = load_part(path)
+    assert len(part.bodies) == 2 and len(sphere.faces) > bodies_mod._PLANES_MAX
+    pieces = Pieces(path)
+    rng = np.random.default_rng(2)
+    pts, faces = trimesh.sample.sample_surface(part.mesh, 3000, seed=rng)
+    inward = -part.mesh.face_normals[faces]
+    mine = part.exposed(pts, inward)
+    depth = pieces.inside_depth(pts - 2e-3 * part.length * inward)
+    sure = np.abs(depth) > 1e-3 * part.length
+    assert sure.mean() > 0.9 and (~mine[sure]).sum() > 40  # 61 of 3,000: the strip is small
+    assert np.array_equal(mine[sure], depth[sure] < 0)
+    # the same exposure with no face decided by its ball
+    decided = []
+    clear = bodies_mod.Solids.clear
+    monkeypatch.setattr(bodies_mod.Solids, "clear", lambda self, *a: decided.append(
+        clear(self, *a)) or decided[-1])
+    load_part(path)
+    assert np.concatenate(decided).sum() > 5_000  # 5,586 of the strip's faces, outside it
+    monkeypatch.setattr(bodies_mod.Solids, "clear", lambda self, p, *a: np.zeros(len(p), bool))
+    one_by_one = load_part(path)
+    assert np.array_equal(one_by_one.face_exposure, part.face_exposure)
+    assert [b.exposed_area for b in one_by_one.bodies] == [b.exposed_area for b in part.bodies]
+
+
 @pytest.mark.parametrize("name", ["coacd_robosuite_bread.obj", "pybullet_mug_collision.obj",
                                   "robosuite_bd_gripper_stator_collision.obj"])
 def test_exposure_agrees_with_an_independent_inside_test(name: str) -> None:

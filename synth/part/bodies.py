@@ -57,10 +57,15 @@ _FACE_SAMPLES = np.array(
 _BARY_TOL = 1e-9  # barycentric coordinates are scale free
 #: How many faces' planes :func:`is_convex` tests every vertex against.
 _PLANE_SAMPLES = 64
-_CHUNK = 1 << 16
-#: The inside test of a closed body that is not convex: the box tree of its faces, and their
-#: numbers in the part's mesh (None: all of them, in order) (:meth:`Solids._mesh_hidden`).
-_MeshTest = tuple[BoxTree, np.ndarray | None]
+#: A convex body of more faces than this is tested by its box tree, not by its faces' planes
+#: (a test costs a point times the planes: 160 GB at once for a 327,680-face sphere).
+_PLANES_MAX = 1024
+#: Products of points by planes computed at a time.
+_PRODUCTS = 1 << 20
+#: The inside test of a closed body that is not convex or has many faces: the box tree of its
+#: faces, their numbers in the part's mesh (None: all of them, in order), and whether the body
+#: is convex (then a point at any depth inside it is hidden) (:meth:`Solids._mesh_hidden`).
+_MeshTest = tuple[BoxTree, np.ndarray | None, bool]
 
 
 def face_sample_weights() -> np.ndarray:
@@ -335,7 +340,8 @@ class Solids:
         faces = np.asarray(mesh.faces, np.int64)
         # per closed body: its index, its box and its test (a convex body's planes)
         self._tests: list[tuple[int, np.ndarray, np.ndarray | _MeshTest]] = []
-        if any(b.closed and not b.convex for b in bodies):
+        by_tree = [b.closed and (not b.convex or len(b.faces) > _PLANES_MAX) for b in bodies]
+        if any(by_tree):
             # angle-weighted corner normals and summed edge normals, for every face's test
             ang = np.asarray(mesh.face_angles, float).ravel()
             flat = faces.ravel()
@@ -346,27 +352,28 @@ class Solids:
             self._normals, self._faces = fn, faces
             self._face_edges = np.asarray(face_edges, np.int64)
             self._edge_faces = np.asarray(edge_faces, np.int64)
-        for b in bodies:
+        for b, tree in zip(bodies, by_tree, strict=True):
             if not b.closed:
                 continue
             f = b.faces
-            if b.convex:
+            if not tree:
                 planes = np.hstack([fn[f], -np.einsum("ij,ij->i", fn[f],
                                                       vertices[faces[f, 0]])[:, None]])
                 self._tests.append((b.index, b.bounds, planes))
             elif len(f) == len(faces):  # the whole mesh: the part's tree
-                self._tests.append((b.index, b.bounds, (index, None)))
+                self._tests.append((b.index, b.bounds, (index, None, b.convex)))
             else:  # a tree of its own corners (a view of all the part's would pickle whole)
                 used, local = np.unique(faces[f], return_inverse=True)
-                tree = BoxTree(vertices[used], local.reshape(-1, 3))
-                self._tests.append((b.index, b.bounds, (tree, f)))
+                boxes = BoxTree(vertices[used], local.reshape(-1, 3))
+                self._tests.append((b.index, b.bounds, (boxes, f, b.convex)))
 
     @property
     def bodies(self) -> list[int]:
         """Indices of the closed bodies tested."""
         return [t[0] for t in self._tests]
 
-    def hidden(self, points: np.ndarray, margin: float, reach: float) -> np.ndarray:
+    def hidden(self, points: np.ndarray, margin: float, reach: float,
+               owner: np.ndarray | None = None) -> np.ndarray:
         """Which points lie inside a closed body, or within ``margin`` of one.
 
         Parameters
@@ -375,10 +382,15 @@ class Solids:
         margin : float
             Distance, in the part's units.
         reach : float
-            A point farther than this from a non-convex body's surface counts as outside it.
+            A point farther than this from a non-convex body's surface counts as outside it
+            (not from a convex one's: one of many faces is also tested by its tree).
             Exact for the points synth asks about (a small step off the surface) because
             closed bodies of a part do not overlap (those that did were united on loading,
             :mod:`synth.part.compound`).
+        owner : (n,) int, optional
+            The body each point was stepped off: a convex body does not hide the points
+            stepped off its own surface (a non-convex one may, in its crevices), so it is
+            not tested for them.
 
         Returns
         -------
@@ -386,8 +398,10 @@ class Solids:
         """
         pts = np.asarray(points, float)
         out = np.zeros(len(pts), bool)
-        for _, box, test in self._tests:
+        for index, box, test in self._tests:
             near = ~out & np.all((pts >= box[0] - margin) & (pts <= box[1] + margin), axis=1)
+            if owner is not None and _convex(test):
+                near &= owner != index
             rows = np.flatnonzero(near)
             if not len(rows):
                 continue
@@ -397,18 +411,77 @@ class Solids:
                 out[rows] = self._mesh_hidden(*test, pts[rows], margin, reach)
         return out
 
-    def _mesh_hidden(self, boxes: BoxTree, faces: np.ndarray | None, pts: np.ndarray,
-                     margin: float, reach: float) -> np.ndarray:
+    def clear(self, points: np.ndarray, radius: np.ndarray, margin: float, reach: float,
+              owner: np.ndarray | None = None) -> np.ndarray:
+        """Which balls hold no point that :meth:`hidden` would call hidden.
+
+        A ball (centre, radius) is clear of a closed body when it lies outside the body's
+        box grown by ``margin``, or its centre is farther than ``reach`` plus the radius from
+        the body's surface, or outside the body by more than ``margin`` plus the radius: the
+        distance to a surface changes no faster than the point moves, and a ball with no
+        surface in it is on one side of it. (Round-off is covered by a relative 1e-6 of the
+        bounds.)
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            The balls' centres.
+        radius : (n,) float
+        margin, reach, owner
+            As for :meth:`hidden`.
+
+        Returns
+        -------
+        clear : (n,) bool
+            True where no point of the ball is hidden; False where some may be.
+        """
+        pts = np.asarray(points, float)
+        r = np.asarray(radius, float)
+        ok = np.ones(len(pts), bool)
+        for index, box, test in self._tests:
+            grow = (margin + r)[:, None]
+            near = ok & np.all((pts >= box[0] - grow) & (pts <= box[1] + grow), axis=1)
+            if owner is not None and _convex(test):
+                near &= owner != index
+            rows = np.flatnonzero(near)
+            if not len(rows):
+                continue
+            rr = r[rows]
+            if isinstance(test, np.ndarray):  # the planes' bound is no faster than a point
+                step = max(1, _PRODUCTS // len(test))
+                lower = np.concatenate([(pts[rows[s:s + step]] @ test[:, :3].T
+                                         + test[:, 3]).max(axis=1)
+                                        for s in range(0, len(rows), step)])
+                ok[rows] = lower - rr > margin * (1.0 + 1e-6)
+            else:
+                boxes, faces, convex = test
+                d, outside = self._mesh_side(boxes, faces, pts[rows])
+                far = np.inf if convex else reach
+                ok[rows] = ((d > (far + rr) * (1.0 + 1e-6))
+                            | (outside & (d - rr > margin * (1.0 + 1e-6))))
+        return ok
+
+    def _mesh_hidden(self, boxes: BoxTree, faces: np.ndarray | None, convex: bool,
+                     pts: np.ndarray, margin: float, reach: float) -> np.ndarray:
         """Inside or within ``margin`` of a closed mesh, by its closest point and its
         angle-weighted pseudo-normal there (face, edge or corner). A point with no surface
-        within ``reach`` is outside."""
+        within ``reach`` is outside, unless the body is convex."""
+        if convex:
+            reach = np.inf
+        d, outside = self._mesh_side(boxes, faces, pts, reach)
+        return (d <= reach) & ((d < margin) | ~outside)
+
+    def _mesh_side(self, boxes: BoxTree, faces: np.ndarray | None, pts: np.ndarray,
+                   reach: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+        """Distances (n,) of points (n, 3) from a closed mesh and which are outside it (by
+        the pseudo-normal at the closest point), the latter for those within ``reach``
+        (False beyond)."""
         q, f, d = boxes.closest(pts)
-        found = d <= reach
-        hidden = np.zeros(len(pts), bool)
-        rows = np.flatnonzero(found)
+        outside = np.zeros(len(pts), bool)
+        rows = np.flatnonzero(d <= reach)
         if not len(rows):
-            return hidden
-        q, f, d, p = q[rows], f[rows], d[rows], pts[rows]
+            return d, outside
+        q, f, p = q[rows], f[rows], pts[rows]
         bary = trimesh.triangles.points_to_barycentric(boxes.vertices[boxes.faces[f]], q,
                                                        method="cramer")
         face = f if faces is None else faces[f]  # in the part's mesh
@@ -422,16 +495,21 @@ class Solids:
         pn[on_edge] = self._normals[two[:, 0]] + self._normals[two[:, 1]]
         v = np.argmax(bary, axis=1)
         pn[at_vertex] = self._corner[self._faces[face[at_vertex], v[at_vertex]]]
-        outside = np.einsum("ij,ij->i", p - q, pn) > 0
-        hidden[rows] = (d < margin) | ~outside
-        return hidden
+        outside[rows] = np.einsum("ij,ij->i", p - q, pn) > 0
+        return d, outside
+
+
+def _convex(test: np.ndarray | _MeshTest) -> bool:
+    """Whether a body's test (its planes, or its tree) is of a convex body."""
+    return isinstance(test, np.ndarray) or test[2]
 
 
 def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.ndarray:
     """Inside or within ``margin`` of the convex body ``planes`` (h, 4): ``n . x + c <= 0``."""
     res = np.empty(len(pts), bool)
-    for s in range(0, len(pts), _CHUNK):
-        p = pts[s : s + _CHUNK]
+    rows = max(1, _PRODUCTS // len(planes))
+    for s in range(0, len(pts), rows):
+        p = pts[s : s + rows]
         lower = (p @ planes[:, :3].T + planes[:, 3]).max(axis=1)  # <= true distance outside
-        res[s : s + _CHUNK] = lower < margin
+        res[s : s + rows] = lower < margin
     return res

@@ -9,10 +9,13 @@ arrays of 4 MB and more, which a kernel that compacts memory on the spot
 
 :func:`reuse_memory` keeps freed blocks in the heap for reuse while it is active (the mmap
 and trim thresholds of ``mallopt`` at 1 GB), with numpy's huge-page advice off. On exit it
-sets the thresholds where glibc's own adjustment takes them after a large block (32 MB,
-trimming at 64 MB), restores numpy's advice, and gives the heap's free memory back to the
-system (``malloc_trim``). :func:`synth.load_part` and :func:`synth.plan_part` run inside it.
-Where the C library is not glibc, it changes nothing.
+restores numpy's advice and gives the heap's free memory back to the system
+(``malloc_trim``). glibc's thresholds cannot be read, and setting one ends glibc's own
+adjustment of them for the process: they are left where that adjustment takes them after a
+large block (32 MB, trimming at 64 MB), and a ``MALLOC_MMAP_THRESHOLD_`` or
+``MALLOC_TRIM_THRESHOLD_`` of the environment is replaced. :func:`synth.load_part` and
+:func:`synth.plan_part` run inside it. Where the C library is not glibc, the thresholds are
+not touched.
 
 Measured on the 1.3M-face blob of ``scripts/bench_scale.py`` (load and plan, one CPU): 4.88
 and 5.49 s of CPU time, 1.01 and 1.80 s of it the system's, without it; 4.13 and 4.31 s,
@@ -58,11 +61,23 @@ def _glibc() -> Any:
 _LIBC = _glibc()
 
 
+def _hugepage_setter() -> Callable[[bool], bool] | None:
+    """numpy's setter of its huge-page advice (private: ``numpy._core.multiarray`` in numpy 2,
+    ``numpy.core.multiarray`` in numpy 1), or None if this numpy has none."""
+    for name in ("_core", "core"):
+        module = getattr(getattr(np, name, None), "multiarray", None)
+        setter = getattr(module, "_set_madvise_hugepage", None)
+        if setter is not None:
+            return setter  # type: ignore[no-any-return]
+    return None
+
+
+_SETTER = _hugepage_setter()
+
+
 def _set_hugepage(on: bool) -> bool:
     """Set numpy's huge-page advice; returns the previous setting (True if numpy has none)."""
-    core = getattr(np, "_core", None)  # numpy's private module: absent, nothing is advised
-    setter = getattr(getattr(core, "multiarray", None), "_set_madvise_hugepage", None)
-    return bool(setter(on)) if setter is not None else True
+    return bool(_SETTER(on)) if _SETTER is not None else True
 
 
 @contextmanager
@@ -71,12 +86,12 @@ def reuse_memory() -> Iterator[None]:
     uses act once, at the outermost."""
     global _depth, _hugepage_before
     with _lock:
-        _depth += 1
-        if _depth == 1:
-            if _LIBC is not None:
+        if _depth == 0:
+            if _LIBC is not None:  # (a threshold glibc refuses is left as it was)
                 _LIBC.mallopt(_M_MMAP_THRESHOLD, _KEEP)
                 _LIBC.mallopt(_M_TRIM_THRESHOLD, _KEEP)
             _hugepage_before = _set_hugepage(False)
+        _depth += 1
     try:
         yield
     finally:

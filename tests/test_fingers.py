@@ -515,8 +515,9 @@ def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch
     elif traced:  # the traces decided sweeps both ways, and took the bound's steps far out
         assert (verdicts == 1).any() and (verdicts == -1).any()
         assert len(decided) >= 2 + (shape == "ibeam")  # other directions; the I-beam's bodies
-        # FCL's BVH is built only for a trace left undecided
-        assert (checker._fcl is None) == (verdicts != 0).all()
+        # every trace decided: no FCL tree at all, of the whole part or of a few faces
+        assert (verdicts != 0).all()
+        assert checker._fcl is None and checker._local_trees == 0
         # (the I-beam's faces are too large for the bound to take a step; the blob's are
         # not, but the planes end its traces before the bound would take one)
         points = np.concatenate(bounded)
@@ -699,3 +700,62 @@ def test_bounding_planes_support_the_vertices():
         assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
         brute = np.array([max(v[:, 0] * u[0] + v[:, 1] * u[1] + v[:, 2] * u[2]) for u in n])
         assert np.abs(h - brute).max() <= 1e-14 * (scale + offset) * 10
+
+
+def test_a_trace_ends_at_a_bounding_plane_only_moving_away_from_it():
+    """A sweep starting beyond a bounding plane but heading into the part crosses it; one
+    heading away ends at once (its first point beyond the plane), with no distance query."""
+    mesh = trimesh.creation.icosphere(5)
+    checker = FingerChecker(mesh)
+    n0 = collide_mod._bounding_planes(np.asarray(mesh.vertices))[0, :3]
+    starts = np.array([1.5 * n0, 1.5 * n0])
+    dirs = np.array([-n0, n0])
+    queried = []
+    step = checker._trace_distance
+    checker._trace_distance = lambda pts, radius: queried.append(len(pts)) or step(pts, radius)
+    assert checker._trace(starts, dirs, 0.1, 3.0).tolist() == [-1, 1]
+    assert queried[0] == 1  # the sweep heading away was never measured
+
+
+def test_fcl_trees_of_the_faces_near_an_object_answer_as_the_whole_part(monkeypatch):
+    """Capsules and balls grazing a bumpy sphere (their surface within a few percent of
+    their radius of it, either side): FCL against a tree of only the faces whose boxes meet
+    the object's box answers as FCL against the whole part's tree; with a box that leaves
+    out the object's radius, it does not (the test sees the difference)."""
+    from synth.fingers.geometry import quaternions_to
+
+    monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
+    monkeypatch.setattr(collide_mod, "_LOCAL_TREES", 10**9)
+    mesh = trimesh.creation.icosphere(4)
+    mesh.vertices *= 1.0 + 0.15 * np.sin(4.0 * mesh.vertices[:, [1]])
+    checker = FingerChecker(mesh)
+    rng = np.random.default_rng(11)
+    x, faces = trimesh.sample.sample_surface(mesh, 400, seed=5)
+    n = np.asarray(mesh.face_normals)[faces]
+    radius, length = 0.08, 0.6
+    tangent = np.cross(n, rng.normal(size=(400, 3)))
+    d = tangent / np.linalg.norm(tangent, axis=1, keepdims=True) + 0.3 * n
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    gap = radius * rng.uniform(-0.05, 0.05, size=(400, 1))
+    tips = x + n * (radius + gap)
+    capsule = checker._object("capsule", radius, length)
+    ball = checker._object("sphere", radius)
+    rot = quaternions_to(d)
+    mids = checker._fcl_frame(tips + 0.5 * length * d)
+    at = checker._fcl_frame(tips)
+
+    def answers(axis):
+        return ([checker._hits(capsule, rot[i], mids[i], axis(i)) for i in range(400)]
+                + [checker._hits(ball, None, at[i], axis(i)) for i in range(400)])
+
+    local = answers(lambda i: d[i])
+    assert checker._fcl is None and checker._local_trees == 800
+    sizes = dict(checker._sizes)
+    checker._sizes = {k: (0.0, h) for k, (r, h) in sizes.items()}  # boxes without the radius
+    short = answers(lambda i: d[i])
+    checker._sizes = sizes
+    whole = answers(lambda i: None)
+    assert checker._fcl is not None
+    assert local == whole
+    assert 100 < sum(whole) < 700  # hits and misses of both kinds
+    assert short != whole

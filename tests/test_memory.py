@@ -23,9 +23,14 @@ def _rss_mb() -> float:
         return next(int(x.split()[1]) for x in f if x.startswith("VmRSS")) / 1024
 
 
+needs_setter = pytest.mark.skipif(memory._SETTER is None,
+                                  reason="this numpy has no huge-page advice to set")
+
+
+@needs_setter
 @pytest.mark.parametrize("advice", [True, False])
 def test_numpy_advice_is_off_inside_and_restored_after_nesting(advice: bool) -> None:
-    memory._set_hugepage(advice)
+    before = memory._set_hugepage(advice)
     try:
         with memory.reuse_memory():
             assert not _advice()
@@ -34,9 +39,10 @@ def test_numpy_advice_is_off_inside_and_restored_after_nesting(advice: bool) -> 
             assert not _advice()  # the inner block's end restores nothing
         assert _advice() == advice
     finally:
-        memory._set_hugepage(True)
+        memory._set_hugepage(before)
 
 
+@needs_setter
 def test_a_load_restores_it(tmp_path) -> None:
     import trimesh
 
@@ -44,9 +50,19 @@ def test_a_load_restores_it(tmp_path) -> None:
 
     path = tmp_path / "box.stl"
     trimesh.creation.box().export(path)
-    assert _advice()
-    load_part(path)
-    assert _advice()
+    before = memory._set_hugepage(True)
+    try:
+        load_part(path)
+        assert _advice()
+    finally:
+        memory._set_hugepage(before)
+
+
+def test_an_exception_inside_restores_it() -> None:
+    before = _advice()
+    with pytest.raises(KeyError), memory.reuse_memory():
+        raise KeyError("x")
+    assert _advice() == before and memory._depth == 0
 
 
 @pytest.mark.skipif(memory._LIBC is None, reason="not glibc")

@@ -151,15 +151,19 @@ def test_open_piece_is_kept_as_a_surface_fingers_collide_with(tmp_path: Path) ->
     assert not under.mask[0] and beside.mask[0]
 
 
-def test_exposure_of_fine_bodies_by_trees_and_balls(tmp_path: Path, monkeypatch) -> None:
-    """A sphere of 5,120 faces (convex, tested by its tree rather than 5,120 planes) that a
-    fine open strip crosses: the strip's points inside the sphere are hidden, as trimesh's
-    own inside test says; and the faces decided at once by a ball round their samples get
-    the exposure that their samples one by one give."""
+@pytest.mark.parametrize("solid", ["sphere", "box"])
+def test_exposure_of_fine_bodies_by_trees_and_balls(solid: str, tmp_path: Path,
+                                                    monkeypatch) -> None:
+    """A convex solid that a fine open strip crosses: a sphere of 5,120 faces (tested by its
+    tree rather than 5,120 planes) or a box (by its 12 faces' planes). The strip's points
+    inside the solid are hidden, as trimesh's own inside test says; and the faces decided
+    at once by a ball round their samples get the exposure that their samples one by one
+    give."""
     from synth.part import bodies as bodies_mod
 
-    sphere = trimesh.creation.icosphere(subdivisions=4)
-    x = np.linspace(-1.2, 1.2, 17)  # a strip of 16 squares through the sphere
+    sphere = (trimesh.creation.icosphere(subdivisions=4) if solid == "sphere"
+              else trimesh.creation.box((1.6, 1.6, 1.6)))
+    x = np.linspace(-1.2, 1.2, 17) + 0.0012  # a strip of 16 squares through the solid
     strip = trimesh.Trimesh(
         np.column_stack([np.repeat(x, 2), np.tile([-0.075, 0.075], 17), np.full(34, 0.1)]),
         [f for i in range(16) for f in ([2 * i, 2 * i + 2, 2 * i + 3], [2 * i, 2 * i + 3,
@@ -168,7 +172,8 @@ def test_exposure_of_fine_bodies_by_trees_and_balls(tmp_path: Path, monkeypatch)
         strip = strip.subdivide()  # 32,768 faces, smaller than the exposure step
     path = _obj(tmp_path / "crossed.obj", {"ball": sphere, "strip": strip})
     part = load_part(path)
-    assert len(part.bodies) == 2 and len(sphere.faces) > bodies_mod._PLANES_MAX
+    assert len(part.bodies) == 2
+    assert (len(sphere.faces) > bodies_mod._PLANES_MAX) == (solid == "sphere")
     pieces = Pieces(path)
     rng = np.random.default_rng(2)
     pts, faces = trimesh.sample.sample_surface(part.mesh, 3000, seed=rng)
@@ -189,6 +194,28 @@ def test_exposure_of_fine_bodies_by_trees_and_balls(tmp_path: Path, monkeypatch)
     one_by_one = load_part(path)
     assert np.array_equal(one_by_one.face_exposure, part.face_exposure)
     assert [b.exposed_area for b in one_by_one.bodies] == [b.exposed_area for b in part.bodies]
+
+
+def test_face_exposure_agrees_with_exposed_when_the_margin_exceeds_the_step(
+        tmp_path: Path) -> None:
+    """Two boxes of 1-2 cm written in metres with 4 decimals: the coordinates' rounding
+    makes the exposure margin (4 x 5e-5) larger than its step (8e-5), and a convex body
+    then hides even the points stepped off its own faces; the faces' exposure must say what
+    ``Part.exposed`` says at their centres (a convex body skipping its own faces did not)."""
+    lines, off = [], 0
+    for name, size, z in (("big", 0.02, 0.0), ("small", 0.01, 0.0151)):
+        box = trimesh.creation.box((size, size, size)).apply_translation((0.0, 0.0, z))
+        lines.append(f"o {name}")
+        lines += [f"v {x:.4f} {y:.4f} {w:.4f}" for x, y, w in box.vertices]
+        lines += [f"f {i + 1 + off} {j + 1 + off} {k + 1 + off}" for i, j, k in box.faces]
+        off += len(box.vertices)
+    path = tmp_path / "coarse.obj"
+    path.write_text("\n".join(lines) + "\n")
+    part = load_part(path)
+    step, margin, _ = part._exposure_step()
+    assert len(part.bodies) == 2 and all(b.convex for b in part.bodies) and margin > step
+    at_centres = part.exposed(part.mesh.triangles_center, -part.mesh.face_normals)
+    assert np.array_equal(part.face_exposure == 2, at_centres)
 
 
 @pytest.mark.parametrize("name", ["coacd_robosuite_bread.obj", "pybullet_mug_collision.obj",

@@ -252,6 +252,7 @@ class FingerChecker:
         self._planes = (_support_planes(vertices, _HULL_PLANES) if certify and not self._traced
                         else np.zeros((0, 4)))
         self._objects: dict[tuple[str, float, float], Any] = {}
+        self._sizes: dict[int, tuple[float, float]] = {}  # their radius and length, FCL's
         self._request = fcl.CollisionRequest()
 
     # -- FCL primitives ---------------------------------------------------------------------
@@ -277,6 +278,7 @@ class FingerChecker:
             geom = fcl.Sphere(r) if kind == "sphere" else fcl.Capsule(r, h)
             obj = fcl.CollisionObject(geom, fcl.Transform())
             self._objects[key] = obj
+            self._sizes[id(obj)] = (r, h if kind != "sphere" else 0.0)
         return obj
 
     def _tip_hits(self, tip: Any, center: np.ndarray, position: np.ndarray,
@@ -289,18 +291,22 @@ class FingerChecker:
             d = distance if distance == distance else float(self._distance(center[None])[0])
             if abs(d - radius) > self._slack:  # else it touches to round-off: FCL says
                 return d < radius
-        return self._hits(tip, None, position, np.full(3, radius / self._scale))
+        return self._hits(tip, None, position, np.zeros(3))
 
     def _hits(self, obj: Any, rotation: np.ndarray | None, position: np.ndarray,
-              reach: np.ndarray | None = None) -> bool:
-        """Whether ``obj`` collides with the part at ``position`` given in FCL's frame
-        (:meth:`_fcl_frame`), rotated by the quaternion ``rotation`` (None: unrotated);
-        ``reach`` (3,), if given, bounds the object's box about ``position`` (see
-        :meth:`_near_part`)."""
+              axis: np.ndarray | None = None) -> bool:
+        """Whether ``obj`` (from :meth:`_object`) collides with the part at ``position``
+        given in FCL's frame (:meth:`_fcl_frame`), rotated by the quaternion ``rotation``
+        (None: unrotated). ``axis`` (3,), if given, is the unit direction of a capsule's axis
+        (any for a ball), which bounds the object's box (see :meth:`_near_part`)."""
         if rotation is not None:
             obj.setQuatRotation(rotation)
         obj.setTranslation(position)
-        part = self._part if reach is None else self._near_part(position, reach)
+        if axis is not None and self._fcl is None:
+            r, h = self._sizes[id(obj)]
+            part = self._near_part(position, 0.5 * h * np.abs(axis) + r)
+        else:
+            part = self._part
         if part is None:
             return False
         return bool(fcl.collide(part, obj, self._request, fcl.CollisionResult()))
@@ -311,7 +317,7 @@ class FingerChecker:
         ``_LOCAL_TREES`` tests: a tree of only the faces whose boxes meet that box, in the
         same coordinates, so the same triangles are tested against the object (None if
         there are none); then the whole part's."""
-        if not self._traced or self._fcl is not None or self._local_trees >= _LOCAL_TREES:
+        if not self._traced or self._local_trees >= _LOCAL_TREES:
             return self._part
         self._local_trees += 1
         grow = np.asarray(reach, float) + 1e-9  # FCL's frame is of unit size
@@ -586,7 +592,6 @@ class FingerChecker:
 
         # 4-5. Tip against part, then the approach sweep: certificates, then FCL
         sweep = self._object("capsule", r - tol, D)
-        scale = self._scale
         tip = self._object("sphere", r - tol)
         approach = np.full((B, k, 3), np.nan)
         rot = quaternions_to(dirs.reshape(-1, 3)).reshape(B, k, m, 4)
@@ -649,8 +654,7 @@ class FingerChecker:
                     elif others[b, j, d]:
                         hit = bool(others[b, j, d] < 0)
                     else:
-                        hit = self._hits(sweep, rot[b, j, d], mid[b, j, d],
-                                         (0.5 * D * np.abs(dirs[b, j, d]) + r - tol) / scale)
+                        hit = self._hits(sweep, rot[b, j, d], mid[b, j, d], dirs[b, j, d])
                     if not hit:
                         chosen = d
                         break
@@ -669,8 +673,7 @@ class FingerChecker:
                         body_hits = bool(body_verdict[b, j] < 0)
                     else:
                         body_hits = L > 0 and self._hits(body, rot[b, j, d0], self._fcl_frame(
-                            centers[b, j] + 0.5 * L * dirs[b, j, d0]),
-                            (0.5 * L * np.abs(dirs[b, j, d0]) + rb - tol) / scale)
+                            centers[b, j] + 0.5 * L * dirs[b, j, d0]), dirs[b, j, d0])
                     if body_hits:
                         fail(b, j, BODY_HITS_PART, f"finger {slot_name[b][j]} body hits the part")
                     else:

@@ -20,11 +20,14 @@ enters the opposite one. On a part of one convex body every point is exposed.
 
 Inside tests
 ------------
-Convex closed bodies are tested with their face planes: ``max_j (n_j . x - o_j)`` is a lower
-bound of the distance outside, so a value at least the margin proves the point is outside by
-the margin. Other closed bodies use the exact closest point (:mod:`synth.part.closest`) and
-the sign of ``x - q`` against the angle-weighted pseudo-normal at ``q`` (face, edge or vertex
-normal; Baerentzen and Aanaes, 2005), which is exact for a closed, consistently wound mesh.
+Convex closed bodies of at most ``_PLANES_MAX`` faces are tested with their face planes:
+``max_j (n_j . x - o_j)`` is a lower bound of the distance outside, so a value at least the
+margin proves the point is outside by the margin. Other closed bodies use the exact closest
+point (:mod:`synth.part.closest`) and the sign of ``x - q`` against the angle-weighted
+pseudo-normal at ``q`` (face, edge or vertex normal; Baerentzen and Aanaes, 2005), which is
+exact for a closed, consistently wound mesh. A convex body is not tested for the points
+stepped off its own faces (it cannot hide them when the step exceeds the margin), and a face
+smaller than the step is first tested as one ball round its samples (:meth:`Solids.clear`).
 """
 
 from __future__ import annotations
@@ -330,7 +333,8 @@ class Solids:
         (:class:`synth.part.features.Features`).
     index : BoxTree
         The box tree of the whole mesh (the part's own), which serves a body that is the
-        whole mesh; other non-convex bodies get a tree of their faces.
+        whole mesh; other bodies tested by a tree (not convex, or of more than
+        ``_PLANES_MAX`` faces) get a tree of their faces.
     """
 
     def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...],
@@ -419,8 +423,8 @@ class Solids:
         box grown by ``margin``, or its centre is farther than ``reach`` plus the radius from
         the body's surface, or outside the body by more than ``margin`` plus the radius: the
         distance to a surface changes no faster than the point moves, and a ball with no
-        surface in it is on one side of it. (Round-off is covered by a relative 1e-6 of the
-        bounds.)
+        surface in it is on one side of it. (The round-off of the distances is covered by
+        a relative 1e-6 of the thresholds they are compared with.)
 
         Parameters
         ----------

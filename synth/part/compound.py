@@ -69,7 +69,7 @@ def _close_corners(a: trimesh.Trimesh, b: trimesh.Trimesh, gap: float) -> bool:
     lo = np.maximum(va.min(axis=0), vb.min(axis=0)) - gap
     hi = np.minimum(va.max(axis=0), vb.max(axis=0)) + gap
     near = [v[np.all((v >= lo) & (v <= hi), axis=1)] for v in (va, vb)]
-    near = [v[::max(1, len(v) // _CORNER_SAMPLE)] for v in near]
+    near = [v[::max(1, -(-len(v) // _CORNER_SAMPLE))] for v in near]
     if not all(len(v) for v in near):
         return False
     d = cKDTree(near[0]).query(near[1], distance_upper_bound=gap)[0]

@@ -486,8 +486,9 @@ def test_exact_distance_sweeps_change_no_verdict(shape, mode, ibeam, monkeypatch
     traced = mode != "certified"
     if traced:  # as on a mesh of _TRACE_FACES or more
         monkeypatch.setattr(collide_mod, "_TRACE_FACES", 0)
-        if mode == "traced without exits":
+        if mode == "traced without exits":  # and with the distance bound from the start
             monkeypatch.setattr(collide_mod, "_bounding_planes", lambda v: np.zeros((0, 4)))
+            monkeypatch.setattr(collide_mod, "_BOUND_AFTER", 0)
         if mode == "traced in 2 steps":
             monkeypatch.setattr(collide_mod, "_TRACE_STEPS", 2)
             monkeypatch.setattr(collide_mod, "_LOCAL_TREES", 10**9)

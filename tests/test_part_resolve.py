@@ -362,6 +362,40 @@ def test_box_tree_exact_beside_slivers_against_brute_force() -> None:
     assert (f == len(tri) - 1).sum() > 100  # the sliver is the answer for many points
 
 
+@pytest.mark.parametrize("scale", [1e-4, 1e-3, 1.0, 1e3])
+def test_box_tree_first_hits_against_trimesh_at_any_scale(scale: float) -> None:
+    """The first face each ray meets ahead of its origin, and how far: libigl's single
+    precision ray test (scale free through its rays' lengths) against trimesh's rays
+    (every hit, the nearest ahead kept), on a fine ring scaled from 0.1 mm to 1 km, from
+    inside its wall (a millionth of its size behind a face) and from outside."""
+    from synth.part.closest import BoxTree
+
+    ring = trimesh.creation.annulus(r_min=0.98, r_max=1.0, height=0.5, sections=200)
+    ring.apply_scale(scale)
+    tree = BoxTree(ring.vertices, ring.faces)
+    tri = np.asarray(ring.triangles)
+    n = np.asarray(ring.face_normals)
+    length = float(np.linalg.norm(ring.extents))
+    rng = np.random.default_rng(3)
+    pick = rng.choice(len(tri), 300, replace=False)
+    o = np.r_[tri[pick].mean(axis=1) - 1e-6 * length * n[pick],
+              rng.uniform(-1.5, 1.5, size=(300, 3)) * scale]
+    d = np.r_[-n[pick], rng.normal(size=(300, 3))]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    face, dist = tree.first_hits(o, d)
+    unit = trimesh.Trimesh(ring.vertices / scale, ring.faces)  # trimesh's tolerances are absolute
+    loc, ray, tri_id = unit.ray.intersects_location(o / scale, d, multiple_hits=True)
+    ahead = np.einsum("ij,ij->i", loc - o[ray] / scale, d[ray])
+    keep = ahead > 1e-6 * length / scale
+    want = np.full(len(o), np.inf)
+    np.minimum.at(want, ray[keep], ahead[keep] * scale)
+    hit = np.isfinite(want)
+    assert hit[:300].all() and 20 < hit[300:].sum() < 300  # every wall; some others (38)
+    assert np.array_equal(face >= 0, hit)
+    assert np.allclose(dist[hit], want[hit], rtol=1e-6, atol=0)
+    assert np.all(dist[~hit] == np.inf)
+
+
 @pytest.mark.parametrize(("scale", "offset"), [(1e-3, 0.0), (1.0, 0.0), (1e3, 0.0),
                                                (1.0, 1e4)])
 def test_distance_bound_never_exceeds_the_distance(scale: float, offset: float) -> None:

@@ -76,6 +76,32 @@ def test_no_slab_of_a_thin_curved_wall_stands_out_of_its_far_side(tmp_path):
     assert trimesh.proximity.signed_distance(part.mesh, mids).min() >= -1e-6 * part.length
 
 
+def test_slabs_follow_thin_walls_at_any_scale(tmp_path):
+    """A ring whose wall (0.02) is thinner than a slab over WALL_SHARE: its facets' slabs
+    are WALL_SHARE of the wall deep, the same relative to its size in millimetres, metres
+    or kilometres of file units (the wall was measured only in parts of more than one unit,
+    when the rays counted the facet they started from as a hit 1e-6 behind them)."""
+    from synth.sim.shape import WALL_SHARE
+
+    ring = trimesh.creation.annulus(r_min=0.98, r_max=1.0, height=0.5, sections=64)
+    relative = []
+    for scale in (1e-3, 1.0, 1e3):
+        path = tmp_path / f"ring{scale}.stl"
+        ring.copy().apply_scale(scale).export(path)
+        part = load_part(path, units="m")
+        s = part_shape(part)
+        tri = s.triangles
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        depth = s._depths(tri, n, s.body)
+        sides = np.abs(n[:, 2]) < 0.5  # the inner and outer walls, not the rims
+        assert WALL_SHARE * 0.02 * scale < s.slab
+        assert depth[sides] == pytest.approx(WALL_SHARE * 0.02 * scale, rel=0.01)
+        relative.append(depth / scale)
+    assert np.allclose(relative[0], relative[1], rtol=1e-5)
+    assert np.allclose(relative[2], relative[1], rtol=1e-5)
+
+
 @pytest.mark.parametrize("split", ["normal", "uv"])
 def test_split_vertex_obj_files_give_the_welded_part_s_shape(tmp_path, split):
     # a cube written with its vertices split per face (by normal) or along a texture seam:

@@ -400,6 +400,13 @@ class Part:
         """
         return self._index.distance(np.asarray(points, float).reshape(-1, 3))
 
+    def first_hits(self, origins: np.ndarray, directions: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """The first face (n,) each ray from ``origins`` (n, 3) along unit ``directions``
+        (n, 3) meets ahead of its origin, and how far (n,); -1 and inf for a miss (see
+        :meth:`synth.part.closest.BoxTree.first_hits`: single precision)."""
+        return self._index.first_hits(origins, directions)
+
     def raycast(self, origins: np.ndarray, directions: np.ndarray) -> Any:
         """Contacts where fingers moving from ``origins`` along ``directions`` first hit.
 

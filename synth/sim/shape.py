@@ -145,18 +145,18 @@ class PartShape:
         """Each facet's slab depth: ``slab``, or ``WALL_SHARE`` of the wall behind it (a ray
         into the part from its centre, to the first face of its own body; another body met
         first, one that overlaps or touches it, says nothing of the wall, nor does a wall
-        thinner than ``SHEET_RTOL`` of a slab) where that is less."""
+        thinner than ``SHEET_RTOL`` of a slab) where that is less. The rays start a
+        millionth of the part's length inside, and take only faces ahead of that (trimesh's
+        rays, used before, count faces up to 1e-6 behind, in any unit: a part smaller than
+        one unit met its own facet first, and no wall was ever measured)."""
         depth = np.full(len(tri), self.slab)
         if self.part is None or not len(tri):
             return depth
-        from synth.contacts.rays import first_hits
-
         eps = 1e-6 * float(self.part.length)
         o = tri.mean(axis=1) - eps * n
-        loc, ray, face = first_hits(self.part, o, -n)
-        own = self.part.face_body[face] == body[ray]
-        wall = np.full(len(o), np.inf)
-        wall[ray[own]] = np.linalg.norm(loc[own] - o[ray[own]], axis=1)
+        face, t = self.part.first_hits(o, -n)
+        own = (face >= 0) & (self.part.face_body[np.maximum(face, 0)] == body)
+        wall = np.where(own, t, np.inf)
         wall[wall < SHEET_RTOL * self.slab] = np.inf
         return np.minimum(depth, WALL_SHARE * wall)
 

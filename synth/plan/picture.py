@@ -3,7 +3,7 @@ its contacts, hidden parts of the hand drawn as hidden, a scale bar in the part'
 
 For every grasp shown, the views are chosen among 26 directions (the corners, edges and faces
 of a cube around the part, corners first: they show three sides at once) by casting a ray
-from each contact toward the viewer (:func:`synth.contacts.rays.first_hits`): the first view
+from each contact toward the viewer (:meth:`synth.Part.first_hits`): the first view
 shows the most contacts, the second the most of those the first hides, and a third is added
 when contacts are still hidden from both. Each view is rasterised (:mod:`synth.plan.raster`):
 the part in grey with its outlines, the hand in colour where it is in front of the part, and
@@ -120,16 +120,12 @@ def contact_visibility(part: Any, points: NDArray[np.float64], normals: NDArray[
         ``free``, and its surface faces the viewer (not seen edge-on): the views are chosen by
         these.
     """
-    from synth.contacts.rays import first_hits
-
     P = np.asarray(points, float) - 1e-4 * part.length * np.asarray(normals, float)
     k, m = len(P), len(directions)
     origins = np.repeat(P, m, axis=0)
     dirs = np.tile(np.asarray(directions, float), (k, 1))
-    _, ray, _ = first_hits(part, origins, dirs)
-    hit = np.zeros(k * m, bool)
-    hit[ray] = True
-    free = ~hit.reshape(k, m)
+    face, _ = part.first_hits(origins, dirs)
+    free = (face < 0).reshape(k, m)
     outward = -np.asarray(normals, float) @ np.asarray(directions, float).T
     return free, free & (outward > _FACING)
 

@@ -230,9 +230,9 @@ def _covers_hull(tri: NDArray[np.float64], n: NDArray[np.float64]) -> bool:
 
     m = n.sum(axis=0)
     m /= np.linalg.norm(m)
-    u = np.cross(m, [1.0, 0.0, 0.0] if abs(m[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u = _cross3(m, np.array([1.0, 0.0, 0.0] if abs(m[0]) < 0.9 else [0.0, 1.0, 0.0]))
     u /= np.linalg.norm(u)
-    w = np.cross(m, u)
+    w = _cross3(m, u)
     xy = np.stack([tri @ u, tri @ w], axis=-1)  # (t, 3, 2)
     a, b = xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]
     total = float(np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum()) / 2
@@ -241,6 +241,13 @@ def _covers_hull(tri: NDArray[np.float64], n: NDArray[np.float64]) -> bool:
     except Exception:  # noqa: BLE001 - qhull refuses degenerate input: a single sliver
         return len(tri) == 1
     return hull <= total * (1.0 + 1e-9)
+
+
+def _cross3(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``np.cross`` of two 3-vectors, the same products and differences without its
+    overhead for arrays (a third of the patches' time on a 923k-face bunny's grasp)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 def within(centers: NDArray[np.float64], radius: float):  # type: ignore[no-untyped-def]

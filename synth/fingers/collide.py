@@ -244,8 +244,9 @@ class FingerChecker:
         # close to a radius decides nothing (a seated tip with no penetration tolerance)
         self._slack = 1e-9 * (self.radius + float(np.abs(self.center).max()))
         self.mesh = mesh
-        # a large mesh's sweeps are traced with exact distances; FCL's BVH (about 2.5 us a
-        # face to build) is then built only if a sweep grazes the surface or a gripper needs it
+        # a large mesh's sweeps are traced with exact distances; FCL's BVH of it (about 2.5 us
+        # a face to build) is then built only if more than _LOCAL_TREES sweeps graze the
+        # surface (those before go to trees of the faces near them) or a gripper needs it
         self._certify_sweeps = certify
         self._traced = certify and len(faces) >= _TRACE_FACES
         self._bound: DistanceBound | None = None  # for the traces, built when worth it

@@ -452,11 +452,7 @@ class Solids:
                 continue
             rr = r[rows]
             if isinstance(test, np.ndarray):  # the planes' bound is no faster than a point
-                step = max(1, _PRODUCTS // len(test))
-                lower = np.concatenate([(pts[rows[s:s + step]] @ test[:, :3].T
-                                         + test[:, 3]).max(axis=1)
-                                        for s in range(0, len(rows), step)])
-                ok[rows] = lower - rr > margin * (1.0 + 1e-6)
+                ok[rows] = _plane_bound(test, pts[rows]) - rr > margin * (1.0 + 1e-6)
             else:
                 boxes, faces, convex = test
                 d, outside = self._mesh_side(boxes, faces, pts[rows])
@@ -510,10 +506,12 @@ def _convex(test: np.ndarray | _MeshTest) -> bool:
 
 def _convex_hidden(planes: np.ndarray, pts: np.ndarray, margin: float) -> np.ndarray:
     """Inside or within ``margin`` of the convex body ``planes`` (h, 4): ``n . x + c <= 0``."""
-    res = np.empty(len(pts), bool)
+    return _plane_bound(planes, pts) < margin
+
+
+def _plane_bound(planes: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """``max_j (n_j . x + c_j)`` (n,) of points (n, 3) over a convex body's planes (h, 4), at
+    most the distance outside it, ``_PRODUCTS`` products at a time."""
     rows = max(1, _PRODUCTS // len(planes))
-    for s in range(0, len(pts), rows):
-        p = pts[s : s + rows]
-        lower = (p @ planes[:, :3].T + planes[:, 3]).max(axis=1)  # <= true distance outside
-        res[s : s + rows] = lower < margin
-    return res
+    return np.concatenate([(pts[s:s + rows] @ planes[:, :3].T + planes[:, 3]).max(axis=1)
+                           for s in range(0, len(pts), rows)] or [np.zeros(0)])

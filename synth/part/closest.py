@@ -167,6 +167,7 @@ class BoxTree:
         self.faces = np.ascontiguousarray(faces, np.int64).view()
         self.vertices.flags.writeable = self.faces.flags.writeable = False
         self._tree: Any = None
+        self._length: float | None = None  # for first_hits
 
     def build(self) -> BoxTree:
         """Build the tree now rather than at the first query; returns self."""
@@ -208,9 +209,10 @@ class BoxTree:
         o = np.ascontiguousarray(origins, np.float64).reshape(-1, 3)
         if not len(o):
             return np.zeros(0, np.int64), np.zeros(0)
-        lo, hi = bounds(self.vertices)
-        length = float(np.linalg.norm(hi - lo)) or 1.0
-        k = 1e6 / length**2
+        if self._length is None:  # the mesh's box diagonal, found once
+            lo, hi = bounds(self.vertices)
+            self._length = float(np.linalg.norm(hi - lo)) or 1.0
+        k = 1e6 / self._length**2
         d = np.ascontiguousarray(np.asarray(directions, np.float64).reshape(-1, 3) * k)
         face, t, _ = self._built().intersect_ray_first(self.vertices, self.faces, o, d)
         face = np.asarray(face, np.int64)

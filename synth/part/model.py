@@ -199,12 +199,10 @@ class Part:
             w = face_sample_weights()
             normals = np.asarray(self.mesh.face_normals, float)
             step, margin, reach = self._exposure_step()
-            # which body each face is of; a convex body never hides a point stepped off its
-            # own surface when the step exceeds the margin (else: -1, tested like any other)
-            face_body = np.full(n_f, -1, np.int64)
-            if margin < step * (1.0 - 1e-6):
-                for b in bodies:
-                    face_body[b.faces] = b.index
+            # a convex body never hides a point stepped off its own surface when the step
+            # exceeds the margin (else: no owner, -1, and every body is tested)
+            face_body = (np.asarray(self.face_body, np.int64) if margin < step * (1.0 - 1e-6)
+                         else np.full(n_f, -1, np.int64))
             # a block of faces at a time: the tests' temporaries are tens of rows a point
             # (3.4 GB for the 3.5M points of a two-body 885k-face mug, all at once)
             for s in range(0, n_f, _EXPOSURE_FACES):

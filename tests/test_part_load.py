@@ -252,3 +252,41 @@ def test_a_mesh_above_the_face_limit_is_refused_with_advice() -> None:
                           validate=False)
     with pytest.raises(MeshError, match=f"{n:,} triangles.*decimate"):
         load_part(big)
+
+
+@pytest.mark.parametrize("limit, freed", [(0, True), (10**9, False)])
+def test_the_file_as_read_is_freed_before_the_part_is_built(
+        monkeypatch: pytest.MonkeyPatch, limit: int, freed: bool) -> None:
+    """A trimesh mesh is a reference cycle: the loader collects the file as read once it is
+    welded, from ``_COLLECT_FACES`` triangles on (below, with the automatic collector off, it
+    stays alive: the control that shows the test can fail)."""
+    import gc
+    import weakref
+
+    import synth.part.load as loader
+    import synth.part.model as model
+
+    read, alive = loader._read, []
+
+    def reading(path: Path):  # type: ignore[no-untyped-def]
+        raw, digest, units = read(path)
+        alive.append(weakref.ref(raw[0][1]))
+        return raw, digest, units
+
+    init = model.Part.__init__
+
+    def building(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        alive.append(alive[0]() is not None)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(loader, "_read", reading)
+    monkeypatch.setattr(loader, "_COLLECT_FACES", limit)
+    monkeypatch.setattr(model.Part, "__init__", building)
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        load_part(MESHES / "nut.stl", units="mm")
+    finally:
+        if was:
+            gc.enable()
+    assert alive[1] is not freed

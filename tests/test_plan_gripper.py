@@ -117,10 +117,26 @@ def test_a_part_too_large_is_told_its_narrowest_width_and_the_opening():
         assert word not in plan.message
 
 
-def test_units_are_required_and_a_large_part_is_told_so(tmp_path, capsys):
+def test_units_are_required_and_a_large_part_is_told_so(tmp_path, capsys, monkeypatch):
     cube = str(ROOT / "meshes" / "cube.stl")
     assert main(["plan", cube, "--gripper", "franka", "--no-files"]) == 2
+    err = capsys.readouterr().err
+    assert "--units" in err and "STL files do not say it" in err
+    # refused before the mesh is read (a large scan would load for seconds first)
+    import synth.cli.plan
+
+    def unread(args):  # type: ignore[no-untyped-def]
+        raise AssertionError("the mesh was read")
+
+    with monkeypatch.context() as m:
+        m.setattr(synth.cli.plan, "load_part_from_args", unread)
+        assert main(["plan", cube, "--gripper", "franka", "--no-files"]) == 2
     assert "--units" in capsys.readouterr().err
+    # a format that says its unit is read first (a GLB is in metres: too large for the hand)
+    glb = tmp_path / "cube.glb"
+    trimesh.load(cube).export(glb)
+    assert main(["plan", str(glb), "--gripper", "franka", "--no-files", "--samples", "20"]) == 1
+    assert "too large for the Franka Hand" in capsys.readouterr().out
     assert main(["plan", cube, "--units", "m", "--gripper", "franka", "--no-files",
                  "--samples", "20"]) == 1
     assert "too large for the Franka Hand" in capsys.readouterr().out

@@ -183,6 +183,19 @@ def gripper_params(args: argparse.Namespace) -> Any:
                          edges=args.edges, min_margin=min_margin)
 
 
+def require_units(args: argparse.Namespace) -> None:
+    """Refuse, before the mesh is read, a file whose format never says its length unit when
+    ``--units`` is not given: gripper sizes are physical (the same words as
+    :func:`synth.plan.gripper.unit_scale`, which checks the loaded part)."""
+    from synth.part.load import UNITLESS_FORMATS
+
+    ext = Path(args.mesh).suffix.lower().lstrip(".")
+    if args.units is None and ext in UNITLESS_FORMATS:
+        raise OptionError(f"--gripper: the part's length unit is unknown ({ext.upper()} files "
+                         "do not say it) and gripper sizes are physical: give --units (mm, "
+                         "cm, m, in, ...)")
+
+
 def run_gripper(args: argparse.Namespace) -> int:
     """Run ``synth plan --gripper``; exit status 1 when no grasp was found."""
     from synth.cli.plan import load_part_from_args, report_part
@@ -204,6 +217,7 @@ def run_gripper(args: argparse.Namespace) -> int:
     from synth.fingers.gripper import load_gripper
 
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read
+    require_units(args)
     paths = None
     if not args.no_files:
         stem = Path(args.mesh).name.rsplit(".", 1)[0]

@@ -50,10 +50,14 @@ from synth.part.repair import (
     weld,
 )
 
-__all__ = ["SUPPORTED_FORMATS", "MAX_COORDINATE", "MAX_FACES", "length_unit", "load_part"]
+__all__ = ["SUPPORTED_FORMATS", "UNITLESS_FORMATS", "MAX_COORDINATE", "MAX_FACES",
+           "length_unit", "load_part"]
 
 #: File extensions accepted by :func:`load_part` (read by trimesh).
 SUPPORTED_FORMATS: tuple[str, ...] = MESH_FORMATS
+#: Those whose files never say their length unit (GLB/GLTF are in metres, 3MF names its unit):
+#: a command that needs the unit refuses such a file without ``--units`` before reading it.
+UNITLESS_FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "off")
 
 #: How the warning of a mesh whose length unit is unknown begins (``Part.warnings``).
 UNIT_UNKNOWN = "length unit unknown"

@@ -125,9 +125,9 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
     s.add_argument("--evals", type=int, default=d.evals, metavar="N",
                    help=f"budget of grasp evaluations, {MIN_EVALS} to {MAX_EVALS:,} "
                    f"(default {d.evals:,}); with --seed it fixes the result on any machine. "
-                   "The search ends early when every climber has converged (about half the "
-                   "default budget on simple parts), and each stage does a least amount of "
-                   "work, so small budgets evaluate about 2,500 grasps")
+                   "The search ends early when every climber has converged (a default plan "
+                   "of a corpus part evaluates about 10,000), and each stage does a least "
+                   "amount of work, so small budgets evaluate about 1,700 grasps")
     s.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     s.add_argument("--max-squeeze", type=float, default=None, metavar="WEIGHTS",

@@ -20,10 +20,15 @@ much each does; every candidate scored is one evaluation):
    :func:`synth.plan.climb.swap_climb`), and ``KICK_SHARE`` of its starts are the best optima
    so far with two contacts replaced, one by a swap the screen rates highly, the other at
    random (iterated local search).
-5. **Surface climb** (the rest). The best distinct grasps climb on the surface itself, along
-   the ascent direction of d* and by single-contact moves that may cross edges onto
-   neighbouring faces (:func:`synth.plan.climb.surface_climb`).
-6. **Selection.** Candidates in order of d* pass the finger checks (FCL), ``min_d_star`` and a
+5. **Local pools** (7 contacts without friction). The ``synth.plan.polish.ELITE`` best
+   distinct grasps climb by the same exact best responses over contacts drawn close around
+   their own, twice, the second time closer; then the ``FINAL_ELITE`` best of all, closer
+   still (:func:`synth.plan.polish.local_polish`).
+6. **Surface climb** (``SURFACE_SHARE``, in any other case: the local pools take its place).
+   The best distinct grasps climb on the surface itself, along the ascent direction of d*
+   and by single-contact moves that may cross edges onto neighbouring faces
+   (:func:`synth.plan.climb.surface_climb`).
+7. **Selection.** Candidates in order of d* pass the finger checks (FCL), ``min_d_star`` and a
    diversity filter; conditioning and the Ferrari-Canny epsilon are computed for the chosen
    ones, and the grasps are ranked by ``rank_by``.
 
@@ -66,6 +71,7 @@ from synth.plan.placements import (
     placement_pool,
     placement_seeds,
 )
+from synth.plan.polish import ELITE, FINAL_ELITE, FINAL_STEPS, STEPS, local_polish
 from synth.plan.ranking import rank_grasps, shown_d_star
 from synth.plan.result import Plan, PlannedGrasp, describe_part
 from synth.robust import contact_regions
@@ -238,11 +244,22 @@ def _search(part: Part, prm: PlanParams, fingers: Fingers, say: Progress, t0: fl
         say(0.5, f"pool climb: best d* {archive.fit.max(initial=0.0):.4f}")
     archive = GraspBatch.concat([archive, lp])
     starts = archive.take(distinct_top(archive, _KEEP, 1e-6 * L))
-    climbed = surface_climb(
-        part, starts, score, fingers, rng, max(_MIN_SURFACE, int(SURFACE_SHARE * budget)),
-        lambda best: say(0.5 + 0.4 * min(1.0, score.evaluations / budget),
-                         f"climbing: best d* {max(0.0, best):.4f}"))
-    archive = GraspBatch.concat([archive, climbed])
+    if swapping:  # local pools instead of the surface climb
+        say(0.5, "refining the best grasps over local pools")
+        elite = starts.take(np.arange(min(ELITE, len(starts))))
+        archive = GraspBatch.concat([archive, local_polish(part, elite, score, fingers, rng,
+                                                           STEPS)])
+        best = archive.take(distinct_top(archive, FINAL_ELITE, 1e-6 * L))
+        say(0.8, f"refining the best {len(best)} closer, best d* "
+                 f"{max(0.0, archive.fit.max(initial=0.0)):.4f}")
+        archive = GraspBatch.concat([archive, local_polish(part, best, score, fingers, rng,
+                                                           FINAL_STEPS)])
+    else:
+        climbed = surface_climb(
+            part, starts, score, fingers, rng, max(_MIN_SURFACE, int(SURFACE_SHARE * budget)),
+            lambda best: say(0.5 + 0.4 * min(1.0, score.evaluations / budget),
+                             f"climbing: best d* {max(0.0, best):.4f}"))
+        archive = GraspBatch.concat([archive, climbed])
 
     say(0.9, "checking fingers")
     grasps, rejected, near, cut = _select(part, archive, prm, fingers, score, deadline)

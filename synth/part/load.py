@@ -210,7 +210,7 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
         raise _fail(name, "no triangles")
     if n_faces > MAX_FACES:
         raise _fail(name, f"{n_faces:,} triangles, more than the {MAX_FACES:,} synth loads (a "
-                    f"1.3M-triangle mesh takes about 4 s and 1.1 GB to load); decimate it on "
+                    f"1.3M-triangle mesh takes about 3.5 s and 0.9 GB to load); decimate it on "
                     f"loading (Python: load_part(path, decimate=N); the surface error is "
                     f"reported) or "
                     f"first, e.g. with Blender's Decimate")

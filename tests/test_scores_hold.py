@@ -71,6 +71,37 @@ def test_more_contacts_take_the_lp_and_match_the_reference():
     assert np.linalg.norm(W @ h.preload[0]) < 1e-8  # a squeeze the part feels as nothing
 
 
+def test_a_bound_settles_the_grasps_within_it_and_the_lp_the_rest():
+    """``at_most``: grasps of more than seven contacts that one feasible preload holds within
+    the bound get that preload (feasible: a squeeze the part feels as nothing, every finger
+    pressing through every load) and its squeeze, at least the least and at most the bound;
+    the others the LP's least, as without it. Whether a squeeze is within the bound is the
+    same either way."""
+    P0, N0 = CUBE7
+    extra = np.array([[0.2, -0.2, 0.5], [-0.3, 0.1, -0.5]]), np.array([[0.0, 0.0, -1.0],
+                                                                        [0.0, 0.0, 1.0]])
+    P9, N9 = np.vstack([P0, extra[0]]), np.vstack([N0, extra[1]])
+    # the grasp with its contacts moved about on their faces
+    P = P9[None] + 0.3 * RNG.uniform(-1, 1, size=(200, 9, 3)) * (1 - np.abs(N9))[None]
+    N = np.repeat(N9[None], 200, axis=0)
+    exact = stiff_hold_batch(P, N, np.zeros(3), 3**0.5)
+    e = exact.squeeze_per_weight
+    cap = float(np.median(e[np.isfinite(e)]))
+    fast = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, at_most=cap)
+    f = fast.squeeze_per_weight
+    np.testing.assert_array_equal(f <= cap, e <= cap)
+    bounded = f != e
+    assert 20 < bounded.sum() < (e <= cap).sum() + 1  # some settled by the bound, not all
+    assert (f[bounded] >= e[bounded] * (1 - 1e-12)).all() and (f[bounded] <= cap).all()
+    np.testing.assert_array_equal(f[~bounded], e[~bounded])
+    for b in np.flatnonzero(bounded)[:20]:
+        W = np.vstack([N[b].T, np.cross(P[b], N[b]).T])
+        pre = fast.preload[b]
+        assert np.linalg.norm(W @ pre) < 1e-9 * np.linalg.norm(pre)
+        forces = pre[None] - DIRS @ fast.response[b].T  # the weight in sampled directions
+        assert forces.min() >= -1e-9 and forces.max() <= f[b] * (1 + 1e-9)
+
+
 def test_invariant_to_frame_and_units():
     P, N = CUBE7
     q, _ = np.linalg.qr(RNG.normal(size=(3, 3)))

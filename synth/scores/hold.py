@@ -115,7 +115,8 @@ class FingerHold:
 
 
 def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
-                     length: float, factors: GramFactors | None = None) -> FingerHold:
+                     length: float, factors: GramFactors | None = None,
+                     at_most: float = np.inf) -> FingerHold:
     """The stiff hand's least force per weight of frictionless grasps (module notes).
 
     Parameters
@@ -129,6 +130,12 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         :func:`synth.scores.gram.gram_factors` of these grasps' scaled wrenches
         (:func:`synth.scores.quality.scaled_wrenches` with ``center_mass`` and ``length``),
         when the caller already has them; computed here otherwise.
+    at_most : float, optional
+        A caller that only asks whether the squeeze is at most this (the planner's physical
+        floor): a grasp of more than seven contacts for which one feasible preload (the
+        all-ones squeeze projected onto the null space, when every entry is positive) needs
+        no more gets that preload and its squeeze, an upper bound of the least, instead of
+        the LP's least (no LP). Default: every squeeze exact.
 
     Returns
     -------
@@ -181,7 +188,10 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         if k == 7:
             _closed_form(r[rest[full]], Z[full, :, 0], rest[full], pre, spw)
         else:
-            for j in np.flatnonzero(full):
+            lp = np.flatnonzero(full)
+            if np.isfinite(at_most) and len(lp):
+                lp = lp[~_preload_within(Z[lp], r[rest[lp]], rest[lp], at_most, pre, spw)]
+            for j in lp:
                 b = rest[j]
                 got = _stiff_lp(Z[j], r[b])
                 if got is not None:
@@ -210,6 +220,26 @@ def _closed_form(r: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[n
     p = t[:, None] * c
     pre[rows[ok]] = p[ok]
     spw[rows[ok]] = np.max(p[ok] + r[ok], axis=1)
+
+
+def _preload_within(Z: NDArray[np.float64], r: NDArray[np.float64], rows: NDArray[np.int64],
+                    at_most: float, pre: NDArray[np.float64], spw: NDArray[np.float64]
+                    ) -> NDArray[np.bool_]:
+    """Which grasps (null-space bases ``Z`` (b, k, n), reaches ``r`` (b, k)) one feasible
+    preload holds with a squeeze of at most ``at_most``: the all-ones squeeze projected onto
+    the null space, ``c = Z Z^T 1``, where it is positive, scaled to ``t c`` with ``t = max
+    r_i / c_i`` (every finger pressing at least its reach), squeeze ``max(t c_i + r_i)``.
+    Writes that preload and squeeze into ``pre`` and ``spw`` at ``rows`` for those grasps."""
+    c = np.einsum("bkn,bn->bk", Z, Z.sum(axis=1))
+    ok = c.min(axis=1) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.max(r / np.where(ok[:, None], c, 1.0), axis=1)
+    p = t[:, None] * c
+    F = np.max(p + r, axis=1)
+    ok &= F <= at_most
+    pre[rows[ok]] = p[ok]
+    spw[rows[ok]] = F[ok]
+    return ok
 
 
 def _stiff_lp(Z: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64] | None:

@@ -71,6 +71,20 @@ def test_more_contacts_take_the_lp_and_match_the_reference():
     assert np.linalg.norm(W @ h.preload[0]) < 1e-8  # a squeeze the part feels as nothing
 
 
+def test_the_batched_lp_matches_the_reference_on_many_contacts():
+    """Grasps of 9 and 12 contacts (the batched simplex from a feasible preload, scipy where it
+    has none) against the sampled scipy LP of ``_reference``."""
+    P0, N0 = CUBE7
+    for k in (9, 12):
+        idx = np.arange(k) % 7
+        P = P0[idx][None] + 0.3 * RNG.uniform(-1, 1, size=(4, k, 3)) * (1 - np.abs(N0[idx]))[None]
+        N = np.repeat(N0[idx][None], 4, axis=0)
+        h = stiff_hold_batch(P, N, np.zeros(3), 3**0.5)
+        for b in range(4):
+            ref = _reference(P[b], N[b], np.zeros(3), 3**0.5)
+            assert h.squeeze_per_weight[b] == pytest.approx(ref, rel=1e-6)
+
+
 def test_a_bound_settles_the_grasps_within_it_and_the_lp_the_rest():
     """``at_most``: grasps of more than seven contacts that one feasible preload holds within
     the bound get that preload (feasible: a squeeze the part feels as nothing, every finger

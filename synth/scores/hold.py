@@ -189,9 +189,19 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
             _closed_form(r[rest[full]], Z[full, :, 0], rest[full], pre, spw)
         else:
             lp = np.flatnonzero(full)
-            if np.isfinite(at_most) and len(lp):
-                lp = lp[~_preload_within(Z[lp], r[rest[lp]], rest[lp], at_most, pre, spw)]
-            for j in lp:
+            if len(lp):
+                p0, F0 = _ones_preload(Z[lp], r[rest[lp]])
+                # (False where there is no such preload, F0 inf, and without a bound)
+                within = (F0 <= at_most) & np.isfinite(at_most)
+                pre[rest[lp[within]]], spw[rest[lp[within]]] = p0[within], F0[within]
+                start = np.isfinite(F0) & ~within
+                solved = _stiff_lp_batch(Z[lp[start]], r[rest[lp[start]]], p0[start],
+                                         F0[start])
+                ok = np.isfinite(solved[1])
+                pre[rest[lp[start][ok]]], spw[rest[lp[start][ok]]] = (solved[0][ok],
+                                                                      solved[1][ok])
+                lp = np.concatenate([lp[start][~ok], lp[~np.isfinite(F0)]])
+            for j in lp:  # no positive start, or the batch could not verify its answer
                 b = rest[j]
                 got = _stiff_lp(Z[j], r[b])
                 if got is not None:
@@ -222,24 +232,55 @@ def _closed_form(r: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[n
     spw[rows[ok]] = np.max(p[ok] + r[ok], axis=1)
 
 
-def _preload_within(Z: NDArray[np.float64], r: NDArray[np.float64], rows: NDArray[np.int64],
-                    at_most: float, pre: NDArray[np.float64], spw: NDArray[np.float64]
-                    ) -> NDArray[np.bool_]:
-    """Which grasps (null-space bases ``Z`` (b, k, n), reaches ``r`` (b, k)) one feasible
-    preload holds with a squeeze of at most ``at_most``: the all-ones squeeze projected onto
-    the null space, ``c = Z Z^T 1``, where it is positive, scaled to ``t c`` with ``t = max
-    r_i / c_i`` (every finger pressing at least its reach), squeeze ``max(t c_i + r_i)``.
-    Writes that preload and squeeze into ``pre`` and ``spw`` at ``rows`` for those grasps."""
+def _ones_preload(Z: NDArray[np.float64], r: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A feasible preload of each grasp (null-space bases ``Z`` (b, k, n), reaches ``r``
+    (b, k)) and its squeeze: the all-ones squeeze projected onto the null space, ``c = Z Z^T
+    1``, scaled to ``t c`` with ``t = max r_i / c_i`` (every finger pressing at least its
+    reach), squeeze ``max(t c_i + r_i)``; the squeeze is ``inf`` where ``c`` has an entry that
+    is not positive (no such preload)."""
     c = np.einsum("bkn,bn->bk", Z, Z.sum(axis=1))
     ok = c.min(axis=1) > 0
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.max(r / np.where(ok[:, None], c, 1.0), axis=1)
-    p = t[:, None] * c
-    F = np.max(p + r, axis=1)
-    ok &= F <= at_most
-    pre[rows[ok]] = p[ok]
-    spw[rows[ok]] = F[ok]
-    return ok
+    p = np.where(ok[:, None], t[:, None] * c, 0.0)
+    return p, np.where(ok, np.max(p + r, axis=1), np.inf)
+
+
+def _stiff_lp_batch(Z: NDArray[np.float64], r: NDArray[np.float64], p0: NDArray[np.float64],
+                    F0: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`_stiff_lp` of many grasps at once (null-space bases ``Z`` (b, k, n), reaches
+    ``r`` (b, k)) by the batched simplex (:func:`synth.scores.simplex.solve_batch`), started
+    from a feasible preload ``p0`` (b, k) of squeeze ``F0`` (b,): with ``p = p0 + Z d`` and
+    ``F = F0 - e``, the slacks ``s = p - r`` and ``u = F - p - r`` are the identity basis of
+    the start, feasible at ``d = 0, e = 0``, and the LP maximises ``e`` (``d`` and ``e`` free,
+    each split in two). Returns the preloads (b, k) and squeezes (b,), the squeeze ``inf``
+    where the simplex could not verify its answer (the caller solves those one by one)."""
+    from synth.scores.simplex import OPTIMAL, solve_batch
+
+    nb, k, n = Z.shape
+    if nb == 0:
+        return np.zeros((0, k)), np.zeros(0)
+    A = np.zeros((nb, 2 * k, 2 * k + 2 * n + 2))
+    eye = np.eye(k)
+    A[:, :k, :k] = eye  # s
+    A[:, k:, k:2 * k] = eye  # u
+    A[:, :k, 2 * k:2 * k + n] = -Z  # d+
+    A[:, :k, 2 * k + n:2 * k + 2 * n] = Z  # d-
+    A[:, k:, 2 * k:2 * k + n] = Z
+    A[:, k:, 2 * k + n:2 * k + 2 * n] = -Z
+    A[:, k:, -2] = 1.0  # e+ (F = F0 - e+ + e-)
+    A[:, k:, -1] = -1.0  # e-
+    b = np.concatenate([p0 - r, F0[:, None] - p0 - r], axis=1)
+    np.maximum(b, 0.0, out=b)  # (round-off of the start: it is feasible)
+    c = np.zeros(2 * k + 2 * n + 2)
+    c[-2], c[-1] = 1.0, -1.0
+    sol = solve_batch(A, b, c, np.full(c.shape, np.inf), np.arange(2 * k), compiled=False)
+    x = sol.x
+    d = x[:, 2 * k:2 * k + n] - x[:, 2 * k + n:2 * k + 2 * n]
+    p = np.maximum(p0 + np.einsum("bkn,bn->bk", Z, d), r)
+    F = np.where(sol.status == OPTIMAL, np.max(p + r, axis=1), np.inf)
+    return p, F
 
 
 def _stiff_lp(Z: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64] | None:

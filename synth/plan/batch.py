@@ -94,6 +94,15 @@ class GraspBatch:
             getattr(self, f)[rows] = getattr(other, f)[src]
 
     @staticmethod
+    def of_contacts(c: Any, rows: NDArray[np.bool_] | NDArray[np.int64]) -> GraspBatch:
+        """The contacts ``rows`` of ``c`` (:class:`synth.Contacts`) as one-contact grasps,
+        unscored (a pool of single contacts)."""
+        n = len(c.points[rows])
+        return GraspBatch(c.points[rows][:, None], c.normals[rows][:, None],
+                          c.smooth_normals[rows][:, None], c.faces[rows][:, None],
+                          c.region[rows][:, None], np.zeros(n), np.zeros(n))
+
+    @staticmethod
     def concat(parts: list[GraspBatch]) -> GraspBatch:
         """One batch of all the grasps of ``parts``."""
         return GraspBatch(*[np.concatenate([getattr(p, f) for p in parts]) for f in _FIELDS])

@@ -88,10 +88,7 @@ def local_contacts(part: Any, points: NDArray[np.float64], normals: NDArray[np.f
     keep[keep] &= clear_of_edges(part, c.points[keep])
     keep[keep] &= part.exposed(c.points[keep], c.normals[keep])
     keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
-    k = int(keep.sum())
-    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None],
-                      c.smooth_normals[keep][:, None], c.faces[keep][:, None],
-                      c.region[keep][:, None], np.zeros(k), np.zeros(k))
+    return GraspBatch.of_contacts(c, keep)
 
 
 def local_polish(part: Any, elite: GraspBatch, score: Scorer, fingers: Fingers,
@@ -120,10 +117,10 @@ def local_polish(part: Any, elite: GraspBatch, score: Scorer, fingers: Fingers,
     B, k = out.faces.shape
     if B == 0:
         return out
+    flat = B * k
     for spread in steps:
         if score.out_of_time():
             break
-        flat = out.points.shape[0] * k
         own = GraspBatch(out.points.reshape(flat, 1, 3), out.normals.reshape(flat, 1, 3),
                          out.smooth.reshape(flat, 1, 3), out.faces.reshape(flat, 1),
                          out.regions.reshape(flat, 1), np.zeros(flat), np.zeros(flat))

@@ -503,10 +503,7 @@ def _pool(part: Part, k: int, rng: np.random.Generator, fingers: Fingers) -> Gra
     if keep.sum() < k:
         keep = single
     keep[keep] &= reachable(part, c.points[keep], c.normals[keep], fingers)
-    n = int(keep.sum())
-    return GraspBatch(c.points[keep][:, None], c.normals[keep][:, None],
-                      c.smooth_normals[keep][:, None], c.faces[keep][:, None],
-                      c.region[keep][:, None], np.zeros(n), np.zeros(n))
+    return GraspBatch.of_contacts(c, keep)
 
 
 def _seeds(pool: GraspBatch, k: int, rng: np.random.Generator, score: Scorer, n: int,

@@ -190,7 +190,9 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         else:
             lp = np.flatnonzero(full)
             if len(lp):
-                p0, F0 = _ones_preload(Z[lp], r[rest[lp]])
+                # the start: the all-ones squeeze projected onto the null space, Z Z^T 1
+                p0, F0 = _scaled_preload(np.einsum("bkn,bn->bk", Z[lp], Z[lp].sum(axis=1)),
+                                         r[rest[lp]])
                 # (False where there is no such preload, F0 inf, and without a bound)
                 within = (F0 <= at_most) & np.isfinite(at_most)
                 pre[rest[lp[within]]], spw[rest[lp[within]]] = p0[within], F0[within]
@@ -223,23 +225,19 @@ def _closed_form(r: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[n
                  pre: NDArray[np.float64], spw: NDArray[np.float64]) -> None:
     """The seven-contact answer (module notes) for the grasps ``rows``, whose reaches are
     ``r`` (b, 7) and null vectors ``c`` (b, 7), written into ``pre`` and ``spw``."""
-    c = c * np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0)
-    ok = c.min(axis=1) > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.max(r / c, axis=1)
-    p = t[:, None] * c
+    p, F = _scaled_preload(c * np.where(c.sum(axis=1, keepdims=True) < 0, -1.0, 1.0), r)
+    ok = np.isfinite(F)
     pre[rows[ok]] = p[ok]
-    spw[rows[ok]] = np.max(p[ok] + r[ok], axis=1)
+    spw[rows[ok]] = F[ok]
 
 
-def _ones_preload(Z: NDArray[np.float64], r: NDArray[np.float64]
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """A feasible preload of each grasp (null-space bases ``Z`` (b, k, n), reaches ``r``
-    (b, k)) and its squeeze: the all-ones squeeze projected onto the null space, ``c = Z Z^T
-    1``, scaled to ``t c`` with ``t = max r_i / c_i`` (every finger pressing at least its
-    reach), squeeze ``max(t c_i + r_i)``; the squeeze is ``inf`` where ``c`` has an entry that
-    is not positive (no such preload)."""
-    c = np.einsum("bkn,bn->bk", Z, Z.sum(axis=1))
+def _scaled_preload(c: NDArray[np.float64], r: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The squeezes ``c`` (b, k) in the null space scaled to ``t c`` with ``t = max r_i / c_i``
+    (every finger pressing at least its reach ``r`` (b, k)), and their squeeze per weight
+    ``max(t c_i + r_i)`` (b,): with seven contacts, where ``c`` is the null line, the least
+    (module notes); with more, a feasible preload. The squeeze is ``inf`` where ``c`` has an
+    entry that is not positive (no such preload)."""
     ok = c.min(axis=1) > 0
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.max(r / np.where(ok[:, None], c, 1.0), axis=1)

@@ -85,3 +85,22 @@ def test_factors_given_by_the_caller_give_the_same_answers():
     assert np.array_equal(own.d_star, shared.d_star) and np.array_equal(own.rank, shared.rank)
     with pytest.raises(InputError, match="factors"):
         form_closure_batch(W[:3], factors=gram_factors(W))
+
+
+@pytest.mark.parametrize("n, dim", [(7, 3), (9, 3), (12, 3), (16, 3), (4, 2), (6, 2)])
+def test_the_forces_certify_d_star(n, dim):
+    """``forces``: for every grasp with d* > 0, normal forces the part feels as nothing, every
+    one between d* and 1 (so d* is at least the reported value: with the single LP's equal
+    d*, they are the optimum's forces); zeros for the others."""
+    rng = np.random.default_rng(100 * n + dim)
+    Ws = np.stack([wrench_matrix(*blob_contacts(rng, n, dim, 0.5)) for _ in range(300)])
+    res = form_closure_batch(Ws)
+    assert res.forces.shape == (300, n)
+    pos = res.d_star > 0
+    assert 5 <= pos.sum() < 300
+    c = res.forces[pos]
+    resid = np.linalg.norm(np.einsum("bmk,bk->bm", Ws[pos], c), axis=1)
+    assert (resid <= 1e-9 * np.linalg.norm(Ws[pos], axis=(1, 2))).all()
+    assert (c.min(axis=1) >= res.d_star[pos] * (1 - 1e-9)).all()
+    assert (c.max(axis=1) <= 1 + 1e-9).all()
+    assert not res.forces[~pos].any()

@@ -116,6 +116,60 @@ def test_a_bound_settles_the_grasps_within_it_and_the_lp_the_rest():
         assert forces.min() >= -1e-9 and forces.max() <= f[b] * (1 + 1e-9)
 
 
+def test_the_closure_forces_start_the_lp_where_the_all_ones_squeeze_cannot(monkeypatch):
+    """Grasps of 12 contacts whose all-ones squeeze projected onto the null space has an entry
+    that is not positive: given the d* LP's forces, the batched simplex starts from them and
+    none is solved one at a time, with the same least squeeze as without them (which takes
+    scipy's LP for those grasps), and that equals the sampled scipy LP of ``_reference``."""
+    import synth.scores.hold as hold
+    from synth.scores.batch import form_closure_batch
+    from synth.scores.quality import scaled_wrenches
+    from tests.scoring_cases import cube_contacts
+
+    rng = np.random.default_rng(12)
+    grasps = [cube_contacts(rng, 12) for _ in range(400)]
+    P, N = np.stack([g[0] for g in grasps]), np.stack([g[1] for g in grasps])
+    res = form_closure_batch(scaled_wrenches(P, N, np.zeros(3), 3**0.5))
+    P, N, forces = P[res.closure], N[res.closure], res.forces[res.closure]
+    W = np.stack([np.vstack([n.T, np.cross(p, n).T]) for p, n in zip(P, N, strict=True)])
+    Z = np.swapaxes(np.linalg.svd(W)[2][:, 6:], 1, 2)
+    no_start = (np.einsum("bkn,bn->bk", Z, Z.sum(axis=1)).min(axis=1) <= 0)
+    assert no_start.sum() >= 5
+    exact = stiff_hold_batch(P, N, np.zeros(3), 3**0.5)
+
+    def no_scipy(Z, r):
+        raise AssertionError("a grasp was solved one at a time")
+
+    monkeypatch.setattr(hold, "_stiff_lp", no_scipy)
+    started = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, forces=forces)
+    np.testing.assert_allclose(started.squeeze_per_weight, exact.squeeze_per_weight, rtol=1e-9)
+    for b in np.flatnonzero(no_start)[:4]:
+        assert started.squeeze_per_weight[b] == pytest.approx(
+            _reference(P[b], N[b], np.zeros(3), 3**0.5), rel=1e-6)
+
+
+def test_the_gram_route_of_a_bound_equals_the_svd_route(monkeypatch):
+    """With more than seven contacts and a bound, the certified grasps' start comes from the
+    Gram factor (no basis of the null space): the same decisions and squeezes as with every
+    grasp through the SVD."""
+    import synth.scores.gram as gram
+
+    P0, N0 = CUBE7
+    extra = np.array([[0.2, -0.2, 0.5], [-0.3, 0.1, -0.5]]), np.array([[0.0, 0.0, -1.0],
+                                                                        [0.0, 0.0, 1.0]])
+    P9, N9 = np.vstack([P0, extra[0]]), np.vstack([N0, extra[1]])
+    P = P9[None] + 0.3 * RNG.uniform(-1, 1, size=(200, 9, 3)) * (1 - np.abs(N9))[None]
+    N = np.repeat(N9[None], 200, axis=0)
+    e = stiff_hold_batch(P, N, np.zeros(3), 3**0.5).squeeze_per_weight
+    cap = float(np.median(e[np.isfinite(e)]))
+    a = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, at_most=cap)
+    monkeypatch.setattr(gram, "GRAM_COND2_MAX", -1.0)  # nothing certified: every SVD
+    b = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, at_most=cap)
+    np.testing.assert_array_equal(a.squeeze_per_weight <= cap, b.squeeze_per_weight <= cap)
+    np.testing.assert_allclose(a.squeeze_per_weight, b.squeeze_per_weight, rtol=1e-9)
+    np.testing.assert_allclose(a.preload, b.preload, rtol=1e-9, atol=1e-12)
+
+
 def test_invariant_to_frame_and_units():
     P, N = CUBE7
     q, _ = np.linalg.qr(RNG.normal(size=(3, 3)))

@@ -30,7 +30,7 @@ from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
 from synth.scores.gram import GramFactors, gram_factors, rank_of_balanced
-from synth.scores.simplex import UNBOUNDED, UNVERIFIED, solve_batch
+from synth.scores.simplex import OPTIMAL, UNBOUNDED, UNVERIFIED, solve_batch
 from synth.tolerances import D_STAR_TOL
 
 __all__ = ["BatchScores", "form_closure_batch", "d_star_linprog"]
@@ -52,6 +52,11 @@ class BatchScores:
         How many grasps had to be re-solved with HiGHS.
     solve_time : float
         Seconds for the whole batch.
+    forces : (B, n) float, optional
+        For a grasp with ``d_star > 0``, normal forces that leave the part at rest
+        (``W c = 0``) with every entry between ``d_star`` and 1 (the LP's optimum ``c``:
+        Trinkle's forces); zeros where the batch did not find them (a grasp re-solved with
+        HiGHS, or with ``d_star`` 0). Given by :func:`form_closure_batch`.
     """
 
     d_star: NDArray[np.float64]
@@ -59,6 +64,7 @@ class BatchScores:
     rank: NDArray[np.int64]
     fallback: int = 0
     solve_time: float = field(default=0.0, repr=False)
+    forces: NDArray[np.float64] | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return int(self.d_star.shape[0])
@@ -136,7 +142,7 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
     B, m, n = A.shape
     d = np.zeros(B)
     if B == 0:
-        return BatchScores(d, np.zeros(0, bool), np.zeros(0, np.int64))
+        return BatchScores(d, np.zeros(0, bool), np.zeros(0, np.int64), forces=np.zeros((0, n)))
     f = gram_factors(A) if factors is None else factors
     if f.wrenches.shape != A.shape:
         raise InputError(f"factors: of matrices of shape {f.wrenches.shape}, but W has "
@@ -144,6 +150,7 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
     Wb, certified = f.balanced, f.certified
     rank = rank_of_balanced(Wb, certified)
     todo = np.ones(B, dtype=bool)
+    forces = np.zeros((B, n))
     if n == m + 1:
         # nullity one: the null line gives d* directly (Gram route where certified, else SVD)
         v = f.null.copy()
@@ -155,6 +162,8 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
         v = v * np.sign(v.sum(axis=1, keepdims=True) + (v.sum(axis=1, keepdims=True) == 0))
         vmin, vmax = v.min(axis=1), v.max(axis=1)
         d[one] = np.where(vmin > 0, vmin / np.where(vmax > 0, vmax, 1.0), 0.0)
+        forces[one] = np.where((vmin > 0)[:, None], v / np.where(vmax > 0, vmax, 1.0)[:, None],
+                               0.0)
         todo = ~one
     fallback = 0
     if todo.any():
@@ -174,10 +183,13 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
                           compiled=compiled)
         s = sol.x[:, n]
         d[ii] = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
+        found = (sol.status == OPTIMAL) & (s > 0)  # c = (f + s 1) / (1 + s), in [d*, 1]
+        forces[ii[found]] = (sol.x[found, :n] + s[found, None]) / (1.0 + s[found, None])
         bad = ii[sol.status == UNVERIFIED]
         fallback = int(bad.size)
         for j in bad:
             d[j] = d_star_linprog(A[j])
     d = np.where(d > D_STAR_TOL, np.minimum(d, 1.0), 0.0)
     closure = (d > 0) & (rank == m)
-    return BatchScores(d, closure, rank, fallback, time.perf_counter() - t0)
+    forces[d == 0] = 0.0
+    return BatchScores(d, closure, rank, fallback, time.perf_counter() - t0, forces)

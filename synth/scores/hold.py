@@ -53,6 +53,7 @@ a part of weight ``m g`` in every orientation when ``F >= F' m g``; its *margin*
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,7 +117,7 @@ class FingerHold:
 
 def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLike,
                      length: float, factors: GramFactors | None = None,
-                     at_most: float = np.inf) -> FingerHold:
+                     at_most: float = np.inf, forces: ArrayLike | None = None) -> FingerHold:
     """The stiff hand's least force per weight of frictionless grasps (module notes).
 
     Parameters
@@ -136,6 +137,12 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         all-ones squeeze projected onto the null space, when every entry is positive) needs
         no more gets that preload and its squeeze, an upper bound of the least, instead of
         the LP's least (no LP). Default: every squeeze exact.
+    forces : (B, k) float, optional
+        Normal forces of each grasp that leave the part at rest, every entry positive where
+        known (:attr:`synth.scores.batch.BatchScores.forces`, which the d* LP finds): with
+        more than seven contacts the LP starts from the better of them and the all-ones
+        squeeze (each projected onto the null space), so that a grasp whose all-ones squeeze
+        has an entry that is not positive is solved in the batch too, not one at a time.
 
     Returns
     -------
@@ -164,19 +171,30 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         raise InputError(f"factors: of matrices of shape {factors.wrenches.shape}, expected "
                          f"{(B, 6, k)} for {B} grasps of {k} contacts")
     W = factors.wrenches  # (B, 6, k)
+    g = None if forces is None else np.asarray(forces, float)
     rest = np.arange(B)
-    if k == 7:  # certified full rank: the pseudo-inverse and null vector from the Gram factor
-        rows = np.flatnonzero(factors.certified)
-        if len(rows):
-            # of the balanced rows S W: (S W)^+ = W^T G^-1 S^-1 with G = W W^T, so that
-            # W^+ = (S W)^+ S; the null vector is the same for both
-            Xc = factors.inverse_factor[rows]
-            Ginv = np.einsum("bji,bjk->bik", Xc, Xc)  # (S W W^T S)^-1
-            pinv = (np.einsum("bji,bjk->bik", factors.balanced[rows], Ginv)
-                    * factors.scale[rows, None, :])  # W^+, (b, 7, 6)
-            A[rows], T[rows] = pinv[:, :, :3], pinv[:, :, 3:]
-            _closed_form(_reach(A[rows], T[rows]), factors.null[rows], rows, pre, spw)
-        rest = np.flatnonzero(~factors.certified)
+    # certified full rank: the pseudo-inverse from the Gram factor (with more than seven
+    # contacts only when a bound may spare the LP, which needs a null-space basis)
+    rows = np.flatnonzero(factors.certified) if k == 7 or np.isfinite(at_most) else rest[:0]
+    if len(rows):
+        # of the balanced rows S W: (S W)^+ = W^T G^-1 S^-1 with G = W W^T, so that
+        # W^+ = (S W)^+ S; the null space is the same for both
+        Xc = factors.inverse_factor[rows]
+        Ginv = np.einsum("bji,bjk->bik", Xc, Xc)  # (S W W^T S)^-1
+        pinv = (np.einsum("bji,bjk->bik", factors.balanced[rows], Ginv)
+                * factors.scale[rows, None, :])  # W^+, (b, k, 6)
+        A[rows], T[rows] = pinv[:, :, :3], pinv[:, :, 3:]
+        r = _reach(A[rows], T[rows])
+        if k == 7:
+            _closed_form(r, factors.null[rows], rows, pre, spw)
+            rest = np.flatnonzero(~factors.certified)
+        else:  # a start within the bound: projected by I - W^+ W, no basis needed
+            Wr = W[rows]
+            p0, F0 = _best_start(lambda x: x - np.einsum("bkm,bm->bk", pinv, np.einsum(
+                "bmk,bk->bm", Wr, x)), r, None if g is None else g[rows])
+            within = F0 <= at_most
+            pre[rows[within]], spw[rows[within]] = p0[within], F0[within]
+            rest = np.setdiff1d(rest, rows[within], assume_unique=True)
     if len(rest):
         U, s, Vt = np.linalg.svd(W[rest])
         full = s[:, -1] > _RANK_RTOL * s[:, 0]
@@ -190,9 +208,11 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         else:
             lp = np.flatnonzero(full)
             if len(lp):
-                # the start: the all-ones squeeze projected onto the null space, Z Z^T 1
-                p0, F0 = _scaled_preload(np.einsum("bkn,bn->bk", Z[lp], Z[lp].sum(axis=1)),
-                                         r[rest[lp]])
+                # the start: the better of the all-ones squeeze and the given forces, each
+                # projected onto the null space, Z Z^T x
+                Zl = Z[lp]
+                p0, F0 = _best_start(lambda x: np.einsum("bkn,bn->bk", Zl, np.einsum(
+                    "bkn,bk->bn", Zl, x)), r[rest[lp]], None if g is None else g[rest[lp]])
                 # (False where there is no such preload, F0 inf, and without a bound)
                 within = (F0 <= at_most) & np.isfinite(at_most)
                 pre[rest[lp[within]]], spw[rest[lp[within]]] = p0[within], F0[within]
@@ -229,6 +249,20 @@ def _closed_form(r: NDArray[np.float64], c: NDArray[np.float64], rows: NDArray[n
     ok = np.isfinite(F)
     pre[rows[ok]] = p[ok]
     spw[rows[ok]] = F[ok]
+
+
+def _best_start(project: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                r: NDArray[np.float64], forces: NDArray[np.float64] | None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The better (:func:`_scaled_preload`) of two squeezes for grasps of more than seven
+    contacts whose reaches are ``r`` (b, k): the all-ones squeeze and ``forces`` (b, k), when
+    given, each mapped onto the null space by ``project`` ((b, k) -> (b, k))."""
+    p0, F0 = _scaled_preload(project(np.ones_like(r)), r)
+    if forces is not None:
+        p1, F1 = _scaled_preload(project(forces), r)
+        better = F1 < F0
+        p0[better], F0[better] = p1[better], F1[better]
+    return p0, F0
 
 
 def _scaled_preload(c: NDArray[np.float64], r: NDArray[np.float64]

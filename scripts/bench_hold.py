@@ -73,15 +73,14 @@ def main() -> None:
           f"{'same decisions':>15}")
     for k in args.contacts:
         P, N, F, c, L = grasps(mesh, k, args.grasps, rng)
-        runs = {"exact": lambda: stiff_hold_batch(P, N, c, L),
-                "bound": lambda: stiff_hold_batch(P, N, c, L, at_most=args.floor),
-                "forces": lambda: stiff_hold_batch(P, N, c, L, at_most=args.floor, forces=F)}
+        runs = {"exact": {}, "bound": {"at_most": args.floor},
+                "forces": {"at_most": args.floor, "forces": F}}
         best = {name: np.inf for name in runs}
         out = {}
         for _ in range(args.repeat):
-            for name, run in runs.items():
+            for name, options in runs.items():
                 t = time.process_time()
-                out[name] = run().squeeze_per_weight
+                out[name] = stiff_hold_batch(P, N, c, L, **options).squeeze_per_weight
                 best[name] = min(best[name], time.process_time() - t)
         W = scaled_wrenches(P, N, c, L)
         Z = np.swapaxes(np.linalg.svd(W)[2][:, 6:], 1, 2)

@@ -209,6 +209,12 @@ def _bad_files(tmp: Path) -> dict[str, tuple[Path, str]]:
     p.write_text("hello")
     out["format"] = (p, "unsupported")
     out["missing"] = (tmp / "missing.stl", "no such file")
+    p = tmp / "words.stl"  # text that is no STL: trimesh reads an empty scene
+    p.write_text("hello world\n")
+    out["text"] = (p, "holds no triangle mesh: nothing readable as triangles when read as STL")
+    p = tmp / "points.obj"
+    p.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+    out["points"] = (p, "holds no triangle mesh: only points when read as OBJ")
     return out
 
 

@@ -145,7 +145,10 @@ def _bodies(loaded: object, name: str, listed: list[str] | None = None
                 out.append((str(node), g))
         if out:
             return out
-    raise _fail(name, f"holds no triangle mesh (found {type(loaded).__name__})")
+    found = {"PointCloud": "only points", "Path2D": "only 2-D lines",
+             "Path3D": "only lines"}.get(type(loaded).__name__, "nothing readable as triangles")
+    kind = Path(name).suffix.lstrip(".").upper() or "mesh"
+    raise _fail(name, f"holds no triangle mesh: {found} when read as {kind}")
 
 
 def _split(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:

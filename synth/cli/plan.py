@@ -76,8 +76,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
                    help="picture, ending in .png (default: the --out name with .png, else "
                    "MESHNAME.grasps.png)")
     o.add_argument("--glb", default=None, metavar="GLB",
-                   help="3-D scene, ending in .glb (default: the --out name with .glb, else "
-                   "MESHNAME.grasps.glb)")
+                   help="3-D scene of the best grasp, ending in .glb (default: the --out name "
+                   "with .glb, else MESHNAME.grasps.glb)")
     o.add_argument("--no-files", action="store_true", help="write no files, only print")
     add_json(o, "the grasps")
     add_quiet(o)

@@ -202,7 +202,8 @@ class Scorer:
         if factors is not None and ok.any() and own and math.isfinite(prm.floor):
             spw = stiff_hold_batch(P[ok], N[ok], self.center, self.length,
                                    factors.take(ok), at_most=prm.floor,
-                                   forces=res.forces[ok]).squeeze_per_weight
+                                   forces=None if res.forces is None else res.forces[ok]
+                                   ).squeeze_per_weight
             with np.errstate(divide="ignore"):
                 ratio[ok] = np.minimum(1.0, prm.floor / spw)
             over = spw > prm.floor

@@ -212,7 +212,9 @@ def _scale_bar(ax: Any, view: View, unit: str, at: NDArray[np.float64]) -> None:
     ax.plot([x0, x0 + px], [y0, y0], color="black", linewidth=3, solid_capstyle="butt")
     ax.plot([x0, x0, np.nan, x0 + px, x0 + px], [y0 - 5, y0 + 5, np.nan, y0 - 5, y0 + 5],
             color="black", linewidth=1)
-    ax.text(x0 + px / 2, y0 - 8, f"{length:g} {unit}", ha="center", va="bottom", fontsize=8)
+    # on a light box: a finger drawn across the corner must not hide the length
+    ax.text(x0 + px / 2, y0 - 8, f"{length:g} {unit}", ha="center", va="bottom", fontsize=8,
+            bbox={"facecolor": "white", "alpha": 0.75, "edgecolor": "none", "pad": 1.0})
 
 
 def _axes_triad(ax: Any, view: View, at: NDArray[np.float64]) -> None:

@@ -15,7 +15,7 @@ already loaded), one run prints:
   other load on the machine does not count), seed 0 and the largest over seeds 0-3, and
   whether the time cap stopped any of them.
 
-The summary line covers every part; a second one the held-out parts alone.
+The summary line covers every part; two more the held-out corpus parts and sample parts alone.
 
 Usage:
 
@@ -94,7 +94,7 @@ def main() -> None:
             ratios.append(ratio)
             worst.append(low)
             if held:
-                held_rows.append((ratio, low, max(ts)))
+                held_rows.append((path.parent.name == "corpus", ratio, low, max(ts)))
         times += ts
         print(f"{('*' if held else '') + name[:41]:42s} {len(part.mesh.faces):>7} {ds[0]:>7.4f} "
               f"{min(ds):>8.4f} {max(ds):>6.4f} {ref:>9.4f} {ratio:>6.3f} {low:>9.3f} "
@@ -107,12 +107,13 @@ def main() -> None:
           f"{np.nanmin(r):.3f}, parts >= 0.99: {int((r >= 0.99).sum())} of {len(ratios)}; over "
           f"seeds 0-3: min {np.nanmin(w):.3f}, runs >= 0.99 everywhere on "
           f"{int((w >= 0.99).sum())} parts")
-    if held_rows:
-        h = np.array(held_rows)
-        print(f"held out ({len(h)} parts): first grasp / reference at seed 0: median "
-              f"{np.median(h[:, 0]):.3f}, min {h[:, 0].min():.3f}, parts >= 0.99: "
-              f"{int((h[:, 0] >= 0.99).sum())} of {len(h)}; over seeds 0-3: min "
-              f"{h[:, 1].min():.3f}; CPU time max {h[:, 2].max():.2f} s")
+    for corpus, what in ((True, "corpus parts"), (False, "sample parts")):
+        h = np.array([row[1:] for row in held_rows if row[0] == corpus])
+        if len(h):
+            print(f"held out, {len(h)} {what}: first grasp / reference at seed 0: median "
+                  f"{np.median(h[:, 0]):.3f}, min {h[:, 0].min():.3f}, parts >= 0.99: "
+                  f"{int((h[:, 0] >= 0.99).sum())} of {len(h)}; over seeds 0-3: min "
+                  f"{h[:, 1].min():.3f}; CPU time max {h[:, 2].max():.2f} s")
 
 
 if __name__ == "__main__":

@@ -133,8 +133,12 @@ class PartShape:
             inner = tri - depth[:, None, None] * n[:, None, :]  # the slabs' inner corners
             tol = 1e-9 * float(np.abs(tri).max(initial=1.0)) + 1e-6 * self.slab
             for group in _convex_patches(tri, corners, n, inner, depth, tol):
-                out.append(np.concatenate([tri[group].reshape(-1, 3),
-                                           inner[group].reshape(-1, 3)]))
+                v = np.concatenate([tri[group].reshape(-1, 3), inner[group].reshape(-1, 3)])
+                if len(group) == 1 and not _solid(v):
+                    # the slab of a sliver (a float32 CAD file has facets 1e-8 of the part
+                    # thin) is flat, and MuJoCo refuses it; its neighbours' slabs cover it
+                    continue
+                out.append(v)
                 depths.append(float(depth[group].min()))
         if not out:
             raise SimulationError("no piece of the part is near the hand")

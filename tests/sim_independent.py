@@ -10,7 +10,8 @@ fingers' elastic travel) and it turns less than that length over half its size.
 * The part: the mesh loaded by trimesh with its own vertex merging (so split OBJ seams are
   welded), split into connected pieces; a closed convex piece is used as it is; of any other,
   every triangle within ``NEAR_RTOL`` of the part's size of a finger becomes a prism
-  ``SLAB_RTOL`` deep into the part (one MuJoCo mesh per triangle). Mass from the file's volume
+  ``SLAB_RTOL`` deep into the part (one MuJoCo mesh per triangle; not a sliver thinner than
+  ``SLIVER_RTOL`` of that depth, which its neighbours cover). Mass from the file's volume
   at ``DENSITY``, inertia of the closed pieces.
 * Point fingers: the part scaled to a 0.1 m diagonal; each finger a sphere of the planned
   radius on a slide joint along its approach, starting half a radius back, a position servo of
@@ -33,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 from scipy.optimize import linprog
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, QhullError
 
 SIZE = 0.1  # m, point-finger parts
 DENSITY = 1000.0
@@ -46,6 +47,7 @@ HOLD_S = 0.5
 G = 9.80665
 NEAR_RTOL = 0.04
 SLAB_RTOL = 0.004
+SLIVER_RTOL = 1e-4  # of the slab depth: thinner triangles get no prism
 GRIPPERS = Path(__file__).resolve().parents[1] / "synth" / "fingers" / "grippers"
 
 
@@ -60,11 +62,20 @@ def _bodies(mesh_path: Path) -> tuple[list[np.ndarray], np.ndarray]:
     convex, tris = [], []
     for body in loaded.split(only_watertight=False):
         if body.is_watertight and body.is_convex and \
-                ConvexHull(body.vertices).volume <= body.volume * (1.0 + 1e-4):
+                _hull_volume(body.vertices) <= body.volume * (1.0 + 1e-4):
             convex.append(np.asarray(body.vertices))
         else:
             tris.append(np.asarray(body.triangles))
     return convex, (np.concatenate(tris) if tris else np.zeros((0, 3, 3)))
+
+
+def _hull_volume(vertices: np.ndarray) -> float:
+    """qhull's hull volume; inf for a flat piece, which has none (a closed sliver of a CAD
+    file: its triangles are then taken one by one)."""
+    try:
+        return float(ConvexHull(vertices).volume)
+    except QhullError:
+        return math.inf
 
 
 def _pieces(convex: list[np.ndarray], tris: np.ndarray, near: np.ndarray, reach: float,
@@ -77,7 +88,10 @@ def _pieces(convex: list[np.ndarray], tris: np.ndarray, near: np.ndarray, reach:
         if np.min(np.linalg.norm(near - c, axis=1)) > reach + np.max(np.linalg.norm(t - c, axis=1)):
             continue
         n = np.cross(t[1] - t[0], t[2] - t[0])
-        if np.linalg.norm(n) == 0:
+        longest = np.max(np.linalg.norm(t - np.roll(t, 1, axis=0), axis=1))
+        if np.linalg.norm(n) <= SLIVER_RTOL * depth * longest:
+            # a sliver (a float32 CAD file has some 1e-8 of the size thin): its prism would be
+            # flat, which MuJoCo refuses, and its neighbours cover it to within its height
             continue
         n /= np.linalg.norm(n)
         out.append(np.vstack([t, t - depth * n]))
@@ -89,7 +103,9 @@ def _closed_inertia(mesh_path: Path, com: np.ndarray) -> np.ndarray:
     vertex when no piece is closed)."""
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
     loaded.merge_vertices()
-    bodies = loaded.split(only_watertight=True) or [loaded.convex_hull]
+    # (a closed sliver of a CAD file has no volume and no centre: it weighs nothing)
+    bodies = [b for b in loaded.split(only_watertight=True) if b.volume > 0
+              and np.isfinite(b.center_mass).all()] or [loaded.convex_hull]
     inertia = np.zeros((3, 3))
     for b in bodies:
         d = b.center_mass - com

@@ -154,6 +154,14 @@ def test_no_slab_of_a_sliver_facet_is_left_for_mujoco_to_refuse():
     assert sliver.sum() >= 2
     pieces, depths = s.near(within(tri[sliver].mean(axis=1), 0.02 * part.length))
     assert len(pieces) > 10 and all(_solid(v) for v in pieces)
+    # and no hole where a sliver was: its corners and centre lie in a piece that is kept
+    from scipy.spatial import ConvexHull
+
+    planes = [ConvexHull(v).equations for v in pieces]
+    tol = 1e-9 * part.length
+    for t in tri[sliver]:
+        for x in np.vstack([t, t.mean(axis=0)]):
+            assert any((eq[:, :3] @ x + eq[:, 3]).max() <= tol for eq in planes)
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="part")
     for i, v in enumerate(pieces):

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from synth.errors import SimulationError
 
 __all__ = ["PartShape", "part_shape", "within", "SLAB_RTOL", "WALL_SHARE", "SHEET_RTOL",
-           "FLAT_RTOL"]
+           "FLAT_RTOL", "SLIVER_RTOL"]
 
 #: Depth of each facet's slab, as a fraction of the part's size.
 SLAB_RTOL: float = 0.005
@@ -49,6 +49,9 @@ WALL_SHARE: float = 0.45
 SHEET_RTOL: float = 0.05
 #: A piece is flat when its hull's volume is below this fraction of its bounding box's.
 FLAT_RTOL: float = 1e-6
+#: A facet whose doubled area is below this share of its longest edge squared (a height
+#: under a thousandth of that edge) is a sliver: its patch is tested for flatness.
+SLIVER_RTOL: float = 1e-3
 #: Most facets one convex patch of slabs is grown to.
 _PATCH_FACETS = 64
 #: Least cosine between the normals of two facets of one patch (60 degrees apart at most).
@@ -115,7 +118,8 @@ class PartShape:
         -------
         list of (m, 3) float
             Vertices of every convex piece, exact ones first, then one slab per convex patch
-            of facets.
+            of facets (a patch that is flat for its slivers: a slab per facet, none for a
+            sliver).
         (p,) float
             How deep each piece is below the surface a finger touches: inf for the exact
             pieces, the slab's depth (its thinnest facet's) for the others.
@@ -132,11 +136,20 @@ class PartShape:
             depth = self._depths(tri, n, body)
             inner = tri - depth[:, None, None] * n[:, None, :]  # the slabs' inner corners
             tol = 1e-9 * float(np.abs(tri).max(initial=1.0)) + 1e-6 * self.slab
+            # slivers (a float32 CAD file has facets 1e-8 of the part thin): a patch of them
+            # alone is flat, and MuJoCo refuses a flat mesh with the whole scene
+            longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+            thin = norm[ok] < SLIVER_RTOL * longest**2
             for group in _convex_patches(tri, corners, n, inner, depth, tol):
                 v = np.concatenate([tri[group].reshape(-1, 3), inner[group].reshape(-1, 3)])
-                if len(group) == 1 and not _solid(v):
-                    # the slab of a sliver (a float32 CAD file has facets 1e-8 of the part
-                    # thin) is flat, and MuJoCo refuses it; its neighbours' slabs cover it
+                if thin[group].any() and not _solid(v):
+                    # each facet's own slab where that is a solid; a sliver's is not, and
+                    # its neighbours' slabs cover it to within its height
+                    for f in group:
+                        own = np.concatenate([tri[f], inner[f]])
+                        if _solid(own):
+                            out.append(own)
+                            depths.append(float(depth[f]))
                     continue
                 out.append(v)
                 depths.append(float(depth[group].min()))

@@ -98,14 +98,19 @@ def _pieces(convex: list[np.ndarray], tris: np.ndarray, near: np.ndarray, reach:
     return out
 
 
+def _weighed(loaded: trimesh.Trimesh) -> list[trimesh.Trimesh]:
+    """The closed pieces that have a volume (a closed sliver of a CAD file has none, and no
+    centre of mass: it weighs nothing)."""
+    return [b for b in loaded.split(only_watertight=True)
+            if b.volume > 0 and np.isfinite(b.center_mass).all()]
+
+
 def _closed_inertia(mesh_path: Path, com: np.ndarray) -> np.ndarray:
     """Inertia of the closed pieces about ``com``, per unit density (of the hull of every
     vertex when no piece is closed)."""
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
     loaded.merge_vertices()
-    # (a closed sliver of a CAD file has no volume and no centre: it weighs nothing)
-    bodies = [b for b in loaded.split(only_watertight=True) if b.volume > 0
-              and np.isfinite(b.center_mass).all()] or [loaded.convex_hull]
+    bodies = _weighed(loaded) or [loaded.convex_hull]
     inertia = np.zeros((3, 3))
     for b in bodies:
         d = b.center_mass - com
@@ -281,7 +286,7 @@ def simulate_jaws(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool]:
     table = np.array(desc.get("finger_z", [[0.0, 0.0], [desc["max_opening"], 0.0]]))
     grip = float(desc["grip_force"])
     loaded = trimesh.load(mesh_path, force="mesh", process=True)
-    closed = [b for b in loaded.split(only_watertight=True)]
+    closed = _weighed(loaded)
     volume = sum(b.volume for b in closed) if closed else loaded.convex_hull.volume
     com = (sum(b.volume * b.center_mass for b in closed) / volume) if closed else loaded.centroid
     model = doc["model"]

@@ -104,3 +104,19 @@ def test_the_forces_certify_d_star(n, dim):
     assert (c.min(axis=1) >= res.d_star[pos] * (1 - 1e-9)).all()
     assert (c.max(axis=1) <= 1 + 1e-9).all()
     assert not res.forces[~pos].any()
+
+
+def test_the_forces_at_the_edges_of_the_measure():
+    """Forces where d* is below the closure tolerance are zeros like d*, and where every
+    contact may press equally (``W 1 = 0``: the LP's squeeze unbounded, d* = 1) all ones."""
+    rng = np.random.default_rng(5)
+    v = np.r_[np.ones(6), 1e-12]  # the null line of a 6 x 7 matrix: d* = 1e-12
+    M = rng.normal(size=(6, 7))
+    tiny = M - np.outer(M @ v, v) / (v @ v)
+    W8 = rng.normal(size=(6, 8))
+    even = W8 - W8.mean(axis=1, keepdims=True)  # W 1 = 0
+    res = form_closure_batch(np.stack([tiny]))
+    assert res.d_star[0] == 0 and not res.forces.any()
+    res = form_closure_batch(np.stack([even]))
+    assert res.d_star[0] == pytest.approx(1.0)
+    np.testing.assert_allclose(res.forces[0], np.ones(8))

@@ -148,6 +148,13 @@ def test_the_closure_forces_start_the_lp_where_the_all_ones_squeeze_cannot(monke
             _reference(P[b], N[b], np.zeros(3), 3**0.5), rel=1e-6)
 
 
+def test_forces_of_another_shape_are_refused():
+    P, N = CUBE7
+    P8, N8 = np.vstack([P, P[:1]]), np.vstack([N, N[:1]])
+    with pytest.raises(InputError, match=r"forces: of shape \(1, 7\), expected \(1, 8\)"):
+        stiff_hold_batch(P8[None], N8[None], np.zeros(3), 3**0.5, forces=np.ones((1, 7)))
+
+
 def test_the_gram_route_of_a_bound_equals_the_svd_route(monkeypatch):
     """With more than seven contacts and a bound, the certified grasps' start comes from the
     Gram factor (no basis of the null space): the same decisions and squeezes as with every
@@ -162,7 +169,16 @@ def test_the_gram_route_of_a_bound_equals_the_svd_route(monkeypatch):
     N = np.repeat(N9[None], 200, axis=0)
     e = stiff_hold_batch(P, N, np.zeros(3), 3**0.5).squeeze_per_weight
     cap = float(np.median(e[np.isfinite(e)]))
+    svd, rows = np.linalg.svd, []
+
+    def counted(A, *args, **kwargs):
+        rows.append(len(A))
+        return svd(A, *args, **kwargs)
+
+    monkeypatch.setattr(np.linalg, "svd", counted)
     a = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, at_most=cap)
+    # the bound settled some grasps from the Gram factor: they never reached the SVD
+    assert 0 < sum(rows) < len(P) - 20
     monkeypatch.setattr(gram, "GRAM_COND2_MAX", -1.0)  # nothing certified: every SVD
     b = stiff_hold_batch(P, N, np.zeros(3), 3**0.5, at_most=cap)
     np.testing.assert_array_equal(a.squeeze_per_weight <= cap, b.squeeze_per_weight <= cap)

@@ -55,8 +55,9 @@ class BatchScores:
     forces : (B, n) float, optional
         For a grasp with ``d_star > 0``, normal forces that leave the part at rest
         (``W c = 0``) with every entry between ``d_star`` and 1 (the LP's optimum ``c``:
-        Trinkle's forces); zeros where the batch did not find them (a grasp re-solved with
-        HiGHS, or with ``d_star`` 0). Given by :func:`form_closure_batch`.
+        Trinkle's forces); zeros where ``d_star`` is 0 and for the few grasps the batch
+        could not verify, which HiGHS solves again (``fallback``). Given by
+        :func:`form_closure_batch`.
     """
 
     d_star: NDArray[np.float64]
@@ -185,6 +186,7 @@ def form_closure_batch(W: ArrayLike, compiled: bool | None = None,
         d[ii] = np.where(sol.status == UNBOUNDED, 1.0, s / (1.0 + s))
         found = (sol.status == OPTIMAL) & (s > 0)  # c = (f + s 1) / (1 + s), in [d*, 1]
         forces[ii[found]] = (sol.x[found, :n] + s[found, None]) / (1.0 + s[found, None])
+        forces[ii[sol.status == UNBOUNDED]] = 1.0  # s unbounded only where W 1 = 0
         bad = ii[sol.status == UNVERIFIED]
         fallback = int(bad.size)
         for j in bad:

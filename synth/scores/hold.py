@@ -133,16 +133,17 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
         when the caller already has them; computed here otherwise.
     at_most : float, optional
         A caller that only asks whether the squeeze is at most this (the planner's physical
-        floor): a grasp of more than seven contacts for which one feasible preload (the
-        all-ones squeeze projected onto the null space, when every entry is positive) needs
-        no more gets that preload and its squeeze, an upper bound of the least, instead of
-        the LP's least (no LP). Default: every squeeze exact.
+        floor): a grasp of more than seven contacts for which a feasible preload (the
+        better of the all-ones squeeze and ``forces``, each projected onto the null space,
+        where every entry is positive) needs no more gets that preload and its squeeze, an
+        upper bound of the least, instead of the LP's least (no LP). Default: every squeeze
+        exact.
     forces : (B, k) float, optional
         Normal forces of each grasp that leave the part at rest, every entry positive where
-        known (:attr:`synth.scores.batch.BatchScores.forces`, which the d* LP finds): with
-        more than seven contacts the LP starts from the better of them and the all-ones
-        squeeze (each projected onto the null space), so that a grasp whose all-ones squeeze
-        has an entry that is not positive is solved in the batch too, not one at a time.
+        known, zeros elsewhere (:attr:`synth.scores.batch.BatchScores.forces`, which the d*
+        LP finds): with more than seven contacts they are a second start for the bound and
+        the LP, so that a grasp whose all-ones squeeze has an entry that is not positive is
+        solved in the batch too, not one at a time.
 
     Returns
     -------
@@ -172,6 +173,9 @@ def stiff_hold_batch(points: ArrayLike, normals: ArrayLike, center_mass: ArrayLi
                          f"{(B, 6, k)} for {B} grasps of {k} contacts")
     W = factors.wrenches  # (B, 6, k)
     g = None if forces is None else np.asarray(forces, float)
+    if g is not None and g.shape != (B, k):
+        raise InputError(f"forces: of shape {g.shape}, expected {(B, k)} for {B} grasps of "
+                         f"{k} contacts")
     rest = np.arange(B)
     # certified full rank: the pseudo-inverse from the Gram factor (with more than seven
     # contacts only when a bound may spare the LP, which needs a null-space basis)

@@ -124,10 +124,10 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     # bodies in the order the file lists them (trimesh's OBJ reader reverses its objects)
     listed = [line[2:].strip() for line in data.decode("utf-8", "replace").splitlines()
               if line.startswith("o ")] if ext == "obj" else []
-    return _bodies(loaded, name, listed), digest, getattr(loaded, "units", None)
+    return _bodies(loaded, name, ext, listed), digest, getattr(loaded, "units", None)
 
 
-def _bodies(loaded: object, name: str, listed: list[str] | None = None
+def _bodies(loaded: object, name: str, ext: str, listed: list[str] | None = None
             ) -> list[tuple[str, trimesh.Trimesh]]:
     if isinstance(loaded, trimesh.Trimesh):
         return [("mesh", loaded)]
@@ -147,8 +147,7 @@ def _bodies(loaded: object, name: str, listed: list[str] | None = None
             return out
     found = {"PointCloud": "only points", "Path2D": "only 2-D lines",
              "Path3D": "only lines"}.get(type(loaded).__name__, "nothing readable as triangles")
-    kind = Path(name).suffix.lstrip(".").upper() or "mesh"
-    raise _fail(name, f"holds no triangle mesh: {found} when read as {kind}")
+    raise _fail(name, f"holds no triangle mesh: {found} when read as {ext.upper()}")
 
 
 def _split(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:

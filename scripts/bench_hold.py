@@ -9,8 +9,9 @@ contacts on a corpus part (file normals, fixed seed), this times side by side, b
 * ``exact``: ``stiff_hold_batch`` without a bound (every squeeze the LP's least: the batched
   simplex where the all-ones squeeze gives a start, scipy's HiGHS one grasp at a time for the
   rest);
-* ``bound``: with ``at_most`` the floor, as the planner asked before the d* LP's forces were
-  passed on (no LP where the all-ones start is within the floor);
+* ``bound``: with ``at_most`` the floor, without the forces (the all-ones start only: no LP
+  where it is within the floor, scipy where it has an entry that is not positive), as the
+  planner asked before the d* LP's forces were passed on;
 * ``forces``: with the floor and the d* LP's forces (``BatchScores.forces``), as the planner
   asks now: the better of two starts, and no grasp left to scipy for want of one.
 

@@ -44,7 +44,7 @@ from synth.plan.batch import admission_key  # noqa: E402
 from synth.plan.ranking import shown_d_star  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from reference_search import CACHE, parts, rescore  # noqa: E402
+from reference_search import CACHE, CORPUS, parts, rescore  # noqa: E402
 
 __all__ = ["main"]
 
@@ -94,7 +94,7 @@ def main() -> None:
             ratios.append(ratio)
             worst.append(low)
             if held:
-                held_rows.append((path.parent.name == "corpus", ratio, low, max(ts)))
+                held_rows.append((path.parent == CORPUS, ratio, low, max(ts)))
         times += ts
         print(f"{('*' if held else '') + name[:41]:42s} {len(part.mesh.faces):>7} {ds[0]:>7.4f} "
               f"{min(ds):>8.4f} {max(ds):>6.4f} {ref:>9.4f} {ratio:>6.3f} {low:>9.3f} "

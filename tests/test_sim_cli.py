@@ -33,7 +33,7 @@ def test_sim_labels_every_grasp_in_place(tmp_path, capsys):
     doc = json.loads(path.read_text())
     s = doc["grasps"][0]["sim"]
     assert s["held"] is False and s["failed_at"] == "gravity" and s["escape_cos"] > 0.98
-    assert s["simulator"] == doc["sim"]["settings"]["simulator"] == "synth.sim 2"
+    assert s["simulator"] == doc["sim"]["settings"]["simulator"] == "synth.sim 3"
     assert doc["sim"]["contact"]["condim"] == 1 and doc["sim"]["settings"]["grip"] == 10.0
     assert doc["grasps"][0]["d_star"] == 0.5  # the rest of the file is kept
 

@@ -27,7 +27,7 @@ from synth.sim import (  # noqa: E402
     read_grasp_file,
     simulate_file,
 )
-from synth.sim.protocol import settle_under  # noqa: E402
+from synth.sim.protocol import REFINEMENTS, settle_under  # noqa: E402
 from synth.sim.shape import part_shape  # noqa: E402
 from synth.sim.simulate import balanced_preload  # noqa: E402
 from tests.sim_support import (  # noqa: E402
@@ -214,3 +214,35 @@ def test_a_diverging_simulation_is_reported_never_held(tmp_path):
     settings = SimSettings(stiffness=1e9, finger_mass=1e-9, timestep=1e-3, grip=1e6)
     _, lab = _label(tmp_path, *CUBE7, settings=settings)
     assert not lab.held and lab.failed_at == "diverged" and lab.reason
+    assert lab.timestep == pytest.approx(1e-3 / 2**REFINEMENTS)  # refined, and still diverged
+
+
+def test_a_run_that_diverges_is_run_again_at_half_the_step(tmp_path, monkeypatch):
+    """A divergence is the integrator's failure: the grasp is simulated again at half the
+    time step (a run made to diverge at the default step here), at most ``REFINEMENTS``
+    times, and the label says the step it was simulated at."""
+    from dataclasses import replace
+
+    import synth.sim.protocol as protocol
+
+    real, calls = protocol.run_protocol, []
+    f = _file(tmp_path, *CUBE7)
+    st = SimSettings(shake=0.0)
+    dt = st.dt
+
+    def diverging_above(limit):
+        def run(scene):
+            calls.append(scene.settings.dt)
+            out = real(scene)
+            return replace(out, diverged="made to diverge") if scene.settings.dt > limit else out
+        return run
+
+    monkeypatch.setattr(protocol, "run_protocol", diverging_above(0.6 * dt))
+    lab = simulate_file(f, st).labels[0]
+    assert calls == [dt, dt / 2] and lab.held and lab.timestep == dt / 2
+    assert lab.to_dict()["timestep"] == dt / 2
+    calls.clear()
+    monkeypatch.setattr(protocol, "run_protocol", diverging_above(0.0))
+    lab = simulate_file(f, st).labels[0]
+    assert calls == [dt / 2**k for k in range(REFINEMENTS + 1)]
+    assert lab.failed_at == "diverged" and not lab.held and lab.timestep == dt / 2**REFINEMENTS

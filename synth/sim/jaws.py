@@ -22,6 +22,7 @@ the hand: a gripper picking from above).
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -197,7 +198,7 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     from synth.fingers.gripper import load_gripper
     from synth.formats.arrays import unit_metres
     from synth.sim.label import SimLabel, error_label, label_run
-    from synth.sim.protocol import run_protocol
+    from synth.sim.protocol import run_refined
     from synth.sim.shape import part_shape
     from synth.sim.simulate import SimReport
 
@@ -217,9 +218,10 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     shape = part_shape(part)
     for i, g in enumerate(doc["grasps"]):
         try:
-            scene = build_jaw_scene(shape, part, np.asarray(g["pose"], float),
-                                    float(g["width"]), gripper, metres, mass, st, contact)
-            labels.append(label_run(run_protocol(scene), scene, None))
+            run, scene = run_refined(partial(
+                build_jaw_scene, shape, part, np.asarray(g["pose"], float), float(g["width"]),
+                gripper, metres, mass, contact=contact), st)
+            labels.append(label_run(run, scene, None))
         except SimulationError as e:
             labels.append(error_label(str(e)))
         if progress is not None:

@@ -113,6 +113,10 @@ class SimLabel:
         Cosine between ``motion`` and synth's predicted escape, when there is one.
     steps : int
     seconds : float
+    timestep : float
+        The integration step the label was simulated at, s: the settings', or a half or a
+        quarter of it when the run diverged at the larger step
+        (:func:`synth.sim.protocol.run_refined`); nan when not simulated.
     """
 
     held: bool | None
@@ -127,6 +131,7 @@ class SimLabel:
     escape_cos: float | None
     steps: int
     seconds: float
+    timestep: float = float("nan")
 
     def to_dict(self) -> dict[str, Any]:
         """The ``sim`` object of a grasp in a grasp file."""
@@ -148,6 +153,7 @@ class SimLabel:
             "escape_cos": self.escape_cos,
             "steps": int(self.steps),
             "seconds": float(self.seconds),
+            "timestep": num(self.timestep),
         }
 
 
@@ -199,4 +205,4 @@ def label_run(run: SimRun, scene: Scene, escape: Escape | None) -> SimLabel:
         cos = abs(c) if escape.both_senses else c
     return SimLabel(run.held, failed, reason, run.gravity_held, scene.weight / scene.grip,
                     run.forces / scene.grip, motion, run.motion_at if failed != "diverged"
-                    else None, words, cos, run.steps, run.seconds)
+                    else None, words, cos, run.steps, run.seconds, scene.settings.dt)

@@ -40,7 +40,7 @@ __all__ = ["SimSettings", "SIMULATOR", "HANDS", "TRANSLATION_RTOL", "MAX_TIMESTE
 
 #: Name and version of the simulation that makes a label. Every label carries it, and a
 #: database never holds labels of two versions (its build parameters include it).
-SIMULATOR: str = "synth.sim 2"
+SIMULATOR: str = "synth.sim 3"
 #: The simulated hands (see the module notes).
 HANDS: tuple[str, ...] = ("balanced", "saturated")
 #: A part held still moves less than this fraction of its size (plus the fingers' stroke).

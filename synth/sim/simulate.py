@@ -18,6 +18,7 @@ import hashlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -190,7 +191,7 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     >>> [lab.held for lab in report.labels]
     [True, True, True]
     """
-    from synth.sim.protocol import run_protocol
+    from synth.sim.protocol import run_refined
     from synth.sim.scene import build_scene
     from synth.sim.shape import part_shape
 
@@ -206,13 +207,13 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
         try:
             preload = None if st.hand == "saturated" else balanced_preload(
                 g, file.center_mass, file.length, model.mu, st.grip)
-            scene = build_scene(shape, g.tip_centers, g.approach, g.tip_radius,
-                                length=file.length, center_mass=file.center_mass,
-                                volume=file.volume, settings=st, contact=model,
-                                preload=preload)
+            run, scene = run_refined(partial(
+                build_scene, shape, g.tip_centers, g.approach, g.tip_radius,
+                length=file.length, center_mass=file.center_mass, volume=file.volume,
+                contact=model, preload=preload), st)
             escape = predicted_escape(g.points, g.normals, model.mu, file.center_mass,
                                       file.length)
-            out.append(label_run(run_protocol(scene), scene, escape))
+            out.append(label_run(run, scene, escape))
         except SimulationError as e:
             out.append(error_label(str(e)))
         if progress is not None:

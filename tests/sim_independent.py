@@ -229,8 +229,10 @@ def _run(xml: str, ctrl_touch, ctrl_squeeze, target, size, slack, down, shake=1.
 
 
 def _options(condim: int) -> str:
+    # the arena: a gripper's pads on a finely meshed part make hundreds of contacts (330 on a
+    # Jaco finger segment overflowed MuJoCo's default)
     return (f'<option timestep="{DT}" integrator="implicitfast" cone="elliptic" impratio="10" '
-            'noslip_iterations="10" gravity="0 0 0"/>')
+            'noslip_iterations="10" gravity="0 0 0"/><size memory="128M"/>')
 
 
 def simulate_points(doc: dict, mesh_path: Path, shake: float = 1.0) -> list[bool]:

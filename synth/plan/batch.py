@@ -206,10 +206,7 @@ class Scorer:
                                    ).squeeze_per_weight
             with np.errstate(divide="ignore"):
                 ratio[ok] = np.minimum(1.0, prm.floor / spw)
-            over = spw > prm.floor
-            self.above_floor += int(over.sum())
-            self.least_above = min(self.least_above, float(spw[over].min(initial=math.inf)))
-            ok[ok] = ~over
+            ok[ok] = ~(spw > prm.floor)
         if ok.any() and prm.min_conditioning > 0:  # conditioning matters only for closure
             ok[ok] = conditioning_at_least(self.matrix(P[ok], N[ok]), prm.min_conditioning)
         return d, ok, ratio
@@ -239,6 +236,12 @@ class Scorer:
                        np.linalg.norm(tips[:, iu[0]] - tips[:, iu[1]], axis=2), np.inf)
         tips_ok = gap.min(axis=1) >= 2 * self.r * (1 - 1e-9)
         above = ~ok & (ratio > 0) & (ratio < 1)  # closure, above the floor
+        # counted here, under every reading at once: a grasp within the floor under one and
+        # not closure under the other (a surface of revolution's) is not "above the floor"
+        self.above_floor += int(above.sum())
+        if above.any():  # its squeeze: the floor over its ratio (the readings' larger)
+            self.least_above = min(self.least_above,
+                                   self.params.floor / float(ratio[above].max()))
         return d, np.where(tips_ok, np.where(ok, d, np.where(above, ratio - 1.0, d - 1.0)), -2.0)
 
     def score(self, b: GraspBatch) -> None:

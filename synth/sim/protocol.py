@@ -27,8 +27,9 @@ Divergence: after every ``CHECK_STEPS`` steps, and whenever the part seems to ha
 state must be finite, MuJoCo must not have flagged a bad acceleration (it then resets the
 state, which would look like a held part), the part may not move faster than ``SPEED_LIMIT``
 sizes per second, and no finger may sink into the part deeper than the scene's limit. Otherwise
-the run stops and reports the reason. MuJoCo's warnings are read from its counters, never
-printed nor logged to a file.
+the run stops and reports the reason; :func:`run_refined` then runs the grasp again at half the
+time step, ``REFINEMENTS`` times at most, before a divergence is its label. MuJoCo's warnings
+are read from its counters, never printed nor logged to a file.
 """
 
 from __future__ import annotations

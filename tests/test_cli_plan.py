@@ -29,6 +29,9 @@ def test_plan_writes_json_png_glb(tmp_path, capsys):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
     scene = trimesh.load(tmp_path / "bracket.grasps.glb")
     assert "part" in scene.geometry and "tip_0" in scene.geometry
+    # units unknown (no --units): every geometry says so alike, none is read as metres
+    assert {g.units for g in scene.geometry.values()} == {"none"}
+    assert scene.metadata["synth"]["units"] is None
     _fingers_drawn_as_planned(scene, doc["grasps"][0]["fingers"], MESHES / "bracket.stl")
     _outputs_are_not_parts(tmp_path, doc["run_id"], capsys)
 

@@ -87,6 +87,9 @@ def test_cli_files_glb_matches_the_json(tmp_path, capsys):
     scene = trimesh.load(out.with_suffix(".glb"))
     geoms = scene.dump(concatenate=False) if hasattr(scene, "dump") else []
     named = {m.metadata.get("name", ""): m for m in geoms}
+    # the part and the posed gripper alike are in the part's units (centimetres here)
+    assert {g.units for g in scene.geometry.values()} == {"centimeters"}
+    assert scene.units == "centimeters" and scene.metadata["synth"]["units"] == "centimeters"
     want = gripper_shapes(DATA / "franka.json", g["width"], 100.0)  # metres to cm
     assert len([k for k in named if k.startswith("gripper_")]) == len(want)
     for k, (V, _) in enumerate(want):

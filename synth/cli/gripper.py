@@ -129,7 +129,7 @@ def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
              + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "contacts"]
     for i, g in enumerate(grasps):
         margin = "-" if g.margin is None else f"{g.margin:.2f}"
-        squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.3g}"
+        squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.2f}"
         mu_min = "-" if g.mu_min is None else f"{g.mu_min:.2g}"
         pts = "  ".join("(" + ", ".join(f"{c:.4g}" for c in p) + ")" for p in g.points)
         held = ""

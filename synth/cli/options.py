@@ -79,9 +79,10 @@ def add_finger_options(p: argparse.ArgumentParser) -> None:
                    help=f"fingertip radius in the mesh's units, in (0, {MAX_LENGTH:g}] "
                    "(default: 2.5%% of the part's bounding-box diagonal)")
     g.add_argument("--body-length", type=float, default=None, metavar="L",
-                   help=f"finger body length, in (0, {MAX_LENGTH:g}] (default: 10 tip radii)")
+                   help=f"finger body length in the mesh's units, in (0, {MAX_LENGTH:g}] (default: 10 "
+                   "tip radii)")
     g.add_argument("--body-radius", type=float, default=None, metavar="R",
-                   help="finger body radius, positive and at most the tip radius (default: "
+                   help="finger body radius in the mesh's units, positive and at most the tip radius (default: "
                    "0.75 tip radius)")
     g.add_argument("--approach-cone", type=float, default=0.0, metavar="DEG",
                    help="half-angle of the cone of approach directions tried around the "
@@ -96,7 +97,8 @@ def add_rank_by(p: argparse.ArgumentParser | Any, what: str = "grasps",
     p.add_argument("--rank-by", choices=RANK_BY + more, default="d_star",
                    help=f"order of the {what} (default d_star: by d* as printed, 5 decimals, "
                    "then by conditioning; conditioning, epsilon or tolerance, the placement "
-                   "tolerance: by that measure, largest first, then as by d*)"
+                   "tolerance: by that measure, largest first, then as by d*; margin: by the "
+                   "least squeeze per weight, smallest first: the largest margin of --grip first)"
                    + (f"; with --gripper: margin (the default), {', '.join(extra[1:])}"
                       if more else ""))
 

@@ -87,8 +87,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     add_finger_options(p)
     add_weight_options(p)
     o = p.add_argument_group("output")
-    add_out(o, "every candidate, ranked")
-    add_json(o, "every candidate, ranked")
+    add_out(o, "every candidate ranked")
+    add_json(o, "every candidate ranked")
     add_quiet(o)
     from synth.cli.rank_gripper import add_rank_gripper_options
 

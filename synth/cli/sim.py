@@ -153,7 +153,7 @@ def summary(doc: dict) -> str:
     errors = f", {s['errors']} not simulated ({s['error'] or 'see each label'})" \
         if s.get("errors") else ""
     return (f"{s['held']} of {n} grasps held{errors} ({hand}; weight along +-x, +-y, +-z, "
-            f"shake {st['shake']:g} g; {st['simulator']}){dec} in {s['seconds']:.1f} s")
+            f"shake {st['shake']:g} g; protocol {st['simulator']}){dec} in {s['seconds']:.1f} s")
 
 
 def run(args: argparse.Namespace) -> int:

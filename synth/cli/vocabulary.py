@@ -3,8 +3,8 @@
 ``--quiet``, ``--json``, ``--out`` and ``--top`` mean one thing in every command that takes
 them, and every ``--help`` ends with the exit statuses:
 
-* ``--quiet``: results and errors only; no progress bar, no loading notes, no counts, no list
-  of files written.
+* ``--quiet``: results and errors only (a plan's table and its summary line); no progress bar,
+  no loading notes, no tallies of candidates by status, no list of files written.
 * ``--json``: the result as one JSON document on stdout instead of the table (the document
   ``--out`` writes, where there is one); it implies ``--quiet``.
 * ``--out FILE``: the result written to FILE, checked before any work and written whole or
@@ -29,8 +29,9 @@ __all__ = ["DEFAULT_ROWS", "QUIET_HELP", "add_quiet", "add_json", "add_out", "to
 #: Rows ``synth rank`` and ``synth score`` print when ``--top`` is not given.
 DEFAULT_ROWS = 20
 #: What ``--quiet`` does, in every command that takes it.
-QUIET_HELP = ("print the results and errors only: no progress bar, no loading notes, no "
-              "counts, no list of files written")
+QUIET_HELP = ("print the results and errors only (a plan's table and its summary line): no "
+              "progress bar, no loading notes, no tallies of candidates by status, no list of "
+              "files written")
 
 
 def add_quiet(p: argparse.ArgumentParser | Any) -> None:

@@ -148,7 +148,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
                    metavar="SECONDS",
                    help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, "
-                   "before it is stopped and recorded as failed with kind 'timeout' (local engine)")
+                   "before it is stopped and recorded as failed with kind 'timeout' (local engine; "
+                   "default: none, the planner's own --time cap bounds its search)")
     add_quiet(b)
     from synth.cli.sim import add_sim_options
 
@@ -351,7 +352,8 @@ def _export(args: argparse.Namespace) -> int:
 
         paths = export_objects(args.database, args.out, args.format, args.units)
         if not args.quiet:
-            print(f"wrote {len(paths)} {args.format} files in {args.out} from {args.database} "
+            print(f"wrote {len(paths)} {args.format} file{'s' * (len(paths) != 1)} in "
+                  f"{args.out} from {args.database} "
                   "(poses in metres)")
         return 0
     if args.units is not None:

@@ -18,7 +18,7 @@ import trimesh
 from synth.files import write_atomic
 from synth.plan.result import Plan
 
-__all__ = ["render_png", "export_glb", "run_title", "save_png", "scene_extras"]
+__all__ = ["render_png", "export_glb", "run_title", "save_png", "scene_extras", "same_units"]
 
 _COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
                      [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
@@ -91,6 +91,20 @@ def scene_extras(mesh: dict, run_id: str, params: dict, **more: object) -> dict:
     """The ``synth`` extras of a plan's GLB scene: the run id, the mesh's SHA-256 and the
     parameters, and ``more`` (the grasp shown)."""
     return {"run_id": run_id, "mesh_sha256": mesh.get("sha256"), "params": params, **more}
+
+
+def same_units(scene: trimesh.Scene, part) -> trimesh.Scene:  # type: ignore[no-untyped-def]
+    """Label every geometry of ``scene`` with the part's units, as its coordinates are.
+
+    glTF readers take an unlabelled geometry for metres (trimesh does), so a scene whose part
+    alone carried the file's units (``--units mm``) read as mixed units; unknown units are
+    labelled ``none`` throughout, as the part is. The scene's ``synth`` extras name them too.
+    """
+    units = part.mesh.units or "none"
+    for geometry in scene.geometry.values():
+        geometry.units = units
+    scene.metadata.setdefault("synth", {})["units"] = part.units
+    return scene
 
 
 def _measures(g) -> str:  # type: ignore[no-untyped-def]
@@ -214,7 +228,7 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
                                               segment=[p, p + 0.1 * part.length * n])
             cast(trimesh.visual.ColorVisuals, arrow.visual).face_colors = [20, 20, 20, 255]
             scene.add_geometry(arrow, geom_name=f"normal_{i}")
-    data = scene.export(file_type="glb")
+    data = same_units(scene, part).export(file_type="glb")
     if atomic:
         return write_atomic(path, data)
     Path(path).write_bytes(data)

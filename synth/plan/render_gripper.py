@@ -16,7 +16,7 @@ from typing import Any, cast
 import numpy as np
 import trimesh
 
-from synth.plan.render import run_title, save_png, scene_extras
+from synth.plan.render import run_title, same_units, save_png, scene_extras
 
 __all__ = ["export_gripper_glb", "render_gripper_png", "posed_gripper"]
 
@@ -50,7 +50,7 @@ def export_gripper_glb(part: Any, plan: Any, path: str | Path, grasp: int = 0) -
         for i, m in enumerate(posed_gripper(plan, grasp)):
             cast(trimesh.visual.ColorVisuals, m.visual).face_colors = [70, 110, 200, 200]
             scene.add_geometry(m, geom_name=f"gripper_{i}")
-    Path(path).write_bytes(scene.export(file_type="glb"))
+    Path(path).write_bytes(same_units(scene, part).export(file_type="glb"))
     return Path(path)
 
 

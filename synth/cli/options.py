@@ -79,11 +79,11 @@ def add_finger_options(p: argparse.ArgumentParser) -> None:
                    help=f"fingertip radius in the mesh's units, in (0, {MAX_LENGTH:g}] "
                    "(default: 2.5%% of the part's bounding-box diagonal)")
     g.add_argument("--body-length", type=float, default=None, metavar="L",
-                   help=f"finger body length in the mesh's units, in (0, {MAX_LENGTH:g}] (default: 10 "
-                   "tip radii)")
+                   help=f"finger body length in the mesh's units, in (0, {MAX_LENGTH:g}] "
+                   "(default: 10 tip radii)")
     g.add_argument("--body-radius", type=float, default=None, metavar="R",
-                   help="finger body radius in the mesh's units, positive and at most the tip radius (default: "
-                   "0.75 tip radius)")
+                   help="finger body radius in the mesh's units, positive and at most the tip "
+                   "radius (default: 0.75 tip radius)")
     g.add_argument("--approach-cone", type=float, default=0.0, metavar="DEG",
                    help="half-angle of the cone of approach directions tried around the "
                    "contact normal, in [0, 90) degrees (default 0: straight out)")

@@ -3,20 +3,24 @@
 Every file synth writes goes to a temporary file in the target's folder, is flushed to disk,
 and is renamed over the target only once it is complete (``os.replace`` is atomic within one
 file system), so a full disk, a crash or a kill leaves either the old file or the new one,
-never half of one.
+never half of one. And synth replaces only files it wrote (:func:`wrote_by_synth` tells them
+by their first bytes): never an input, nor a file of the user's that happens to have the
+name.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from synth.errors import OutputError
 
-__all__ = ["atomic_path", "atomic_paths", "writing", "write_atomic"]
+__all__ = ["atomic_path", "atomic_paths", "writing", "write_atomic", "wrote_by_synth"]
 
 
 def _read_umask() -> int:
@@ -113,3 +117,33 @@ def write_atomic(target: str | os.PathLike[str], data: bytes | str | Callable[[P
         else:
             tmp.write_text(data, encoding=encoding)
     return Path(target)
+
+
+#: The start of every JSON document synth writes: an object whose first key is its format.
+_SYNTH_JSON = re.compile(rb'\A\s*\{\s*"format"\s*:\s*"synth\.')
+
+
+def wrote_by_synth(path: str | os.PathLike[str]) -> bool:
+    """Whether an existing file is one of synth's outputs, from its first bytes: a JSON
+    document whose ``format`` starts with ``synth.``, a PNG with a ``synth.run_id`` text
+    chunk, a GLB whose scene extras hold a ``synth`` entry."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(1 << 16)
+    except OSError:
+        return False
+    if head.startswith(b"\x89PNG\r\n\x1a\n"):
+        return b"tEXtsynth.run_id\x00" in head or b"iTXtsynth.run_id\x00" in head
+    if head.startswith(b"glTF") and len(head) >= 20:
+        n = int.from_bytes(head[12:16], "little")  # the JSON chunk's length
+        try:
+            with open(path, "rb") as f:
+                f.seek(20)
+                doc = json.loads(f.read(min(n, 1 << 26)))
+        except (OSError, ValueError):
+            return False
+        extras = doc.get("extras") if isinstance(doc, dict) else None
+        scene = (doc.get("scenes") or [{}])[0] if isinstance(doc, dict) else {}
+        return any(isinstance(e, dict) and "synth" in e
+                   for e in (extras, scene.get("extras") if isinstance(scene, dict) else None))
+    return bool(_SYNTH_JSON.match(head))

@@ -15,7 +15,7 @@ from PIL import Image
 from synth.cli import EXIT_FAILED, EXIT_INPUT, main
 from synth.part import load_part
 from synth.plan import params as lim
-from tests.cli_support import BIG, CUBE_FC
+from tests.cli_support import BIG, CUBE_FC, earlier_output
 
 
 @pytest.fixture()
@@ -205,10 +205,10 @@ def test_rank_with_no_usable_candidate_writes_nothing(box, tmp_path, capsys):
     far = tmp_path / "far.json"
     far.write_text(json.dumps([{"name": "far", "points": [[9, 9, 9]] * 7}] * 2))
     out = tmp_path / "r.json"
-    out.write_text("sentinel")
+    before = earlier_output(out)
     line = _refused(capsys, "rank", box, far, "--out", out, "--quiet")
     assert "no candidate could be used" in line and "(and 1 more unusable)" in line
-    assert out.read_text() == "sentinel"
+    assert out.read_bytes() == before
 
 
 # -- item 1: mesh files ------------------------------------------------------------------------
@@ -302,8 +302,7 @@ def test_files_of_a_failed_run_are_left_as_they_were(box, tmp_path, capsys):
     import synth.plan
 
     paths = [tmp_path / n for n in ("g.json", "g.png", "g.glb")]
-    for p in paths:
-        p.write_bytes(b"sentinel")
+    before = [earlier_output(p) for p in paths]
 
     def disk_full(*args, **kwargs):
         raise OSError(28, "No space left on device")
@@ -313,7 +312,7 @@ def test_files_of_a_failed_run_are_left_as_they_were(box, tmp_path, capsys):
         line = _refused(capsys, "plan", box, "--out", paths[0], "--evals", "200", "--units",
                         "mm", code=EXIT_FAILED)
     assert "No space left on device" in line and line.startswith(f"synth: error: {paths[2]}:")
-    assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
+    assert [p.read_bytes() for p in paths] == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]
 
 
@@ -321,8 +320,7 @@ def test_a_disk_full_while_writing_the_glb_names_the_glb(box, tmp_path, capsys):
     """The error of the real write (not a stand-in for the exporter) names the target, not a
     hidden temporary file, and nothing is replaced."""
     paths = [tmp_path / n for n in ("g.json", "g.png", "g.glb")]
-    for p in paths:
-        p.write_bytes(b"sentinel")
+    before = [earlier_output(p) for p in paths]
     real = Path.write_bytes
 
     def full_for_glb(self, data):
@@ -336,7 +334,7 @@ def test_a_disk_full_while_writing_the_glb_names_the_glb(box, tmp_path, capsys):
                         "mm", code=EXIT_FAILED)
     assert line.startswith(f"synth: error: {paths[2]}: could not be written"), line
     assert ".part" not in line
-    assert [p.read_bytes() for p in paths] == [b"sentinel"] * 3
+    assert [p.read_bytes() for p in paths] == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["box.stl", "g.glb", "g.json", "g.png"]
 
 
@@ -461,3 +459,49 @@ def test_a_hidden_point_of_a_single_body_is_not_blamed_on_another_body(tmp_path,
     line = _refused(capsys, "rank", path, c, "--units", "mm")
     assert "point 0 lies on a hidden part of the surface (in a crevice of the part" in line
     assert "another body" not in line
+
+
+# -- outputs replace only synth's own files ---------------------------------------------------
+
+
+def test_plan_never_writes_over_its_input_mesh(box, tmp_path, capsys):
+    """A GLB part planned with --out part.json would get part.glb, its own name, as the
+    scene: refused, the mesh untouched and nothing written."""
+    glb = tmp_path / "part.glb"
+    trimesh.load(box).export(glb)
+    before = _files(tmp_path)
+    line = _refused(capsys, "plan", glb, "--out", tmp_path / "part.json", "--evals", "200")
+    assert f"--glb: {glb} is also an input of this command" in line
+    line = _refused(capsys, "plan", glb, "--glb", glb, "--out", tmp_path / "g.json",
+                    "--evals", "200")
+    assert f"--glb: {glb} is also an input of this command" in line
+    assert _files(tmp_path) == before
+
+
+def test_plan_does_not_replace_a_file_synth_did_not_write(box, tmp_path, capsys):
+    """The PNG named after --out is a user's picture: refused before any work, every file
+    as it was; an earlier plan's files of the same names are replaced."""
+    mine = tmp_path / "g.png"
+    mine.write_bytes(b"\x89PNG\r\n\x1a\n a user's picture")
+    before = _files(tmp_path)
+    line = _refused(capsys, "plan", box, "--out", tmp_path / "g.json", "--evals", "200")
+    assert f"--png: {mine} exists and synth did not write it" in line
+    assert _files(tmp_path) == before
+    mine.unlink()
+    for suffix in (".json", ".png", ".glb"):
+        earlier_output(tmp_path / f"g{suffix}")
+    code, _, err = _run(capsys, "plan", box, "--out", tmp_path / "g.json", "--evals", "200",
+                        "--units", "mm")
+    assert code == 0, err
+    assert json.loads((tmp_path / "g.json").read_text())["format"] == "synth.grasps"
+
+
+@pytest.mark.parametrize("command", ["rank", "score"])
+def test_rank_and_score_never_write_over_their_candidates(box, tmp_path, capsys, command):
+    cands = tmp_path / "c.json"
+    cands.write_text(json.dumps([CUBE_FC]))
+    before = _files(tmp_path)
+    argv = [command, box, cands] if command == "rank" else [command, cands]
+    line = _refused(capsys, *argv, "--out", cands)
+    assert f"--out: {cands} is also an input of this command" in line
+    assert _files(tmp_path) == before

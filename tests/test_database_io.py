@@ -291,3 +291,26 @@ def test_progress_bar_only_on_a_tty() -> None:
     bar = ProgressBar(4, stream=quiet, quiet=True)
     bar.update(1, 0, 1, force=True)
     assert quiet.getvalue() == ""
+
+
+def test_export_replaces_only_its_own_files(built: tuple[Path, Path], tmp_path: Path) -> None:
+    """An export never lands on the database it reads, nor on a file synth did not write;
+    an earlier export of each format is replaced."""
+    _, db_path = built
+    copy = tmp_path / "copy.sqlite"
+    copy.write_bytes(db_path.read_bytes())
+    with pytest.raises(InputError, match="this is the database being exported"):
+        export_database(copy, copy, "json")
+    assert copy.read_bytes() == db_path.read_bytes()
+    for name in ("mine.json", "mine.npz", "mine.h5"):
+        mine = tmp_path / name
+        mine.write_bytes(b"the user's own notes")
+        with pytest.raises(InputError, match="is not an export synth wrote"):
+            export_database(db_path, mine)
+        assert mine.read_bytes() == b"the user's own notes"
+    for fmt in ("json", "npz", "h5"):
+        out = tmp_path / f"again.{fmt}"
+        export_database(db_path, out)
+        first = out.read_bytes()
+        out.write_bytes(first)
+        assert export_database(db_path, out) == fmt  # its own earlier export: replaced

@@ -156,3 +156,15 @@ def test_the_label_is_mujocos_where_the_grasp_was_simulated(built, tmp_path):
         assert f["grasps/qualities/synth/simulated"][()].tolist() == [0, 1, 0]
         meaning = f["grasps/qualities/flex/object_in_gripper"].attrs["meaning"]
         assert "(1 of 3 grasps): MuJoCo's label" in meaning
+
+
+def test_an_export_folder_that_is_a_file_is_refused(built, tmp_path, capsys):
+    """These formats write a folder of files: a file of that name is the user's mistake
+    (exit 2, one line saying so), and it is left as it was."""
+    _, db = built
+    mine = tmp_path / "user.json"
+    mine.write_text("the user's")
+    assert main(["db", "export", str(db), "--format", "graspgen", "--out", str(mine)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "is a file" in err and "a folder" in err
+    assert mine.read_text() == "the user's"

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from synth.errors import OptionError, OutputError, shown
+from synth.files import wrote_by_synth
 
 __all__ = ["integer", "real", "output_path"]
 
@@ -56,8 +58,13 @@ def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: boo
     raise OptionError(f"{option}: expected a number in {interval}{unit}, got {shown(value)}")
 
 
-def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
+def output_path(option: str, path: str | os.PathLike[str], suffix: str,
+                inputs: Sequence[str | os.PathLike[str] | None] = ()) -> Path:
     """An output file named on the command line, checked before any work is done.
+
+    synth replaces only files it wrote itself: an output may not be one of the command's
+    input files, nor an existing file that is not one of synth's outputs (a JSON document
+    whose ``format`` is synth's, a PNG or GLB carrying a synth run id).
 
     Parameters
     ----------
@@ -66,6 +73,8 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
     path : str or path
     suffix : str
         The suffix its format needs, such as ``".png"`` (any letter case).
+    inputs : sequence of str or path
+        The files the command reads (None entries are skipped).
 
     Returns
     -------
@@ -74,7 +83,7 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
     Raises
     ------
     OptionError
-        The name has another suffix.
+        The name has another suffix, is one of ``inputs``, or is a file synth did not write.
     OutputError
         Its folder does not exist or cannot be written, or the name is a folder.
     """
@@ -82,6 +91,14 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
     if "\0" in str(out) or out.suffix.lower() != suffix:
         raise OptionError(f"{option}: expected a file name ending in {suffix}, got "
                          f"{shown(str(out), 80)}")
+    if out.is_file():
+        for given in inputs:
+            if given is not None and Path(given).exists() and os.path.samefile(out, given):
+                raise OptionError(f"{option}: {out} is also an input of this command; give "
+                                  "the output another name")
+        if not wrote_by_synth(out):
+            raise OptionError(f"{option}: {out} exists and synth did not write it (synth "
+                              "replaces only its own outputs); give another name or move it")
     folder = out.parent
     if not folder.is_dir():
         raise OutputError(f"{out}: cannot write here (no such folder {str(folder)!r})")
@@ -91,3 +108,4 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str) -> Path:
         raise OutputError(f"{out}: cannot write here (no permission to write in "
                           f"{str(folder)!r})")
     return out
+

@@ -221,9 +221,10 @@ def run_gripper(args: argparse.Namespace) -> int:
     paths = None
     if not args.no_files:
         stem = Path(args.mesh).name.rsplit(".", 1)[0]
-        out = output_path("--out", args.out or f"{stem}.grasps.json", ".json")
-        paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png"),
-                 output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb"))
+        out = output_path("--out", args.out or f"{stem}.grasps.json", ".json", [args.mesh])
+        paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png",
+                                  [args.mesh]),
+                 output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb", [args.mesh]))
     part = load_part_from_args(args)
     report_part(part, args.quiet)
     plan = plan_gripper(part, params)

@@ -115,9 +115,9 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
     """The JSON, PNG and GLB files of a plan, checked before any work: ``--png`` and ``--glb``
     default to the folder and name of ``--out``, which defaults to MESHNAME.grasps.json."""
     stem = Path(args.mesh).name.rsplit(".", 1)[0]
-    out = output_path("--out", args.out or f"{stem}.grasps.json", ".json")
-    png = output_path("--png", args.png or out.with_suffix(".png"), ".png")
-    glb = output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb")
+    out = output_path("--out", args.out or f"{stem}.grasps.json", ".json", [args.mesh])
+    png = output_path("--png", args.png or out.with_suffix(".png"), ".png", [args.mesh])
+    glb = output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb", [args.mesh])
     return out, png, glb
 
 

@@ -133,7 +133,8 @@ def run(args: argparse.Namespace) -> int:
     check_part_options(args)
     check_finger_options(args)
     check_weight_options(args)
-    out = None if args.out is None else output_path("--out", args.out, ".json")
+    out = None if args.out is None else output_path("--out", args.out, ".json",
+                                                    [args.mesh, args.candidates])
     table = read_candidate_table(args.candidates, require_normals=False)
     if not table.groups:  # every candidate malformed: say so before loading the mesh
         more = f" (and {len(table.errors) - 1} more malformed)" if len(table.errors) > 1 else ""

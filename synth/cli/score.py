@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     check_top(args.top, listing=True)
     if args.out is not None:
-        output_path("--out", args.out, ".json")
+        output_path("--out", args.out, ".json", [args.file])
     table = read_candidate_table(args.file)
     scores = score_table(table, args.mu, args.edges, args.torsion)
     order = scores.order()

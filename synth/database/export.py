@@ -93,7 +93,7 @@ import numpy as np
 from synth.database.schema import SCHEMA_VERSION, canonical_json
 from synth.database.store import GraspDatabase
 from synth.errors import InputError
-from synth.files import atomic_path
+from synth.files import atomic_path, wrote_by_synth
 from synth.fingers.model import finger_frames
 
 __all__ = ["EXPORT_FORMATS", "UNITS", "export_columns", "export_database"]
@@ -322,6 +322,7 @@ def export_database(
         fmt = {"hdf5": "h5"}.get(ext, ext)
     if fmt not in EXPORT_FORMATS:
         raise InputError(f"export format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+    _replaceable(database, out)
     with GraspDatabase(database) as db, atomic_path(out) as tmp:
         if fmt == "h5":
             _write_h5(db, tmp)
@@ -330,8 +331,43 @@ def export_database(
             cols["params"] = np.array(json.dumps(db.params, sort_keys=True))
             cols["planner"] = np.array(db.planner)
             cols["units"] = np.array(UNITS)
+            cols["format"] = np.array(_FORMAT_TAG)
             with open(tmp, "wb") as fh:  # a file object: numpy adds no ".npz" to the name
                 np.savez_compressed(fh, **cols)
         else:
             _write_json(db, tmp)
     return fmt
+
+
+def _replaceable(database: str | os.PathLike[str], out: str) -> None:
+    """Refuse to write ``out`` over the database itself or over a file that is not one of
+    synth's exports (synth replaces only its own outputs)."""
+    if not os.path.isfile(out):
+        return
+    if os.path.exists(database) and os.path.samefile(out, database):
+        raise InputError(f"{out}: this is the database being exported; give the export "
+                         "another name")
+    if not _is_export(out):
+        raise InputError(f"{out} exists and is not an export synth wrote (synth replaces only "
+                         "its own outputs); give another name or move it")
+
+
+def _is_export(path: str) -> bool:
+    """Whether ``path`` is an export of :func:`export_database` (JSON, HDF5 or NPZ)."""
+    with open(path, "rb") as f:
+        head = f.read(8)
+    if head.startswith(b"\x89HDF"):
+        try:
+            import h5py
+
+            with h5py.File(path, "r") as h5:
+                return bool(h5.attrs.get("format") == _FORMAT_TAG)
+        except (ImportError, OSError):
+            return False
+    if head.startswith(b"PK"):
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return {"params", "planner", "mesh_id"} <= set(z.files)
+        except (OSError, ValueError):
+            return False
+    return wrote_by_synth(path)

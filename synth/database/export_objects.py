@@ -136,6 +136,9 @@ def export_objects(database: str | os.PathLike[str], out: str | os.PathLike[str]
                              "hold gripper poses; point-finger grasps export as h5, npz or "
                              "json, which give each finger's frame)")
     folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{folder}: is a file; --format {fmt} writes one file per mesh into a "
+                         "folder: give a folder name")
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for obj in objects:

@@ -505,3 +505,10 @@ def test_rank_and_score_never_write_over_their_candidates(box, tmp_path, capsys,
     line = _refused(capsys, *argv, "--out", cands)
     assert f"--out: {cands} is also an input of this command" in line
     assert _files(tmp_path) == before
+
+
+def test_a_density_without_a_unit_is_bad_input_not_a_bug(box, capsys):
+    """A density needs the part's volume in m^3, so its unit: without --units the command
+    line is incomplete (exit status 2, saying what to give), never an internal error."""
+    line = _refused(capsys, "plan", box, "--density", "1000", "--evals", "200", "--no-files")
+    assert "unit is unknown" in line and "--units" in line and "internal" not in line

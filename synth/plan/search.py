@@ -194,6 +194,7 @@ def plan_part(part: Part, params: PlanParams | None = None,
     if prm.support_z is not None:
         overrides["support_plane"] = ((0.0, 0.0, prm.support_z), (0.0, 0.0, 1.0))
     fingers = default_fingers(part, **overrides)
+    part_weight(part, prm)  # a density this part's unit cannot turn into a weight: the user's
     try:
         # BLAS on one thread: the search's matrices are small (stacks of 6 x 7, products of a
         # few thousand columns) and OpenBLAS's threads only spin on them (a default plan on a

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, real
@@ -200,6 +201,14 @@ def check_weight_options(args: argparse.Namespace) -> None:
     real("--density", args.density, 0, math.inf, open_lo=True, open_hi=True, unit=" kg/m^3")
     if args.mass is not None and args.density is not None:
         raise OptionError("give --mass or --density, not both")
+    from synth.part.load import UNITLESS_FORMATS
+
+    ext = Path(getattr(args, "mesh", None) or "").suffix.lower().lstrip(".")
+    if args.density is not None and getattr(args, "units", None) is None \
+            and ext in UNITLESS_FORMATS:
+        raise OptionError(f"--density: the part's length unit is unknown ({ext.upper()} files "
+                          "do not say it), so is its volume in m^3: give --units, or --mass "
+                          "instead")
 
 
 def check_part_options(args: argparse.Namespace) -> None:

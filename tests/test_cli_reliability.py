@@ -512,3 +512,23 @@ def test_a_density_without_a_unit_is_bad_input_not_a_bug(box, capsys):
     line is incomplete (exit status 2, saying what to give), never an internal error."""
     line = _refused(capsys, "plan", box, "--density", "1000", "--evals", "200", "--no-files")
     assert "unit is unknown" in line and "--units" in line and "internal" not in line
+
+
+def test_extreme_values_in_range_print_no_numpy_warnings(box, capsys):
+    """A friction coefficient of 1e-300 and a gravity direction of length 1e308 are in range:
+    they plan without numpy's overflow warnings on stderr, and the direction's length does
+    not matter."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # pytest would hide them from stderr
+        code, _, err = _run(capsys, "plan", box, "--mu", "1e-300", "--evals", "500",
+                            "--no-files", "--quiet")
+        assert code in (0, 1) and err == "", err
+        outs = []
+        for g in ("1e308,1e308,0", "1,1,0"):
+            code, out, err = _run(capsys, "plan", box, "--gripper", "franka", "--units", "cm",
+                                  "--gravity", g, "--samples", "40", "--no-files", "--quiet")
+            assert code == 0 and err == "", err
+            outs.append(out)
+    assert outs[0] == outs[1]

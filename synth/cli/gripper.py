@@ -112,7 +112,8 @@ def _gravity(text: str | None) -> tuple[float, float, float] | None:
         v = ()
     if len(v) != 3 or not all(math.isfinite(x) for x in v) or not any(v):
         raise OptionError(f"--gravity: expected three numbers X,Y,Z, not all 0, got {text[:40]!r}")
-    return v  # type: ignore[return-value]
+    top = max(abs(x) for x in v)  # a direction: scaled so that its length cannot overflow
+    return tuple(x / top for x in v)  # type: ignore[return-value]
 
 
 def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,

@@ -317,7 +317,7 @@ def _pivot_lockstep(
         # ratio test (lower bounds are all 0)
         absa = np.abs(alpha)
         num = np.where(alpha > 0, xB, hi[basis] - xB)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # inf: no bound
             ratio = np.where(absa > _PIVOT_TOL, num / absa, np.inf)
         np.maximum(ratio, 0.0, out=ratio)
         theta_r = ratio.min(axis=1)

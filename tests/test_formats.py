@@ -155,3 +155,38 @@ def test_isaac_files_without_pyyaml_name_the_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "yaml", None)  # as if PyYAML were not installed
     with pytest.raises(InputError, match=r'synth\[formats\]'):
         read_gripper_poses(y)
+
+
+# -- pose files that cannot be read: one plain line, never an invitation to unpickle -------------
+
+@pytest.mark.parametrize("content", [b"hello\n", b"\x80\x04K\x01."])
+def test_a_pose_file_named_npz_that_is_no_zip_archive_is_named_so(tmp_path, content):
+    path = tmp_path / "x.npz"
+    path.write_bytes(content)
+    with pytest.raises(InputError) as e:
+        read_gripper_poses(path)
+    assert str(e.value).startswith(f"{path}: ") and "not an NPZ archive" in str(e.value)
+    assert "pickle" not in str(e.value)
+
+
+def test_a_pose_array_of_python_objects_is_named_and_not_loaded(tmp_path):
+    path = tmp_path / "o.npz"
+    np.savez(path, poses=np.array([None, 1.0], dtype=object))
+    with pytest.raises(InputError, match=r"array 'poses' holds Python objects") as e:
+        read_gripper_poses(path)
+    assert "pickle" not in str(e.value)
+
+
+@pytest.mark.parametrize("name", ["dir.json", "dir.npz", "dir.h5", "dir.yaml"])
+def test_a_folder_given_as_a_pose_file_is_named_a_folder(tmp_path, name):
+    (tmp_path / name).mkdir()
+    with pytest.raises(InputError, match="a folder, not a gripper pose file"):
+        read_gripper_poses(tmp_path / name)
+
+
+def test_a_pose_file_with_an_integer_too_long_to_read_is_bad_input(tmp_path):
+    path = tmp_path / "bigint.json"
+    path.write_text('{"poses": [[[' + "1" * 5000 + ", 0, 0, 0]]]}")
+    with pytest.raises(InputError, match="number too long to read") as e:
+        read_gripper_poses(path)
+    assert "sys." not in str(e.value)

@@ -84,3 +84,126 @@ def test_the_garbage_collector_is_back_on_after_reading_or_failing(tmp_path, tex
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+# -- files that are not candidate files: one plain line naming the file and what is wrong ------
+
+CUBE = {"points": [[0.5, 0.1, 0.1], [-0.5, 0.1, 0.1], [0.1, 0.5, 0.1], [0.1, -0.5, 0.1],
+                   [0.1, 0.1, 0.5], [0.1, 0.1, -0.5], [0.2, 0.5, 0.2]],
+        "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1],
+                    [0, -1, 0]]}
+
+
+@pytest.mark.parametrize("content", [b"hello\n", b'{"points": []}', b"\x80\x04K\x01."])
+def test_a_file_named_npz_that_is_no_zip_archive_never_invites_unpickling(tmp_path,
+                                                                           content) -> None:
+    path = tmp_path / "x.npz"
+    path.write_bytes(content)  # text, JSON, a pickle: numpy would offer to unpickle them
+    with pytest.raises(InputError) as e:
+        read_candidate_table(path)
+    message = str(e.value)
+    assert message.startswith(f"{path}: ") and "not an NPZ archive" in message
+    assert "pickle" not in message and "allow_pickle" not in message
+
+
+def test_an_npz_array_of_python_objects_is_named_and_not_loaded(tmp_path) -> None:
+    path = tmp_path / "o.npz"
+    np.savez(path, points=np.array([None, 1.0], dtype=object), normals=np.zeros((1, 7, 3)))
+    with pytest.raises(InputError, match=r"o\.npz: array 'points' holds Python objects") as e:
+        read_candidate_table(path)
+    assert "pickle" not in str(e.value)
+
+
+@pytest.mark.parametrize("name", ["dir.json", "dir.npz"])
+def test_a_folder_is_named_a_folder_not_a_missing_file(tmp_path, name) -> None:
+    (tmp_path / name).mkdir()
+    with pytest.raises(InputError, match="a folder, not a candidate file") as e:
+        read_candidate_table(tmp_path / name)
+    assert "no such file" not in str(e.value)
+    with pytest.raises(InputError, match="no such file"):
+        read_candidate_table(tmp_path / "missing.json")
+
+
+def test_without_required_normals_only_points_are_asked_for(tmp_path) -> None:
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps([5, {"points": "abc"}, {"points": CUBE["points"]}]))
+    table = read_candidate_table(path, require_normals=False)  # as synth rank reads
+    (i0, m0), (i1, m1) = table.errors
+    assert (i0, i1) == (0, 1) and len(table.candidates()) == 1
+    assert m0.endswith("candidate 0: expected an object with 'points', got 5")
+    assert "field 'points' must be a k x 3 list of numbers" in m1
+    assert "normals" not in m0.removeprefix(str(path)) + m1.removeprefix(str(path))
+    with_normals = read_candidate_table(path).errors  # as synth score reads
+    assert "expected an object with 'points' and 'normals'" in with_normals[0][1]
+
+
+I4 = np.eye(4).tolist()
+
+
+@pytest.mark.parametrize("doc", [
+    {"format": "synth.gripper_grasps", "version": 1, "grasps": [{"pose": I4, "width": 0.04}]},
+    [{"pose": I4, "width": 0.04}],
+    {"pose": I4},
+    {"poses": [I4]},
+    [I4, I4],
+    {"object": {"file": "a.obj", "scale": 1.0}, "grasps": {"transforms": [I4]}},
+])
+def test_gripper_poses_given_as_contact_sets_point_to_the_gripper_option(tmp_path, doc) -> None:
+    path = tmp_path / "poses.json"
+    path.write_text(json.dumps(doc))
+    for require_normals in (False, True):
+        with pytest.raises(InputError) as e:
+            read_candidate_table(path, require_normals=require_normals)
+        assert str(e.value).startswith(f"{path}: holds gripper poses")
+        assert "--gripper NAME" in str(e.value)
+        assert "normals" not in str(e.value).replace(str(path), "")
+
+
+def test_gripper_poses_in_an_npz_point_to_the_gripper_option(tmp_path) -> None:
+    path = tmp_path / "poses.npz"
+    np.savez(path, poses=np.eye(4)[None])
+    with pytest.raises(InputError, match=r"holds gripper poses .*--gripper NAME"):
+        read_candidate_table(path)
+
+
+def test_a_pose_among_contact_sets_is_reported_on_its_own(tmp_path) -> None:
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps([CUBE, {"pose": I4}]))
+    table = read_candidate_table(path)
+    assert len(table.candidates()) == 1
+    assert "candidate 1: a gripper pose" in table.errors[0][1]
+    assert "--gripper NAME" in table.errors[0][1]
+
+
+def test_an_integer_too_long_to_read_is_named_without_pythons_advice(tmp_path) -> None:
+    path = tmp_path / "bigint.json"
+    path.write_text('[{"points": [[' + "1" * 5000 + ', 0, 0]], "normals": [[1, 0, 0]]}]')
+    with pytest.raises(InputError) as e:
+        read_candidate_table(path)
+    message = str(e.value)
+    assert message.startswith(f"{path}: ") and "number too long to read" in message
+    assert "5000 digits" in message and "sys." not in message
+
+
+@pytest.mark.parametrize("argv", [["score"], ["rank", "MESH"]])
+def test_the_commands_refuse_these_files_with_exit_status_2(tmp_path, capsys, argv) -> None:
+    from pathlib import Path
+
+    from synth.cli import main
+
+    mesh = str(Path(__file__).parents[1] / "meshes" / "cube.stl")
+    (tmp_path / "x.npz").write_text("hello\n")
+    (tmp_path / "dir.json").mkdir()
+    (tmp_path / "bigint.json").write_text('[{"points": [[' + "1" * 5000 + ", 0, 0]]}]")
+    (tmp_path / "poses.json").write_text(json.dumps([{"pose": I4, "width": 0.04}]))
+    cases = [("x.npz", "not an NPZ archive"), ("dir.json", "a folder, not a candidate file"),
+             ("bigint.json", "number too long to read")]
+    if argv[0] == "rank":
+        cases.append(("poses.json", "--gripper NAME"))
+    for name, words in cases:
+        capsys.readouterr()
+        args = [mesh if a == "MESH" else a for a in argv] + [str(tmp_path / name), "--quiet"]
+        assert main(args) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and words in lines[0] and name in lines[0], lines
+        assert "pickle" not in lines[0] and "sys." not in lines[0]

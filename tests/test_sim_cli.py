@@ -331,3 +331,22 @@ def test_a_gripper_description_file_is_found_from_anywhere(tmp_path, capsys, mon
     copy = json.loads((tmp_path / "copies" / "g.json").read_text())
     assert (tmp_path / "copies" / copy["gripper"]["source"]).resolve() == hand.resolve()
     assert copy["grasps"][0]["sim"]["held"] is True
+
+
+def test_a_folder_or_missing_file_given_as_mesh_is_named_for_its_option(tmp_path, capsys):
+    grasps = write_grasps(tmp_path, write_cube(tmp_path), *CUBE7)
+    (tmp_path / "folder").mkdir()
+    for mesh, words in ((tmp_path / "folder", "is a folder, not a mesh file"),
+                        (tmp_path / "none.stl", "none.stl: no such file")):
+        capsys.readouterr()
+        assert main(["sim", str(grasps), "--mesh", str(mesh), "--no-files"]) == 2
+        err = _one_line(capsys.readouterr().err)
+        assert err.startswith("synth: error: --mesh: ") and words in err, err
+        assert "mesh.path" not in err
+    # the file's own mesh.path naming a folder is named so too
+    doc = json.loads(grasps.read_text())
+    doc["mesh"]["path"], doc["mesh"]["sha256"] = str(tmp_path / "folder"), None
+    grasps.write_text(json.dumps(doc))
+    assert main(["sim", str(grasps), "--no-files"]) == 2
+    err = _one_line(capsys.readouterr().err)
+    assert "field mesh.path" in err and "is a folder, not a mesh file" in err, err

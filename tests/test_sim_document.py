@@ -48,9 +48,7 @@ def _set(d, path, value):
     (("grasps",), {}, "grasps"),
     (("grasps", 0, "points"), [[0, 0]] * 7, "grasps[0].points"),
     (("grasps", 0, "normals"), [[0, 0, 2]] * 7, "grasps[0].normals[0]"),
-    (("grasps", 0, "normals"), [[0, 0, 1]] * 6, "grasps[0].normals"),
     (("grasps", 0, "fingers", "tip_centers"), KeyError, "grasps[0].fingers.tip_centers"),
-    (("grasps", 0, "fingers", "approach"), [[0, 0, 1]], "grasps[0].fingers.approach"),
     (("grasps", 0, "fingers", "tip_radius"), 0, "grasps[0].fingers.tip_radius"),
     (("grasps", 0, "d_star"), float("nan"), "grasps[0].d_star"),
 ])
@@ -60,6 +58,28 @@ def test_every_field_is_checked(doc, path, value, field):
     pattern = field.replace("[", ".").replace("]", ".")  # brackets match any character
     with pytest.raises(InputError, match=rf"g\.json: field {pattern}"):
         check_document(bad, "g.json")
+
+
+@pytest.mark.parametrize("path, rows, words", [
+    (("grasps", 0, "points"), 3, "g.json: grasps[0]: 3 points but 7 normals"),
+    (("grasps", 0, "normals"), 6, "g.json: grasps[0]: 7 points but 6 normals"),
+    (("grasps", 0, "fingers", "approach"), 1,
+     "g.json: grasps[0]: 7 fingers.tip_centers but 1 fingers.approach rows"),
+    (("grasps", 0, "fingers", "contact_finger"), 5,
+     "g.json: grasps[0]: 7 points but 5 fingers.contact_finger entries"),
+])
+def test_fields_of_unequal_length_are_named_together(doc, path, rows, words):
+    # points cut to 3 rows were blamed on the normals ("expected (3, 3) numbers")
+    bad = copy.deepcopy(doc)
+    bad["grasps"][0]["fingers"]["contact_finger"] = list(range(7))
+    *head, last = path
+    d = bad
+    for key in head:
+        d = d[key]
+    d[last] = d[last][:rows]
+    with pytest.raises(InputError) as e:
+        check_document(bad, "g.json")
+    assert str(e.value).startswith(words + "; expected as many ")
 
 
 def test_files_that_are_not_grasp_files(tmp_path):

@@ -15,7 +15,6 @@ converted to a part by :meth:`~synth.formats.poses.GripperPoses.to_part`); write
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from synth.errors import InputError
@@ -47,6 +46,8 @@ def read_gripper_poses(path: str | Path) -> GripperPoses:
     """
     where = str(path)
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{where}: a folder, not a gripper pose file")
     if not p.is_file():
         raise InputError(f"{where}: no such file")
     ext = p.suffix.lower()
@@ -66,10 +67,9 @@ def read_gripper_poses(path: str | Path) -> GripperPoses:
         raise InputError(f"{where}: unknown pose file extension {ext!r}; expected .h5/.hdf5 "
                          "(ACRONYM), .json (GraspGen, or arrays), .yaml/.yml (isaac_grasp) or "
                          ".npz")
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(f"{where}: not a readable JSON file: {e}") from e
+    from synth.grasps.candidates import parse_json_file
+
+    doc = parse_json_file(p, "a gripper pose file")
     from synth.formats.graspgen import is_graspgen, read_graspgen
 
     if is_graspgen(doc):

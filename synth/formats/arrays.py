@@ -10,6 +10,8 @@ are on the mesh at its own size in their unit.
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +21,76 @@ from synth.errors import InputError, shown
 from synth.formats.graspgen import matrices
 from synth.formats.poses import GripperPoses
 
-__all__ = ["read_npz", "read_json_poses", "unit_metres"]
+__all__ = ["read_npz", "read_json_poses", "unit_metres", "load_npz"]
+
+#: First bytes of a ZIP archive (an NPZ file is one; an empty one starts with the second).
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")
+#: First bytes of a single NumPy array file (``numpy.save``).
+_NPY_MAGIC = b"\x93NUMPY"
+
+
+def _holds_objects(z: Any, key: str) -> bool:
+    """Whether the array ``key`` of an open NPZ archive is of Python objects (which only
+    unpickling reads), told from its header without reading its data."""
+    names = z.zip.namelist()
+    member = key + ".npy" if key + ".npy" in names else key
+    try:
+        with z.zip.open(member) as fh:
+            version = np.lib.format.read_magic(fh)
+            read = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
+                np.lib.format.read_array_header_2_0
+            return bool(read(fh)[2].hasobject)
+    except Exception:  # a damaged header: not objects, just unreadable
+        return False
+
+
+def load_npz(path: str | Path, arrays: str) -> dict[str, np.ndarray]:
+    """The named arrays of an NPZ archive, never unpickling anything.
+
+    Parameters
+    ----------
+    path : path
+    arrays : str
+        The arrays expected, in words for the messages (``"'points', 'normals'"``).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not a ZIP archive (text, a pickle, random bytes), is a
+        single ``.npy`` array, is damaged, or holds an array of Python objects.
+    """
+    where = str(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except IsADirectoryError:
+        raise InputError(f"{where}: a folder, not an NPZ file") from None
+    except OSError as e:
+        raise InputError(f"{where}: not a readable NPZ file ({e.strerror or e})") from None
+    if head.startswith(_NPY_MAGIC):
+        raise InputError(f"{where}: holds one bare array (a .npy file?), not an NPZ archive of "
+                         f"named arrays {arrays}")
+    if not head.startswith(_ZIP_MAGIC):
+        raise InputError(f"{where}: not a readable NPZ file: not an NPZ archive (a ZIP of named "
+                         "arrays, as numpy.savez writes)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            out = {}
+            for key in z.files:
+                try:
+                    out[key] = z[key]
+                except ValueError:
+                    if _holds_objects(z, key):
+                        raise InputError(f"{where}: array '{key}' holds Python objects, which "
+                                         "synth does not load; save it as numbers (or "
+                                         "strings)") from None
+                    raise
+            return out
+    except InputError:
+        raise
+    except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile,
+            zlib.error) as e:
+        raise InputError(f"{where}: not a readable NPZ file (a damaged archive)") from e
 
 
 def unit_metres(name: Any, where: str, key: str = "units") -> float:
@@ -48,11 +119,7 @@ def _widths(value: Any, n: int, where: str) -> np.ndarray | None:
 def read_npz(path: str | Path) -> GripperPoses:
     """The gripper poses of an NPZ file (see the module)."""
     where = str(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as e:
-        raise InputError(f"{where}: not a readable NPZ file: {e}") from e
+    arrays = load_npz(path, "'poses' (or 'transforms')[, 'widths', 'units']")
     key = "poses" if "poses" in arrays else "transforms"
     if key not in arrays:
         raise InputError(f"{where}: missing array 'poses' (or 'transforms') of shape (n, 4, 4); "

@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import gc
 import json
-import zipfile
-import zlib
+import re
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -139,17 +139,20 @@ def _label(where: str, index: int, name: str | None) -> str:
 
 
 def _check_one(points: object, normals: object, label: str) -> tuple[np.ndarray, np.ndarray]:
-    """The per-candidate checks, raising CandidateError with the candidate's label."""
-    try:
-        P = np.asarray(points, dtype=np.float64)
-        N = np.asarray(normals, dtype=np.float64)
-    except OverflowError as e:
-        raise CandidateError(f"{label}: 'points' or 'normals' hold a number too large for a "
-                             f"float; coordinates must be at most {MAX_COORDINATE:g} in "
-                             "magnitude") from e
-    except (TypeError, ValueError) as e:
-        raise CandidateError(f"{label}: 'points' and 'normals' must be numeric k x 3 lists") from e
-    return check_contacts(P, N, name=label)
+    """The per-candidate checks, raising CandidateError with the candidate's label (naming
+    the field at fault: a file without normals is never asked for them)."""
+    arrays = []
+    for key, value in (("points", points), ("normals", normals)):
+        try:
+            arrays.append(np.asarray(value, dtype=np.float64))
+        except OverflowError as e:
+            raise CandidateError(f"{label}: field '{key}' holds a number too large for a "
+                                 f"float; coordinates must be at most {MAX_COORDINATE:g} in "
+                                 "magnitude") from e
+        except (TypeError, ValueError) as e:
+            raise CandidateError(f"{label}: field '{key}' must be a k x 3 list of numbers, "
+                                 f"got {shown(value)}") from e
+    return check_contacts(arrays[0], arrays[1], name=label)
 
 
 def _mu_value(value: object, label: str) -> float:
@@ -280,6 +283,83 @@ def parse_json(raw: bytes) -> Any:
         return json.loads(raw.decode("utf-8"))
 
 
+def parse_json_file(path: str | Path, what: str) -> Any:
+    """The JSON document of a file (:func:`parse_json`), every failure one plain line.
+
+    Parameters
+    ----------
+    path : path
+    what : str
+        What the file should be, for the messages (``"a candidate file (JSON or NPZ)"``).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not UTF-8 text, is not JSON, holds an integer of more
+        digits than Python converts (``sys.get_int_max_str_digits``), or nests too deep.
+    """
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except IsADirectoryError:
+        raise InputError(f"{p}: a folder, not {what}") from None
+    except FileNotFoundError:
+        raise InputError(f"{p}: no such file") from None
+    except OSError as e:
+        raise InputError(f"{p}: cannot be read ({e.strerror or e})") from None
+    try:
+        return parse_json(raw)
+    except json.JSONDecodeError as e:
+        raise InputError(f"{p}: not a readable JSON file ({e.msg} at line {e.lineno}), so not "
+                         f"{what}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{p}: not a readable JSON file (not UTF-8 text), so not "
+                         f"{what}") from None
+    except RecursionError:
+        raise InputError(f"{p}: not a readable JSON file (RecursionError: arrays or objects "
+                         "nested too deep to read)") from None
+    except ValueError:
+        # the one other ValueError of json.loads: an integer literal of more digits than
+        # Python converts to a number
+        digits = max((len(m) for m in re.findall(rb"\d+", raw)), default=0)
+        raise InputError(f"{p}: not a readable JSON file: it holds a number too long to read "
+                         f"({digits} digits; at most {sys.get_int_max_str_digits() or digits} "
+                         "are read)") from None
+
+
+#: Fields of a gripper pose (``synth plan --gripper``, ``synth rank --gripper``, GraspGen,
+#: pose arrays): what tells a pose file given where contact sets belong.
+_POSE_FIELDS = ("pose", "poses", "transform", "transforms")
+#: The message's end for gripper poses given where contact sets belong.
+_POSES_HINT = ("gripper poses (4 x 4 'pose' matrices), not contact sets with 'points'; rank "
+               "them with synth rank MESH {path} --gripper NAME")
+
+
+def _is_pose(obj: Any) -> bool:
+    """Whether a candidate entry is a gripper pose: an object with a pose field and no
+    'points', or a bare 4 x 4 matrix."""
+    if isinstance(obj, dict):
+        return "points" not in obj and any(k in obj for k in _POSE_FIELDS)
+    if isinstance(obj, list) and len(obj) == 4:
+        return all(isinstance(row, list) and len(row) == 4 for row in obj)
+    return False
+
+
+def _holds_poses(doc: Any) -> bool:
+    """Whether a parsed JSON document is a file of gripper poses (synth's gripper grasp or
+    ranked pose files, GraspGen's, a list or an object of 4 x 4 poses) and no contact set."""
+    if isinstance(doc, dict):
+        if doc.get("format") in ("synth.gripper_grasps", "synth.ranked_gripper"):
+            return True
+        grasps = doc.get("grasps")
+        if isinstance(grasps, dict) and "transforms" in grasps:  # GraspGen
+            return True
+        if "candidates" not in doc and not isinstance(grasps, list):
+            return any(k in doc for k in _POSE_FIELDS)
+        doc = doc.get("candidates", grasps)
+    return isinstance(doc, list) and bool(doc) and all(_is_pose(obj) for obj in doc)
+
+
 def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> CandidateTable:
     """Read every candidate of a JSON or NPZ file, keeping the malformed ones as messages.
 
@@ -300,6 +380,8 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
         (no candidate can be read at all).
     """
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{p}: a folder, not {CANDIDATES.what}")
     if not p.is_file():
         raise InputError(f"{p}: no such file")
     require(p, CANDIDATES)  # a mesh, a database: named as such
@@ -311,13 +393,10 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
 
 def _read_json(p: Path, require_normals: bool) -> CandidateTable:
     where = str(p)
-    try:
-        data = parse_json(p.read_bytes())
-    except (OSError, ValueError, RecursionError) as e:
-        # ValueError: malformed JSON, bytes that are not UTF-8, an integer of more digits
-        # than Python converts; RecursionError: arrays nested thousands deep
-        raise InputError(f"{p}: not a readable JSON file ({type(e).__name__}: "
-                         f"{str(e)[:200]})") from e
+    data = parse_json_file(p, CANDIDATES.what)
+    if _holds_poses(data):
+        raise InputError(f"{p}: holds " + _POSES_HINT.format(path=p))
+    wanted = "'points' and 'normals'" if require_normals else "'points'"
     if isinstance(data, dict):
         for key in ("candidates", "grasps"):
             if key in data:
@@ -339,8 +418,11 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
                      f"#{obj['rank']}" if ok and isinstance(obj.get("rank"), int) else f"#{i}")
         named.append(has_name)
         label = _label(where, i, names[i] if has_name else None)
-        if not ok:
-            errors[i] = f"{label}: expected an object with 'points' and 'normals'"
+        if _is_pose(obj):
+            errors[i] = f"{label}: a gripper pose, not a contact set with {wanted}; rank " \
+                "gripper poses with --gripper NAME"
+        elif not ok:
+            errors[i] = f"{label}: expected an object with {wanted}, got {shown(obj)}"
         elif "points" not in obj:
             errors[i] = f"{label}: missing field 'points'"
         elif "normals" not in obj and require_normals:
@@ -383,19 +465,11 @@ def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[C
 
 
 def _read_npz(p: Path) -> CandidateTable:
-    arrays: dict[str, np.ndarray] | None = None
-    try:
-        loaded = np.load(p, allow_pickle=False)
-        if isinstance(loaded, np.lib.npyio.NpzFile):
-            with loaded as z:
-                arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError, NotImplementedError, zipfile.BadZipFile,
-            zlib.error) as e:
-        raise InputError(f"{p}: not a readable NPZ file ({type(e).__name__}: "
-                         f"{str(e)[:200]})") from e
-    if arrays is None:
-        raise InputError(f"{p}: holds one bare array (a .npy file?), not an NPZ archive of "
-                         "named arrays 'points', 'normals'[, 'names', 'mu']")
+    from synth.formats.arrays import load_npz
+
+    arrays = load_npz(p, "'points', 'normals'[, 'names', 'mu']")
+    if "points" not in arrays and any(k in arrays for k in _POSE_FIELDS):
+        raise InputError(f"{p}: holds " + _POSES_HINT.format(path=p))
     for key in ("points", "normals"):
         if key not in arrays:
             raise CandidateError(f"{p}: missing array '{key}'")

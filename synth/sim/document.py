@@ -174,22 +174,36 @@ def _measure(g: dict[str, Any], key: str, where: str, name: str) -> float:
     return _number(value, f"{where}.{key}", name)
 
 
+def _same_count(n: int, rows: str, m: int, other: str, where: str, name: str) -> None:
+    """Refuse two fields of a grasp that must be as long as each other but are not, naming
+    both counts (``rows`` and ``other`` say what the rows are, ``"points"``): neither field
+    alone is at fault."""
+    if n != m:
+        raise InputError(f"{name}: {where}: {n} {rows} but {m} {other}; expected as many "
+                         f"{other} as {rows}")
+
+
 def _grasp(g: Any, i: int, name: str) -> SimGrasp:
     where = f"grasps[{i}]"
     points = _array(_get(g, "points", where, name), f"{where}.points", name)
     k = len(points)
-    normals = _array(_get(g, "normals", where, name), f"{where}.normals", name, k, unit=True)
+    normals = _array(_get(g, "normals", where, name), f"{where}.normals", name, unit=True)
+    _same_count(k, "points", len(normals), "normals", where, name)
     fingers = _get(g, "fingers", where, name)
     fw = f"{where}.fingers"
     centers = _array(_get(fingers, "tip_centers", fw, name), f"{fw}.tip_centers", name)
     approach = _array(_get(fingers, "approach", fw, name), f"{fw}.approach", name,
-                      len(centers), unit=True)
+                      unit=True)
+    _same_count(len(centers), "fingers.tip_centers", len(approach), "fingers.approach rows",
+                where, name)
     radius = _number(_get(fingers, "tip_radius", fw, name), f"{fw}.tip_radius", name, 0.0,
                      lo_open=True)
     measures = {key: _measure(g, key, where, name) for key in
                 ("d_star", "conditioning", "epsilon", "tolerance", "d_star_mesh",
                  "d_star_smooth", "squeeze_per_weight")}
     owner = fingers.get("contact_finger")
+    if isinstance(owner, list) and len(owner) != k:
+        _same_count(k, "points", len(owner), "fingers.contact_finger entries", where, name)
     if owner is None:
         if len(centers) != k:
             raise InputError(f"{_where(name, f'{fw}.contact_finger')}: missing, and there are "

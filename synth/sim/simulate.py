@@ -100,6 +100,9 @@ def check_mesh(file: GraspFile) -> None:
         Naming the grasp file, the mesh and what is wrong.
     """
     path = file.mesh_path
+    if path.is_dir():
+        raise InputError(f"{file.path}: field mesh.path: {path} is a folder, not a mesh file "
+                         "(give the mesh with --mesh)")
     if not path.is_file():
         raise InputError(f"{file.path}: field mesh.path: {path}: no such file (give the mesh "
                          "with --mesh)")

@@ -116,7 +116,7 @@ def test_plan_bad_input(tmp_path):
 
 def test_rank_end_to_end(tmp_path):
     plan = synth("plan", MESHES / "cube.stl", "--evals", "2000", "--top", "2",
-                 "--out", tmp_path / "g.json", "--no-files", "--quiet")
+                 "--no-files", "--quiet")
     assert plan.returncode == 0
     proc = synth("plan", MESHES / "cube.stl", "--evals", "2000", "--top", "2", "--quiet",
                  "--out", tmp_path / "g.json", "--png", tmp_path / "g.png",
@@ -171,7 +171,7 @@ def synth_part():
 
 def test_plan_json_reports_bodies_and_repairs(tmp_path):
     out = tmp_path / "g.json"
-    proc = synth("plan", MESHES / "bracket.stl", "--evals", "2000", "--out", out, "--no-files")
+    proc = synth("plan", MESHES / "bracket.stl", "--evals", "2000", "--no-files")
     assert proc.returncode == 0
     proc = synth("plan", MESHES / "bracket.stl", "--evals", "2000", "--out", out, "--png",
                  tmp_path / "g.png", "--glb", tmp_path / "g.glb", "--quiet")

@@ -532,3 +532,26 @@ def test_extreme_values_in_range_print_no_numpy_warnings(box, capsys):
             assert code == 0 and err == "", err
             outs.append(out)
     assert outs[0] == outs[1]
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (["--no-files", "--out", "x.json"], "--out and --no-files"),
+    (["--fingers", "3", "--contacts", "9"], "give --fingers or --contacts, not both"),
+    (["--sim-shake", "2"], "--sim-shake: the simulated hand's options apply with --sim only"),
+    (["--sim-grip", "5", "--sim-hand", "saturated"], "--sim-hand, --sim-grip:"),
+    (["other.stl"], "unrecognized arguments: other.stl (see 'synth plan --help')"),
+])
+def test_options_that_would_be_ignored_are_refused(box, tmp_path, capsys, argv, words):
+    """An option the command would drop without a word is refused, in one line naming it
+    and pointing to the command's own help."""
+    before = _files(tmp_path)
+    line = _refused(capsys, "plan", box, "--evals", "200", *argv)
+    assert words in line, line
+    assert _files(tmp_path) == before
+
+
+def test_a_scheduler_without_dask_is_refused(box, tmp_path, capsys):
+    line = _refused(capsys, "db", "build", box, "--out", tmp_path / "g.sqlite", "--scheduler",
+                    "tcp://127.0.0.1:1")
+    assert "--scheduler" in line and "--engine dask" in line
+    assert not (tmp_path / "g.sqlite").exists()

@@ -314,3 +314,18 @@ def test_export_replaces_only_its_own_files(built: tuple[Path, Path], tmp_path: 
         first = out.read_bytes()
         out.write_bytes(first)
         assert export_database(db_path, out) == fmt  # its own earlier export: replaced
+
+
+def test_an_export_named_for_another_format_and_an_order_without_its_measure(
+        built: tuple[Path, Path], tmp_path: Path) -> None:
+    """``--format npz`` into ``x.json`` would write a zip file named JSON; ranking by the
+    placement tolerance a database built without ``--regions`` would keep the build order."""
+    _, db_path = built
+    with pytest.raises(InputError, match="a .json name for a npz export"):
+        export_database(db_path, tmp_path / "x.json", "npz")
+    assert not (tmp_path / "x.json").exists()
+    with GraspDatabase(db_path) as db:
+        name = next(m.path for m in db.meshes() if m.n_grasps)
+        assert all(g.tolerance is None for g in db.top(name, 5))
+        with pytest.raises(InputError, match="no placement tolerance"):
+            db.top(name, 5, "tolerance")

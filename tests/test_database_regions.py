@@ -7,9 +7,11 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from synth.cli import main
 from synth.database import GraspDatabase, build_database, export_database
+from synth.errors import InputError
 
 MESHES = Path(__file__).resolve().parent.parent / "meshes"
 
@@ -46,7 +48,9 @@ def test_build_without_regions_stores_none(tmp_path):
     out = tmp_path / "g.sqlite"
     build_database([folder], out, {"evals": 3000, "top": 2}, workers=0, quiet=True)
     with GraspDatabase(out) as db:
-        assert all(g.tolerance is None for g in db.top("cube", 2, "tolerance"))
+        assert all(g.tolerance is None for g in db.top("cube", 2))
+        with pytest.raises(InputError, match="built without --regions"):
+            db.top("cube", 2, "tolerance")  # an order by a measure none of them has
     export_database(out, tmp_path / "g.npz")
     with np.load(tmp_path / "g.npz") as z:
         assert np.isnan(z["tolerance"]).all() and set(z["contact_regions"].tolist()) == {""}

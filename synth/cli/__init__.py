@@ -125,7 +125,15 @@ def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argpa
             raise OptionError("--json takes no file name: it prints the JSON, as every "
                               "command's --json does; write it to a file with --out "
                               f"{shown(str(words[at[-1] + 1]), 60)}") from None
+        if extra and words and words[0] in _COMMANDS:  # the top parser says them: point
+            command = " ".join(words[:2] if words[0] == "db" and len(words) > 1 else words[:1])
+            raise InputError(str(e).replace("(see 'synth --help')",  # to the command's help
+                                            f"(see 'synth {command} --help')")) from None
         raise
+
+
+#: The subcommands (``db`` has its own: ``db build``, ...).
+_COMMANDS = ("plan", "rank", "score", "sim", "db")
 
 
 def _prog(args: argparse.Namespace | None) -> str:

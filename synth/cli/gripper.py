@@ -209,6 +209,10 @@ def run_gripper(args: argparse.Namespace) -> int:
     refuse_finger_options(args, PlanParams().time)
     params = gripper_params(args)
     settings = None
+    if hasattr(args, "sim"):
+        from synth.cli.sim import refuse_sim_options
+
+        refuse_sim_options(args)
     if getattr(args, "sim", False):
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
@@ -220,7 +224,11 @@ def run_gripper(args: argparse.Namespace) -> int:
     load_gripper(args.gripper)  # a bad description is refused before the mesh is read
     require_units(args)
     paths = None
-    if not args.no_files:
+    if args.no_files:
+        from synth.cli.plan import refuse_file_names
+
+        refuse_file_names(args)
+    else:
         stem = Path(args.mesh).name.rsplit(".", 1)[0]
         out = output_path("--out", args.out or f"{stem}.grasps.json", ".json", [args.mesh])
         paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png",

@@ -242,7 +242,9 @@ def _fingers(text: str | None) -> int | str | None:
 def check_planning_options(args: argparse.Namespace) -> None:
     """Every planning option against its documented range (see :func:`add_planning_options`)."""
     integer("--contacts", args.contacts, 2, MAX_CONTACTS)
-    _fingers(args.fingers)
+    if _fingers(args.fingers) is not None and args.contacts != PlanParams().contacts:
+        raise OptionError("give --fingers or --contacts, not both (with --fingers each tip "
+                          "makes one to three contacts, as the surface allows)")
     real("--mu", args.mu, 0, MAX_MU)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     check_top(args.top, listing=False)

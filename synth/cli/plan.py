@@ -11,6 +11,7 @@ from typing import Any
 from synth.cli.checks import output_path
 from synth.cli.options import add_planning_options, check_planning_options, planning_params
 from synth.cli.vocabulary import add_json, add_out, add_quiet, exit_epilog
+from synth.errors import OptionError
 
 __all__ = ["add_parser", "run", "format_plan_table", "load_part_from_args", "report_part"]
 
@@ -111,6 +112,13 @@ def format_plan_table(plan) -> str:
     return "\n".join(lines)
 
 
+def refuse_file_names(args: argparse.Namespace) -> None:
+    """Refuse ``--out``, ``--png`` or ``--glb`` with ``--no-files``, which would drop them."""
+    named = [f"--{o}" for o in ("out", "png", "glb") if getattr(args, o, None) is not None]
+    if named:
+        raise OptionError(f"{', '.join(named)} and --no-files: give files to write or none")
+
+
 def _output_paths(args: argparse.Namespace) -> tuple[Path, Path, Path]:
     """The JSON, PNG and GLB files of a plan, checked before any work: ``--png`` and ``--glb``
     default to the folder and name of ``--out``, which defaults to MESHNAME.grasps.json."""
@@ -160,6 +168,9 @@ def run(args: argparse.Namespace) -> int:
     args.mu = PlanParams().mu if args.mu is None else args.mu
     check_planning_options(args)
     settings = None
+    from synth.cli.sim import refuse_sim_options
+
+    refuse_sim_options(args)
     if args.sim:
         from synth.cli.sim import settings_from_args
         from synth.sim import require_sim
@@ -168,6 +179,8 @@ def run(args: argparse.Namespace) -> int:
         require_sim()
     given = planning_params(args)
     params = PlanParams(**{k: v for k, v in given.items() if k not in LOAD_KEYS})
+    if args.no_files:
+        refuse_file_names(args)
     paths = None if args.no_files else _output_paths(args)
     part = load_part_from_args(args)
     report_part(part, args.quiet)

@@ -57,6 +57,23 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
                    f"{rng('shake')} (default {d.shake:g}; 0: no shake)")
 
 
+def refuse_sim_options(args: argparse.Namespace) -> None:
+    """Refuse ``--sim-...`` options changed from their defaults without ``--sim`` (``synth
+    plan``, ``synth db build``): they would be ignored."""
+    from synth.errors import OptionError
+    from synth.sim.settings import SimSettings
+
+    if args.sim:
+        return
+    d = SimSettings()
+    given = [f"--{PREFIX}{name}" for name in ("hand", "grip", "stiffness", "size", "density",
+                                              "shake")
+             if getattr(args, f"sim_{name}") != getattr(d, name)]
+    if given:
+        raise OptionError(f"{', '.join(given)}: the simulated hand's options apply with --sim "
+                          "only (simulate the grasps found); add --sim or leave them out")
+
+
 def settings_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     """:class:`synth.sim.SimSettings` from the ``--sim-...`` options, each checked against its
     range."""
@@ -161,6 +178,7 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from synth.cli.progress import LineProgress
+    from synth.errors import MeshError
     from synth.filetype import GRASPS, MESH, read_json, require
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
@@ -179,6 +197,10 @@ def run(args: argparse.Namespace) -> int:
     doc = read_json(args.grasps, GRASPS)
     if args.mesh is not None:
         require(args.mesh, MESH)
+        if Path(args.mesh).is_dir():
+            raise MeshError(f"--mesh: {args.mesh} is a folder, not {MESH.what}")
+        if not Path(args.mesh).is_file():
+            raise MeshError(f"--mesh: {args.mesh}: no such file")
     out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
         check_jaw_document(doc, str(args.grasps))

@@ -223,10 +223,18 @@ def _build(args: argparse.Namespace) -> int:
         params = {"units": args.units, "body": args.body, "sharp_angle": args.sharp_angle,
                   **asdict(gripper_params(args))}
         planner = planner or "synth.plan:plan_gripper_file"
+    from synth.cli.sim import refuse_sim_options
+
+    refuse_sim_options(args)
     if args.sim:
         from synth.cli.sim import settings_from_args
 
         params["sim"] = settings_from_args(args).to_dict()
+    if args.scheduler is not None and args.engine != "dask":
+        from synth.errors import OptionError
+
+        raise OptionError("--scheduler: a Dask scheduler's address applies with --engine dask "
+                          "only; add --engine dask or leave it out")
     report = build_database(
         args.sources, args.out, params, workers=args.workers, engine=args.engine,
         scheduler=args.scheduler, planner=planner, retry_failed=args.retry_failed,

@@ -322,6 +322,10 @@ def export_database(
         fmt = {"hdf5": "h5"}.get(ext, ext)
     if fmt not in EXPORT_FORMATS:
         raise InputError(f"export format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+    ext = os.path.splitext(out)[1].lower().lstrip(".")
+    if ext in EXPORT_FORMATS + ("hdf5",) and {"hdf5": "h5"}.get(ext, ext) != fmt:
+        raise InputError(f"{out}: a .{ext} name for a {fmt} export; name it .{fmt}, or leave "
+                         "the format to the name")
     _replaceable(database, out)
     with GraspDatabase(database) as db, atomic_path(out) as tmp:
         if fmt == "h5":

@@ -448,6 +448,10 @@ class GraspDatabase:
         from synth.plan.ranking import rank_grasps
 
         grasps = [GraspRecord.from_row(r) for r in fingers]
+        if rank_by == "tolerance" and grasps and all(g.tolerance is None for g in grasps):
+            raise InputError(f"rank_by 'tolerance': {self.path}: the grasps of mesh {mesh!r} "
+                             "have no placement tolerance (the database was built without "
+                             "--regions)")
         if rank_by != "rank":
             grasps = rank_grasps(grasps, rank_by)
         return grasps[: int(k)]

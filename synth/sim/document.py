@@ -368,16 +368,17 @@ def check_jaw_document(doc: Any, name: str = "<document>",
                          f"index, got {shown(body)}")
     _number(mesh.get("sharp_angle", 30.0), "mesh.sharp_angle", name, 0.0)
     model = _get(doc, "model", "", name)
-    from synth.limits import MAX_MU
+    from synth.limits import MAX_LENGTH, MAX_MU
 
     mu = _number(_get(model, "mu", "model", name), "model.mu", name, 0.0, True)
     if mu > MAX_MU:
         raise InputError(f"{_where(name, 'model.mu')}: expected at most {MAX_MU:g}, got "
                          f"{shown(mu)}")
     torsion = _number(_get(model, "torsion", "model", name), "model.torsion", name, 0.0)
-    if torsion > length:
-        raise InputError(f"{_where(name, 'model.torsion')}: expected at most the part's size "
-                         f"(mesh.length {length:g}), got {shown(torsion)}")
+    if torsion > MAX_LENGTH:  # the range of --torsion: MuJoCo's default 5 mm may exceed a
+        # small part (a 1 mm cube in mm), as the plan that wrote the file allowed
+        raise InputError(f"{_where(name, 'model.torsion')}: expected at most {MAX_LENGTH:g} "
+                         f"(the range of --torsion), got {shown(torsion)}")
     grasps = _get(doc, "grasps", "", name)
     if not isinstance(grasps, list) or not grasps:
         raise InputError(f"{_where(name, 'grasps')}: expected a list of at least one grasp, "

@@ -361,7 +361,7 @@ def check_jaw_document(doc: Any, name: str = "<document>",
     if not isinstance(units, str) or length_unit(units) is None:
         raise InputError(f"{_where(name, 'mesh.units')}: expected a length unit, got "
                          f"{shown(units)}")
-    length = _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)
+    _number(_get(mesh, "length", "mesh", name), "mesh.length", name, 0.0, True)  # checked
     body = mesh.get("body", "largest")
     if isinstance(body, bool) or not isinstance(body, (str, int)):
         raise InputError(f"{_where(name, 'mesh.body')}: expected 'largest', 'all' or a body "

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import io
+import json
+import re
+import zipfile
+from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
@@ -296,3 +301,179 @@ def test_the_file_as_read_is_freed_before_the_part_is_built(
         if was:
             gc.enable()
     assert alive[1] is not freed
+
+
+# -- parts far smaller than 1 in their units, and coordinates too coarse for the part ------------
+
+def _structure(part: Part) -> tuple:
+    """What a change of scale leaves alone."""
+    return (len(part.mesh.faces), len(part.regions), part.watertight, len(part.bodies),
+            tuple(np.bincount(part.features.edge_kind, minlength=4)),
+            tuple(np.bincount(part.features.vertex_kind, minlength=6)))
+
+
+def _d_star(part: Part, points: np.ndarray) -> float:
+    """Trinkle's d* of frictionless contacts at ``points`` on ``part``, moments scaled by its
+    size as the planner scales them."""
+    from synth.scores import form_closure
+    from synth.scores.quality import scaled_wrenches
+
+    c = part.resolve(points)
+    assert len(c.points) == len(points)  # on faces: one contact each
+    return form_closure(scaled_wrenches(c.points, c.normals, part.center_mass,
+                                        part.length)).d_star
+
+
+@pytest.mark.parametrize("side", [1e-7, 1e-8])
+def test_a_tiny_float32_cube_loads_and_scores_like_the_unit_cube(tmp_path: Path,
+                                                                 side: float) -> None:
+    """A cube of side 1e-7 or 1e-8 in a binary STL is float32 to full precision: it loads as
+    the cube of side 1 does (round coordinates such as 5e-08 are no sign of a text file of 8
+    decimals, and a face of area 1e-14 has a normal), and the same grasp scaled down has the
+    same d*; its plan is as good."""
+    from synth import PlanParams, plan_part
+
+    unit_path, tiny_path = tmp_path / "unit.stl", tmp_path / "tiny.stl"
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(unit_path)
+    trimesh.creation.box(extents=(side,) * 3).export(tiny_path)
+    unit, tiny = load_part(unit_path), load_part(tiny_path)
+    assert _structure(tiny) == _structure(unit)
+    assert tiny.volume == pytest.approx(side**3, rel=1e-6)
+    assert tiny.length == pytest.approx(side * np.sqrt(3.0), rel=1e-6)
+    assert tiny.precision < 1e-6 * tiny.length  # float32's, not a decimal's
+    assert np.allclose(np.linalg.norm(tiny.mesh.face_normals, axis=1), 1.0)
+    params = PlanParams(top=3, seed=0, evals=2000)
+    best = plan_part(unit, params).grasps[0]
+    assert _d_star(tiny, best.points * side) == pytest.approx(_d_star(unit, best.points),
+                                                              rel=1e-6)
+    assert _d_star(unit, best.points) == pytest.approx(best.d_star, rel=1e-6)
+    planned = plan_part(tiny, params).grasps
+    assert planned and planned[0].d_star == pytest.approx(best.d_star, rel=1e-5)
+
+
+def test_round_numbers_are_no_sign_of_fixed_decimals() -> None:
+    """Coordinates of one or two significant digits (a box at +-0.5, +-5e-08) are written
+    exactly with any number of decimals: their precision is the float's; a value that 4
+    decimals would write as 0 was not written with 4."""
+    from synth.part.tolerances import coordinate_precision
+
+    for half in (0.5, 5e-8, 5e-9):
+        box = np.array([[half, -half, half], [-half, half, -half]], np.float32).astype(float)
+        assert coordinate_precision(box) == pytest.approx(half * 2.0**-24), half
+    scan = np.array([[0.1235, -2.4871, 1.0], [0.5, 3.25, -0.0042]])  # %.4f
+    assert coordinate_precision(scan) == pytest.approx(5e-5)
+
+
+def test_float32_coordinates_too_coarse_for_the_part_are_said_so(tmp_path: Path) -> None:
+    """A cube of side 1 a billion units from the origin in a binary STL: float32 values there
+    are 64 apart, so the file cannot hold the cube; the message says so, not that too few
+    triangles were usable."""
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    box.apply_translation((1e9, 0.0, 0.0))
+    path = tmp_path / "far.stl"
+    box.export(path)
+    with pytest.raises(MeshError) as info:
+        load_part(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: ") and "usable" not in msg
+    for words in ("coordinates cannot resolve the part", "float32", "1e+09", "64 apart",
+                  "coarser than the part", "near the origin"):
+        assert words in msg, (words, msg)
+
+
+def test_decimation_to_too_few_faces_names_the_decimation() -> None:
+    pytest.importorskip("fast_simplification")
+    with pytest.raises(MeshError) as info:
+        load_part(MESHES / "cube.stl", decimate=4)
+    msg = str(info.value)
+    assert "decimating its 12 triangles to 4 left only" in msg and "decimate" in msg
+    assert "of 2" not in msg
+
+
+# -- malformed files: what is wrong, in the file's words, never the reader's --------------------
+
+#: Words of library internals that must not reach a message.
+INTERNALS = re.compile(r"\b\w*(Error|Exception|Iteration)\b|Traceback|resolver|numpy|trimesh"
+                       r"|axis \d|out of bounds")
+
+
+def _malformed_files(tmp: Path) -> dict[str, tuple[Path, list[str]]]:
+    out: dict[str, tuple[Path, list[str]]] = {}
+
+    def put(label: str, name: str, data: str | bytes, words: list[str]) -> None:
+        p = tmp / name
+        p.write_bytes(data.encode() if isinstance(data, str) else data)
+        out[label] = (p, words)
+
+    tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+    put("obj index", "oob.obj", tri + "f 1 2 4\n",
+        ["face 1 (line 4) refers to vertex 4", "the file has 3 vertices"])
+    put("obj negative index", "neg.obj", tri + "f 1 2 -4\n", ["refers to vertex -4"])
+    put("obj text", "garbage.obj", "v a b c\n" + tri + "f 1 2 3\n",
+        ["line 1", "a vertex must be three numbers", "'v a b c'"])
+    put("obj corner", "corner.obj", tri + "f 1 2 x\n",
+        ["line 4", "corners must be vertex numbers", "'x'"])
+    put("obj two numbers", "flat.obj", "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        ["line 1", "three numbers", "found 2"])
+    header = ("ply\nformat ascii 1.0\nelement vertex 3\n{props}element face 1\n"
+              "property list uchar int vertex_indices\nend_header\n")
+    put("ply no y", "noy.ply",
+        header.format(props="property float x\nproperty float z\n") + "0 0\n1 0\n0 1\n3 0 1 2\n",
+        ["the PLY header declares no y coordinate for its vertices"])
+    put("ply index", "oob.ply",
+        header.format(props="property float x\nproperty float y\nproperty float z\n")
+        + "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+        ["face 0 refers to vertex 3", "the file has 3 vertices"])
+    archive = io.BytesIO()
+    with zipfile.ZipFile(archive, "w") as z:
+        z.writestr("[Content_Types].xml", "<?xml version='1.0'?><Types/>")
+    put("3mf no model", "nomodel.3mf", archive.getvalue(), ["the 3MF holds no model"])
+    put("3mf not zip", "text.3mf", "not a zip\n", ["not a 3MF file", "ZIP"])
+    gltf = {"asset": {"version": "2.0"}, "buffers": [{"uri": "/etc/passwd", "byteLength": 36}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "max": [1, 1, 1], "min": [0, 0, 0]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0}
+    put("gltf outside", "passwd.gltf", json.dumps(gltf),
+        ["the glTF refers to a buffer outside its folder: /etc/passwd"])
+    gltf["buffers"] = [{"uri": "missing.bin", "byteLength": 36}]
+    put("gltf missing", "missing.gltf", json.dumps(gltf),
+        ["the glTF refers to a buffer file that does not exist: missing.bin"])
+    return out
+
+
+def test_malformed_files_are_refused_in_plain_words(tmp_path: Path) -> None:
+    for label, (path, words) in _malformed_files(tmp_path).items():
+        with pytest.raises(MeshError) as info:
+            load_part(path)
+        msg = str(info.value)
+        assert msg.startswith(f"{path}: "), (label, msg)
+        for w in words:
+            assert w in msg, (label, w, msg)
+        assert not INTERNALS.search(msg), (label, msg)
+
+
+def test_malformed_files_exit_2_with_one_line(tmp_path: Path) -> None:
+    """The command line says the same in one line on stderr, with exit status 2."""
+    from synth.cli import EXIT_INPUT, main
+
+    files = _malformed_files(tmp_path)
+    far = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    far.apply_translation((1e9, 0.0, 0.0))
+    far.export(tmp_path / "far.stl")
+    tiny = tmp_path / "tiny.stl"
+    trimesh.creation.box(extents=(1e-7,) * 3).export(tiny)
+    cases = [*files.values(), (tmp_path / "far.stl", ["coarser than the part"]),
+             (MESHES / "cube.stl", ["decimating its 12 triangles to 4"])]
+    for path, words in cases:
+        extra = ["--decimate", "4"] if path.name == "cube.stl" else []
+        err = io.StringIO()
+        with redirect_stdout(io.StringIO()), redirect_stderr(err):
+            code = main(["plan", str(path), "--evals", "2000", "--no-files", *extra])
+        lines = err.getvalue().strip().splitlines()
+        assert code == EXIT_INPUT and len(lines) == 1, (path, code, lines)
+        assert lines[0].startswith(f"synth: error: {path}: "), lines
+        assert all(w in lines[0] for w in words) and not INTERNALS.search(lines[0]), lines
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+        assert main(["plan", str(tiny), "--evals", "2000", "--no-files"]) == 0

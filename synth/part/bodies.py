@@ -42,7 +42,7 @@ from scipy.sparse.csgraph import connected_components
 
 from synth.part.closest import BoxTree
 from synth.part.features import paired_half_edges
-from synth.part.meshcache import cached, face_geometry
+from synth.part.meshcache import cached, face_geometry, scaled_zero
 from synth.part.order import group_ids
 from synth.part.tolerances import bounds
 
@@ -234,7 +234,7 @@ def _is_convex(mesh: trimesh.Trimesh, tolerance: float) -> bool:
             return False
     adj = np.asarray(mesh.face_adjacency, np.int64).reshape(-1, 2)
     edges = np.asarray(mesh.face_adjacency_edges, np.int64).reshape(-1, 2)
-    ok = (area[adj] > trimesh.tol.zero).all(axis=1)
+    ok = (area[adj] > scaled_zero(vertices, 2)).all(axis=1)  # (trimesh's zero at size 1)
     if not ok.any():
         return False
     far = faces[adj[:, 1]].sum(axis=1) - edges.sum(axis=1)  # the other face's third corner
@@ -339,7 +339,7 @@ class Solids:
 
     def __init__(self, mesh: trimesh.Trimesh, bodies: list[Body] | tuple[Body, ...],
                  edge_faces: np.ndarray, face_edges: np.ndarray, index: BoxTree) -> None:
-        fn = np.asarray(mesh.face_normals, float)
+        fn = face_geometry(mesh)[0]
         vertices = np.asarray(mesh.vertices, float)
         faces = np.asarray(mesh.faces, np.int64)
         # per closed body: its index, its box and its test (a convex body's planes)

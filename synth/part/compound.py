@@ -28,6 +28,7 @@ from synth.isolate import NativeCrash, call_isolated
 from synth.native import bvh_model
 from synth.part.bodies import solid_moments
 from synth.part.closest import BoxTree
+from synth.part.meshcache import face_geometry
 from synth.part.repair import face_keys, fix_degenerate, tilted_normals
 
 __all__ = ["OVERLAP_RTOL", "group_bodies", "unite_overlapping"]
@@ -289,7 +290,7 @@ def _piece_normals(united: trimesh.Trimesh, inputs: list[trimesh.Trimesh], src: 
     of: their own, except where an earlier repair tilted the input triangle (``keyed``), whose
     file triangle's normal they get (found by the face of body ``src`` nearest their centre,
     with the body's box tree in ``trees``, built here on first use)."""
-    normals = np.array(united.face_normals, float)
+    normals = np.array(face_geometry(united)[0], float)
     if not keyed:
         return normals
     centres = np.asarray(united.triangles_center, float)

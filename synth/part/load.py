@@ -38,6 +38,7 @@ from synth.memory import reusing_memory
 from synth.part import tolerances as tol
 from synth.part.bodies import body_labels, is_convex, mesh_moments
 from synth.part.compound import group_bodies, unite_overlapping
+from synth.part.meshcache import face_geometry, scaled_zero
 from synth.part.model import Part
 from synth.part.repair import (
     close,
@@ -49,6 +50,7 @@ from synth.part.repair import (
     tilted_normals,
     weld,
 )
+from synth.part.unreadable import explain, obj_problem
 
 __all__ = ["SUPPORTED_FORMATS", "UNITLESS_FORMATS", "MAX_COORDINATE", "MAX_FACES",
            "length_unit", "load_part"]
@@ -119,12 +121,27 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         extra: dict[str, Any] = {"split_objects": True, "group_material": False} \
             if ext == "obj" else {}
         loaded = trimesh.load(str(path), file_type=ext, process=False, force=None, **extra)
-    except Exception as e:  # trimesh raises many kinds
-        raise _fail(name, f"cannot be read as {ext.upper()} ({type(e).__name__}: {e})") from e
+    except Exception as e:  # trimesh raises many kinds, in its own words: the file's fault
+        # is said in the format's (the reader's exception stays the cause, for a traceback)
+        raise _fail(name, explain(path, ext, data)) from e
     # bodies in the order the file lists them (trimesh's OBJ reader reverses its objects)
     listed = [line[2:].strip() for line in data.decode("utf-8", "replace").splitlines()
               if line.startswith("o ")] if ext == "obj" else []
-    return _bodies(loaded, name, ext, listed), digest, getattr(loaded, "units", None)
+    bodies = _bodies(loaded, name, ext, listed)
+    if ext == "obj" and any(_malformed(m) for _, m in bodies):
+        # trimesh reads a vertex of two numbers as a 2-D mesh and keeps faces past the last
+        # vertex: the line at fault, in the file's own numbering
+        problem = obj_problem(data)
+        if problem is not None:
+            raise _fail(name, problem)
+    return bodies, digest, getattr(loaded, "units", None)
+
+
+def _malformed(mesh: trimesh.Trimesh) -> bool:
+    """Whether a mesh as read has vertices other than (v, 3) or a face index outside them."""
+    v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    return v.ndim != 2 or v.shape[1] != 3 or (
+        f.size > 0 and (int(f.min()) < 0 or int(f.max()) >= len(v)))
 
 
 def _bodies(loaded: object, name: str, ext: str, listed: list[str] | None = None
@@ -184,27 +201,63 @@ def _keep_triangle_normals(mesh: trimesh.Trimesh, meshes: list[trimesh.Trimesh],
     rows = np.flatnonzero(~np.isnan(given[:, 0]))
     if not len(rows):
         return
-    normals = np.array(mesh.face_normals, float)
+    normals = np.array(face_geometry(mesh)[0], float)
     turned = np.einsum("ij,ij->i", normals[rows], given[rows]) < 0  # oriented since
     normals[rows] = np.where(turned[:, None], -given[rows], given[rows])
     mesh._cache["face_normals"] = normals
 
 
+def _usable(raw: list[tuple[str, trimesh.Trimesh]], weld_tol: float, sliver: float,
+            moved: float) -> int:
+    """How many triangles of the raw meshes welding at ``weld_tol`` and the sliver repair at
+    ``sliver`` leave (as :func:`_pieces` counts them)."""
+    kept = 0
+    for _, m in raw:
+        if len(m.faces):
+            m = fix_degenerate(weld(m, weld_tol)[0], sliver, moved)[0]
+            kept += len(drop_duplicate_faces(m)[0].faces)
+    return kept
+
+
+def _coarse(allv: np.ndarray, precision: float, length: float) -> str:
+    """Why coordinates of this precision cannot carry a part of this size, in words."""
+    top = float(np.abs(allv).max())
+    if tol.stored_as_float32(allv):
+        step = float(np.spacing(np.float32(top)))
+        how = f"float32 coordinates of magnitude {top:.3g} are {step:.3g} apart"
+    else:
+        step = 2.0 * precision
+        how = f"its coordinates are only precise to {precision:.3g}"
+    than = f"coarser than the part itself ({length:.3g} across as read)" if step >= length \
+        else f"too coarse for a part {length:.3g} across"
+    return (f"its coordinates cannot resolve the part: {how}, {than}; move the part near the "
+            "origin, or store it in double precision (or with more decimals)")
+
+
 def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str], soup: bool,
-            keyed: dict[bytes, np.ndarray]) -> tuple[list[tuple[str, trimesh.Trimesh]], float,
-                                                     float]:
+            keyed: dict[bytes, np.ndarray], decimated: tuple[int, int] | None = None
+            ) -> tuple[list[tuple[str, trimesh.Trimesh]], float, float]:
     """Welded connected pieces of every raw mesh, the coordinates' precision and length.
 
     ``soup``: the format stores every triangle's corners apart (STL), so welding them is not
     a repair worth reporting. ``keyed`` gets the faces that welding and the sliver repair
     tilted (:func:`synth.part.repair.face_keys`) with their triangles' normals.
+    ``decimated``: the file's triangles and the count asked for, when the raw meshes are
+    their decimation (a mesh left unusable by it is refused in those words).
     """
     for _, m in raw:
+        shape = np.shape(m.vertices)
+        if len(shape) != 2 or shape[1] != 3:
+            raise _fail(name, f"its vertices have {shape[-1] if len(shape) == 2 else 'no'} "
+                        "coordinates each, expected 3 (x, y, z)")
         faces = np.asarray(m.faces)
-        if len(faces) and (faces.min() < 0 or faces.max() >= len(m.vertices)):
-            bad = int(faces.max() if faces.max() >= len(m.vertices) else faces.min())
-            raise _fail(name, f"a face refers to vertex {bad}, but there are "
-                        f"{len(m.vertices)} vertices (a corrupt file?)")
+        wrong = (faces < 0) | (faces >= len(m.vertices)) if len(faces) else None
+        if wrong is not None and wrong.any():
+            row = int(np.flatnonzero(wrong.any(axis=1))[0])
+            bad = int(faces[row][wrong[row]][0])
+            count = f"{len(m.vertices)} vert{'ex' if len(m.vertices) == 1 else 'ices'}"
+            raise _fail(name, f"face {row} refers to vertex {bad}, but the file has {count} "
+                        "(numbered from 0; a corrupt file?)")
     verts = [np.asarray(m.vertices, float) for _, m in raw]
     allv = verts[0] if len(verts) == 1 else np.concatenate(verts) if verts else np.zeros((0, 3))
     n_faces = sum(len(m.faces) for _, m in raw)
@@ -231,6 +284,7 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     precision = tol.coordinate_precision(allv)
     weld_tol = max(tol.WELD_RTOL * length, 2.0 * precision)
     sliver = max(tol.DEGENERATE_RTOL * length, precision)
+    moved = tol.surface_tolerance(length, precision)
     counts = {"welded": 0, "repaired": 0, "degenerate": 0, "duplicate": 0}
     pieces: list[tuple[str, trimesh.Trimesh]] = []
     n_f = 0
@@ -241,14 +295,16 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
         read = m
         m, welded = weld(m, weld_tol)
         counts["welded"] += welded
-        moved = tol.surface_tolerance(length, precision)
         m, k, j, came = fix_degenerate(m, sliver, moved)
         counts["repaired"] += k
         if k or (welded and not soup):  # corners may have moved: tilted faces keep their
             # triangles' normals, found again by their corners after the later repairs; the
             # file's, from their corners (not those an STL stores, which trimesh keeps when
             # they are close: float32 and up to 4e-4 rad off)
-            normals, valid = trimesh.triangles.normals(np.asarray(read.triangles, float))
+            # (trimesh.triangles.normals, with the zero of the part's size)
+            normals, valid = trimesh.util.unitize(
+                trimesh.triangles.cross(np.asarray(read.triangles, float)), check_valid=True,
+                threshold=scaled_zero(read.vertices, 2))
             before = np.zeros((len(valid), 3))  # a degenerate triangle has none
             before[valid] = normals
             given = tilted_normals(m, before[came], max(moved, weld_tol))
@@ -273,12 +329,25 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
             repairs.append(text.format(counts[key]))
     kept = sum(len(c.faces) for _, c in pieces)
     if kept < 4:
+        if decimated is not None:
+            raise _fail(name, f"decimating its {decimated[0]:,} triangles to {decimated[1]:,} "
+                        f"left only {kept} usable triangle(s); a solid needs at least 4: ask "
+                        "for more faces (--decimate N, Python: decimate=N)")
+        # the coordinates' precision, not the part's size, set the tolerances (its surface
+        # tolerance among them) that left these: said so when the tolerances of its size
+        # alone would have kept a solid's worth of triangles
+        if moved > tol.ON_SURFACE_RTOL * length and \
+                _usable(raw, tol.WELD_RTOL * length, tol.DEGENERATE_RTOL * length,
+                        tol.ON_SURFACE_RTOL * length) >= 4:
+            raise _fail(name, _coarse(allv, precision, length))
         raise _fail(name, f"only {kept} usable triangle(s) of {n_f}; a solid needs at least 4")
     v = np.concatenate([c.vertices for _, c in pieces])
     centred = v - v.mean(axis=0)
     thickness = np.linalg.svd(centred, compute_uv=False)[-1] / np.sqrt(len(centred))
     if thickness < tol.FLAT_RTOL * length:
-        raise _fail(name, "all vertices lie in one plane (a flat sheet, no volume)")
+        after = "" if decimated is None else \
+            f" after decimating its {decimated[0]:,} triangles to {decimated[1]:,}"
+        raise _fail(name, f"all vertices lie in one plane{after} (a flat sheet, no volume)")
     return pieces, precision, length
 
 
@@ -462,9 +531,11 @@ def load_part(
     Raises
     ------
     MeshError
-        Missing or unreadable file, no usable surface (empty, fewer than 4 triangles,
-        flat, NaN or infinite coordinates or any of magnitude above ``MAX_COORDINATE``), an
-        unknown unit or body.
+        Missing or unreadable file (what is wrong with it said in the format's words, never
+        the reader's), no usable surface (empty, fewer than 4 triangles, also after
+        ``decimate``, flat, NaN or infinite coordinates or any of magnitude above
+        ``MAX_COORDINATE``, coordinates too coarse for the part: float32 far from the
+        origin), an unknown unit or body.
 
     Examples
     --------
@@ -493,10 +564,13 @@ def load_part(
         warnings.append(f"{UNIT_UNKNOWN}: the file does not say it; give it with --units "
                         "(Python: units=), e.g. mm, cm, m or in")
     soup = path is not None and Path(path).suffix.lower() == ".stl"
+    decimated = None
     if decimate is not None:
+        n_file = sum(len(m.faces) for _, m in raw)
         raw, soup = _decimated(raw, decimate, name, repairs), False
+        decimated = (n_file, int(decimate)) if raw[0][0] == "decimated" else None
     keyed: dict[bytes, np.ndarray] = {}
-    pieces, precision, length = _pieces(raw, name, repairs, soup, keyed)
+    pieces, precision, length = _pieces(raw, name, repairs, soup, keyed, decimated)
     n_read = sum(len(m.faces) for _, m in raw)
     del raw  # the file as read: a large mesh's biggest copy, not needed past welding
     if n_read >= _COLLECT_FACES:

@@ -14,9 +14,24 @@ from typing import Any, TypeVar
 import numpy as np
 import trimesh
 
-__all__ = ["cached", "face_geometry"]
+__all__ = ["cached", "face_geometry", "scaled_zero"]
 
 T = TypeVar("T")
+
+
+def scaled_zero(vertices: np.ndarray, power: int = 1) -> float:
+    """trimesh's zero (``trimesh.util.TOL_ZERO``, 1e-13 whatever the mesh's size) for a
+    quantity of length to this ``power`` (1: a vector's length, 2: a face's cross product,
+    twice its area), below which trimesh gives a vector no direction and a face no normal:
+    itself for a mesh of size 1 or more, scaled with a smaller mesh's size (the diagonal of
+    its box) to that power, so that a part of side 1e-7 has the normals and corner angles it
+    would have at side 1 (trimesh's zero gave none of its faces a normal)."""
+    v = np.asarray(vertices, np.float64)
+    if not len(v):
+        return float(trimesh.util.TOL_ZERO)
+    lo = np.array([v[:, k].min() for k in range(3)])
+    hi = np.array([v[:, k].max() for k in range(3)])
+    return float(trimesh.util.TOL_ZERO) * min(1.0, float(np.linalg.norm(hi - lo))) ** power
 
 
 def cached(mesh: trimesh.Trimesh, key: Any, compute: Callable[[], T]) -> T:
@@ -36,9 +51,11 @@ def face_geometry(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     trimesh's arithmetic (the cross product of ``b - a`` and ``c - b``, its squares summed
     x, y, then z, as trimesh's BLAS dot sums them with OpenBLAS; another BLAS may differ in
     the last bit), without its (f, 3, 3) ``triangles`` and their (f, 3) cross products, which
-    it would keep (0.05 against 0.16 s at 1.3M faces). Normals already given (a face whose
-    normal a repair kept) are left as they are; a mesh with a face of no normal is left to
-    trimesh.
+    it would keep (0.05 against 0.16 s at 1.3M faces). A face has a normal when its cross
+    product is longer than :func:`scaled_zero` (trimesh's own test for a mesh of size 1 or
+    more; a smaller mesh's faces have the normals trimesh would give them at size 1). Normals
+    already given (a face whose normal a repair kept) are left as they are; a mesh with a
+    face of no normal is left to trimesh.
     """
     cache = mesh._cache
     if cache["face_normals"] is None and len(mesh.faces):
@@ -56,7 +73,7 @@ def face_geometry(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
         norm = np.sqrt((cross[0] * cross[0] + cross[1] * cross[1]) + cross[2] * cross[2])
         if cache["area_faces"] is None:
             cache["area_faces"] = norm / 2.0
-        if (norm > trimesh.util.TOL_ZERO).all():
+        if (norm > scaled_zero(v, 2)).all():
             scale = norm ** -1
             cache["face_normals"] = np.column_stack([c * scale for c in cross])
     return np.asarray(mesh.face_normals, np.float64), np.asarray(mesh.area_faces, np.float64)

@@ -21,7 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from synth.part.features import Features
-from synth.part.meshcache import face_geometry
+from synth.part.meshcache import face_geometry, scaled_zero
 from synth.part.order import group_ids, stable_order
 
 __all__ = ["Region", "RegionSet", "compute_regions"]
@@ -261,9 +261,10 @@ def _face_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     cols = [np.ascontiguousarray(vertices[:, k]) for k in range(3)]
     corner = [np.ascontiguousarray(faces[:, c]) for c in range(3)]
     x = [[np.take(col, corner[c]) for c in range(3)] for col in cols]  # coordinate, corner
-    u = _unit([x[k][1] - x[k][0] for k in range(3)])
-    v = _unit([x[k][2] - x[k][0] for k in range(3)])
-    w = _unit([x[k][2] - x[k][1] for k in range(3)])
+    zero = scaled_zero(vertices)  # (trimesh's, for a part of size 1 or more)
+    u = _unit([x[k][1] - x[k][0] for k in range(3)], zero)
+    v = _unit([x[k][2] - x[k][0] for k in range(3)], zero)
+    w = _unit([x[k][2] - x[k][1] for k in range(3)], zero)
     del x
     out = np.empty((len(faces), 3))
     # trimesh's row dot products (np.dot with ones, a BLAS call) sum x, y, then z with this
@@ -275,11 +276,11 @@ def _face_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return out
 
 
-def _unit(d: list[np.ndarray]) -> list[np.ndarray]:
+def _unit(d: list[np.ndarray], zero: float) -> list[np.ndarray]:
     """``trimesh.util.unitize`` of vectors given as their three coordinates (n,) each (a
-    vector of no length is scaled by its length, as trimesh scales it)."""
+    vector of no length, ``zero`` or less, is scaled by its length, as trimesh scales it)."""
     norm = np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
-    valid = norm > trimesh.util.TOL_ZERO
+    valid = norm > zero
     norm[valid] **= -1
     return [c * norm for c in d]
 

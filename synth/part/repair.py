@@ -19,6 +19,7 @@ from scipy.sparse.csgraph import breadth_first_order
 from synth.isolate import call_isolated
 from synth.part.bodies import body_labels, mesh_moments
 from synth.part.features import edge_closure
+from synth.part.meshcache import face_geometry, scaled_zero
 from synth.part.order import stable_order
 
 __all__ = ["weld", "fix_degenerate", "tilted_normals", "face_keys", "drop_duplicate_faces",
@@ -154,7 +155,7 @@ def _heights(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     sq = [(c[0] * c[0] + c[2] * c[2]) + c[1] * c[1] for c in s]
     longest = np.sqrt(np.maximum(np.maximum(sq[0], sq[1]), sq[2]))
     h = np.where(longest > 0, area2 / np.where(longest > 0, longest, 1.0), 0.0)
-    return np.where(area2 > trimesh.util.TOL_ZERO, h, 0.0)
+    return np.where(area2 > scaled_zero(v, 2), h, 0.0)
 
 
 def fix_degenerate(mesh: trimesh.Trimesh, height: float, max_move: float | None = None
@@ -249,10 +250,10 @@ def tilted_normals(mesh: trimesh.Trimesh, before: np.ndarray, moved: float) -> n
     elsewhere, so untouched faces keep their normals bit for bit. A small face may be tilted
     by degrees (15.7 on a V-HACD Lego brick): its own normal then says little, its
     triangle's is the file's."""
-    own = np.asarray(mesh.face_normals, float)
+    own, area = face_geometry(mesh)  # (trimesh's, with the zero of the part's size)
     tri = np.asarray(mesh.triangles, float)
     longest = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
-    height = 2.0 * np.asarray(mesh.area_faces, float) / np.maximum(longest, 1e-300)
+    height = 2.0 * area / np.maximum(longest, 1e-300)
     tilt = np.linalg.norm(own - before, axis=1)
     within = ((tilt > 1e-12) & (tilt <= 2.0 * moved / np.maximum(height, 1e-300))
               & (np.einsum("ij,ij->i", own, before) > 0))  # not folded over, and not from a

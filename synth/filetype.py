@@ -20,6 +20,7 @@ import json
 import os
 import re
 import struct
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -206,6 +207,8 @@ def require(path: str | os.PathLike[str], expected: Expected) -> None:
     synth.errors.InputError: meshes/cube.stl: a mesh file (STL), not a grasp file written by
     synth plan --out; plan it first (synth plan meshes/cube.stl --out GRASPS.json)
     """
+    if Path(path).is_dir():
+        raise expected.error(f"{path}: a folder, not {expected.what}")
     kind = kind_of(path)
     if kind is None or kind in expected.kinds:
         return
@@ -248,3 +251,6 @@ def read_json(path: str | os.PathLike[str], expected: Expected = GRASPS) -> Any:
                          f"{what}") from None
     except RecursionError:
         raise InputError(f"{name}: JSON nested too deep to read") from None
+    except ValueError:  # an integer past Python's digit limit (sys.get_int_max_str_digits)
+        raise InputError(f"{name}: holds a number too long to read (more than "
+                         f"{sys.get_int_max_str_digits():,} digits), so not {what}") from None

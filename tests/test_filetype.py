@@ -165,3 +165,19 @@ def test_every_command_names_a_file_of_the_wrong_kind(files: dict[str, Path], tm
         line = _refused(capsys, *argv)
         assert words in line, (argv, line)
         assert sorted(p.name for p in tmp_path.iterdir()) == before, argv  # nothing written
+
+
+def test_a_folder_and_a_number_too_long_are_named(tmp_path):
+    """A folder where a file belongs is called a folder; an integer past Python's digit limit
+    is bad input in words, not Python's advice to raise the limit."""
+    from synth.filetype import GRASPS, read_json
+
+    folder = tmp_path / "g.json"
+    folder.mkdir()
+    with pytest.raises(InputError, match="g.json: a folder, not a grasp file"):
+        read_json(folder, GRASPS)
+    big = tmp_path / "big.json"
+    big.write_text('{"format": ' + "9" * 5000 + "}")
+    with pytest.raises(InputError, match="holds a number too long to read") as e:
+        read_json(big, GRASPS)
+    assert "set_int_max_str_digits" not in str(e.value)

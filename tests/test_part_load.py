@@ -381,6 +381,24 @@ def test_float32_coordinates_too_coarse_for_the_part_are_said_so(tmp_path: Path)
         assert words in msg, (words, msg)
 
 
+def test_coarse_float32_coordinates_are_warned_of(tmp_path: Path) -> None:
+    """The same cube a million units out: float32 values there are 0.0625 apart, which hold
+    its corners exactly but make every tolerance a few percent of its size (its edges then
+    take contacts that a cube at the origin keeps on its faces): loaded, with a warning; the
+    cube at the origin and ten thousand units out get none."""
+    warned = {}
+    for offset in (0.0, 1e4, 1e6):
+        box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+        box.apply_translation((offset, 0.0, 0.0))
+        path = tmp_path / f"box{offset:g}.stl"
+        box.export(path)
+        part = load_part(path, units="m")
+        warned[offset] = [w for w in part.warnings if w.startswith("coarse coordinates")]
+    assert not warned[0.0] and not warned[1e4]
+    assert len(warned[1e6]) == 1 and "% of the part's size" in warned[1e6][0]
+    assert "near the origin" in warned[1e6][0]
+
+
 def test_decimation_to_too_few_faces_names_the_decimation() -> None:
     pytest.importorskip("fast_simplification")
     with pytest.raises(MeshError) as info:

@@ -52,6 +52,9 @@ from synth.part.repair import (
 )
 from synth.part.unreadable import explain, obj_problem
 
+#: Coordinates precise to more than this share of the part's size are reported as coarse.
+COARSE_RTOL = 1e-3
+
 __all__ = ["SUPPORTED_FORMATS", "UNITLESS_FORMATS", "MAX_COORDINATE", "MAX_FACES",
            "length_unit", "load_part"]
 
@@ -571,6 +574,12 @@ def load_part(
         decimated = (n_file, int(decimate)) if raw[0][0] == "decimated" else None
     keyed: dict[bytes, np.ndarray] = {}
     pieces, precision, length = _pieces(raw, name, repairs, soup, keyed, decimated)
+    if precision > COARSE_RTOL * length:
+        warnings.append(f"coarse coordinates: they are precise only to {precision:.3g}, "
+                        f"{100 * precision / length:.2g}% of the part's size ({length:.3g}), so "
+                        "its edges and tolerances are that coarse (float32 coordinates far from "
+                        "the origin?); move the part near the origin or store it in double "
+                        "precision")
     n_read = sum(len(m.faces) for _, m in raw)
     del raw  # the file as read: a large mesh's biggest copy, not needed past welding
     if n_read >= _COLLECT_FACES:

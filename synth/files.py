@@ -119,31 +119,29 @@ def write_atomic(target: str | os.PathLike[str], data: bytes | str | Callable[[P
     return Path(target)
 
 
-#: The start of every JSON document synth writes: an object whose first key is its format.
-_SYNTH_JSON = re.compile(rb'\A\s*\{\s*"format"\s*:\s*"synth\.')
+#: The format of a JSON document synth writes (its grasps, rankings, scores, exports), but not
+#: a gripper description (``synth.gripper``), which people write by hand.
+_SYNTH_JSON = re.compile(rb'"format"\s*:\s*"synth\.(?!gripper")')
 
 
 def wrote_by_synth(path: str | os.PathLike[str]) -> bool:
     """Whether an existing file is one of synth's outputs, from its first bytes: a JSON
-    document whose ``format`` starts with ``synth.``, a PNG with a ``synth.run_id`` text
-    chunk, a GLB whose scene extras hold a ``synth`` entry."""
+    document whose ``format`` names one of synth's (in its first 64 KB), a PNG with a
+    ``synth.run_id`` text chunk, a GLB whose scene extras hold a ``synth`` entry. A file that
+    cannot be read or parsed is not."""
     try:
         with open(path, "rb") as f:
             head = f.read(1 << 16)
-    except OSError:
+            if head.startswith(b"glTF") and len(head) >= 20:
+                f.seek(20)  # the JSON chunk, its length in the header
+                doc = json.loads(f.read(min(int.from_bytes(head[12:16], "little"), 1 << 26)))
+                scenes = doc.get("scenes") if isinstance(doc, dict) else None
+                scene = scenes[0] if isinstance(scenes, list) and scenes else None
+                return any(isinstance(e, dict) and "synth" in e for e in (
+                    doc.get("extras") if isinstance(doc, dict) else None,
+                    scene.get("extras") if isinstance(scene, dict) else None))
+    except (OSError, ValueError, RecursionError):
         return False
     if head.startswith(b"\x89PNG\r\n\x1a\n"):
         return b"tEXtsynth.run_id\x00" in head or b"iTXtsynth.run_id\x00" in head
-    if head.startswith(b"glTF") and len(head) >= 20:
-        n = int.from_bytes(head[12:16], "little")  # the JSON chunk's length
-        try:
-            with open(path, "rb") as f:
-                f.seek(20)
-                doc = json.loads(f.read(min(n, 1 << 26)))
-        except (OSError, ValueError):
-            return False
-        extras = doc.get("extras") if isinstance(doc, dict) else None
-        scene = (doc.get("scenes") or [{}])[0] if isinstance(doc, dict) else {}
-        return any(isinstance(e, dict) and "synth" in e
-                   for e in (extras, scene.get("extras") if isinstance(scene, dict) else None))
-    return bool(_SYNTH_JSON.match(head))
+    return head.lstrip()[:1] == b"{" and bool(_SYNTH_JSON.search(head))

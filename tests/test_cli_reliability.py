@@ -555,3 +555,35 @@ def test_a_scheduler_without_dask_is_refused(box, tmp_path, capsys):
                     "tcp://127.0.0.1:1")
     assert "--scheduler" in line and "--engine dask" in line
     assert not (tmp_path / "g.sqlite").exists()
+
+
+def test_a_gripper_description_given_as_a_file_is_an_input(box, tmp_path, capsys):
+    """A gripper description the user wrote (format synth.gripper) is never an output: not
+    when it is named as --out, nor when it merely sits at an output's name."""
+    from synth.fingers.builtin import GRIPPER_FOLDER
+
+    mine = tmp_path / "hand.json"
+    mine.write_bytes((GRIPPER_FOLDER / "robotiq_2f85.json").read_bytes())  # boxes only
+    before = _files(tmp_path)
+    line = _refused(capsys, "plan", box, "--units", "cm", "--gripper", mine, "--out", mine)
+    assert f"--out: {mine} is also an input of this command" in line
+    line = _refused(capsys, "plan", box, "--units", "cm", "--gripper", "franka", "--out", mine)
+    assert f"--out: {mine} exists and synth did not write it" in line
+    assert _files(tmp_path) == before
+
+
+def test_a_users_odd_file_at_an_output_name_is_refused_not_a_crash(box, tmp_path, capsys):
+    """A GLB whose JSON is not a glTF document, a damaged NPZ: refused as not synth's (exit
+    2), never an internal error."""
+    odd = tmp_path / "odd.glb"
+    doc = b'{"scenes": 5}   '
+    odd.write_bytes(b"glTF" + struct.pack("<III", 2, 20 + len(doc), len(doc)) + b"JSON" + doc)
+    line = _refused(capsys, "plan", box, "--glb", odd, "--out", tmp_path / "o.json")
+    assert "exists and synth did not write it" in line
+    code, _, err = _run(capsys, "db", "build", box, "--out", tmp_path / "g.sqlite", "--evals",
+                        "200", "--quiet")
+    assert code == 0, err
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"PK\x03\x04garbage")
+    line = _refused(capsys, "db", "export", tmp_path / "g.sqlite", "--out", bad)
+    assert "not an export synth wrote" in line and bad.read_bytes() == b"PK\x03\x04garbage"

@@ -168,3 +168,22 @@ def test_an_export_folder_that_is_a_file_is_refused(built, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "is a file" in err and "a folder" in err
     assert mine.read_text() == "the user's"
+
+
+@pytest.mark.parametrize("fmt", ["acronym", "graspgen", "isaac"])
+def test_an_export_folder_keeps_the_users_files_and_replaces_its_own(built, tmp_path, capsys,
+                                                                     fmt):
+    """Exporting again into the same folder replaces synth's own files; a file of the user's
+    at one of the names stops the export before anything is written."""
+    _, db = built
+    out = tmp_path / "x"
+    argv = ["db", "export", str(db), "--format", fmt, "--out", str(out)]
+    assert main(argv) == 0
+    (written,) = list(out.iterdir())
+    assert main(argv) == 0  # its own file: replaced
+    written.write_bytes(b"the user's own notes")
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a file synth exported" in err
+    assert written.read_bytes() == b"the user's own notes"

@@ -20,3 +20,16 @@ def test_float32_test_spans_every_block(n: int) -> None:
     assert coordinate_precision(v) < 1e-12 * top
     lo, hi = bounds(v)
     assert np.array_equal(lo, v.min(axis=0)) and np.array_equal(hi, v.max(axis=0))
+
+
+def test_a_small_part_written_with_four_decimals_keeps_their_rounding() -> None:
+    """A sphere of radius 0.003 written with four decimals: none of its values has three
+    significant digits (0.0012), but many need the fourth decimal, so it was written with
+    four and its coordinates are only that precise; round values (0.5, 5e-8) on every grid
+    say nothing of the decimals."""
+    import trimesh
+
+    written = np.round(trimesh.creation.icosphere(radius=0.003).vertices, 4)
+    assert coordinate_precision(written) == 5e-5
+    assert coordinate_precision(np.array([[0.5, -0.5, 0.5]])) < 1e-7
+    assert coordinate_precision(np.array([[5e-8, -5e-8, 5e-8]])) < 1e-20

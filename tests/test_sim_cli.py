@@ -365,3 +365,14 @@ def test_a_gripper_plan_of_a_small_part_simulates(tmp_path, capsys):
     text = capsys.readouterr()
     assert code == 0, text.err
     assert "1 of 1 grasps held" in text.out
+
+
+def test_sim_labels_a_document_in_place_whatever_its_key_order(tmp_path, capsys):
+    """A grasp file re-saved with sorted keys (jq, json.dump(sort_keys=True)) is still the
+    document sim reads and labels in place."""
+    grasps = write_grasps(tmp_path, write_cube(tmp_path), *CUBE7)
+    doc = json.loads(grasps.read_text())
+    grasps.write_text(json.dumps(doc, sort_keys=True))
+    capsys.readouterr()
+    assert main(["sim", str(grasps), "--quiet"]) == 0, capsys.readouterr().err
+    assert "sim" in json.loads(grasps.read_text())["grasps"][0]

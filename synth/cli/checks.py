@@ -59,7 +59,8 @@ def real(option: str, value: float | None, lo: float, hi: float, *, open_lo: boo
 
 
 def output_path(option: str, path: str | os.PathLike[str], suffix: str,
-                inputs: Sequence[str | os.PathLike[str] | None] = ()) -> Path:
+                inputs: Sequence[str | os.PathLike[str] | None] = (),
+                in_place: bool = False) -> Path:
     """An output file named on the command line, checked before any work is done.
 
     synth replaces only files it wrote itself: an output may not be one of the command's
@@ -75,6 +76,9 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str,
         The suffix its format needs, such as ``".png"`` (any letter case).
     inputs : sequence of str or path
         The files the command reads (None entries are skipped).
+    in_place : bool
+        The file is the document the command read and writes back (``synth sim``'s labels):
+        replaced whatever its first bytes.
 
     Returns
     -------
@@ -96,7 +100,7 @@ def output_path(option: str, path: str | os.PathLike[str], suffix: str,
             if given is not None and Path(given).exists() and os.path.samefile(out, given):
                 raise OptionError(f"{option}: {out} is also an input of this command; give "
                                   "the output another name")
-        if not wrote_by_synth(out):
+        if not in_place and not wrote_by_synth(out):
             raise OptionError(f"{option}: {out} exists and synth did not write it (synth "
                               "replaces only its own outputs); give another name or move it")
     folder = out.parent

@@ -230,10 +230,10 @@ def run_gripper(args: argparse.Namespace) -> int:
         refuse_file_names(args)
     else:
         stem = Path(args.mesh).name.rsplit(".", 1)[0]
-        out = output_path("--out", args.out or f"{stem}.grasps.json", ".json", [args.mesh])
-        paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png",
-                                  [args.mesh]),
-                 output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb", [args.mesh]))
+        inputs = [args.mesh, args.gripper]  # a gripper description may be a file
+        out = output_path("--out", args.out or f"{stem}.grasps.json", ".json", inputs)
+        paths = (out, output_path("--png", args.png or out.with_suffix(".png"), ".png", inputs),
+                 output_path("--glb", args.glb or out.with_suffix(".glb"), ".glb", inputs))
     part = load_part_from_args(args)
     report_part(part, args.quiet)
     plan = plan_gripper(part, params)

@@ -96,7 +96,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
     args.top = top
     load_gripper(args.gripper)  # a bad description is refused before any file is read
     out = None if args.out is None else output_path("--out", args.out, ".json",
-                                                    [args.mesh, args.candidates])
+                                                    [args.mesh, args.candidates, args.gripper])
     require(args.candidates, POSES)  # a mesh, a database: named as such
     poses = read_gripper_poses(args.candidates)
     if len(poses.errors) == len(poses.poses):

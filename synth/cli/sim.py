@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -178,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from synth.cli.progress import LineProgress
-    from synth.errors import MeshError
+    from synth.errors import MeshError, OptionError
     from synth.filetype import GRASPS, MESH, read_json, require
     from synth.limits import MAX_MU
     from synth.sim import ContactModel, labelled_document, require_sim, simulate_file
@@ -196,12 +197,17 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
     doc = read_json(args.grasps, GRASPS)
     if args.mesh is not None:
-        require(args.mesh, MESH)
         if Path(args.mesh).is_dir():
             raise MeshError(f"--mesh: {args.mesh} is a folder, not {MESH.what}")
         if not Path(args.mesh).is_file():
             raise MeshError(f"--mesh: {args.mesh}: no such file")
-    out = None if args.no_files else output_path("--out", args.out or args.grasps, ".json")
+        require(args.mesh, MESH)
+    if args.no_files and args.out is not None:
+        raise OptionError("--out and --no-files: give a file to write or none")
+    same = args.out is None or (Path(args.out).is_file()
+                                and os.path.samefile(args.out, args.grasps))
+    out = None if args.no_files else output_path(  # the labels go into the document read
+        "--out", args.grasps if same else args.out, ".json", [args.mesh], in_place=same)
     if isinstance(doc, dict) and doc.get("format") == JAW_FORMAT:
         check_jaw_document(doc, str(args.grasps))
         labelled, mesh = _simulate_jaws(args, {**doc, "grasps": doc["grasps"][:first]},

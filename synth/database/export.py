@@ -83,8 +83,10 @@ planner's format (with ``sim``, the label object or null).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -326,8 +328,7 @@ def export_database(
     if ext in EXPORT_FORMATS + ("hdf5",) and {"hdf5": "h5"}.get(ext, ext) != fmt:
         raise InputError(f"{out}: a .{ext} name for a {fmt} export; name it .{fmt}, or leave "
                          "the format to the name")
-    _replaceable(database, out)
-    with GraspDatabase(database) as db, atomic_path(out) as tmp:
+    with GraspDatabase(database) as db, _replaceable(database, out), atomic_path(out) as tmp:
         if fmt == "h5":
             _write_h5(db, tmp)
         elif fmt == "npz":
@@ -343,35 +344,37 @@ def export_database(
     return fmt
 
 
-def _replaceable(database: str | os.PathLike[str], out: str) -> None:
+@contextlib.contextmanager
+def _replaceable(database: str | os.PathLike[str], out: str) -> Iterator[None]:
     """Refuse to write ``out`` over the database itself or over a file that is not one of
-    synth's exports (synth replaces only its own outputs)."""
-    if not os.path.isfile(out):
-        return
-    if os.path.exists(database) and os.path.samefile(out, database):
-        raise InputError(f"{out}: this is the database being exported; give the export "
-                         "another name")
-    if not _is_export(out):
-        raise InputError(f"{out} exists and is not an export synth wrote (synth replaces only "
-                         "its own outputs); give another name or move it")
+    synth's exports (synth replaces only its own outputs); entered once the database opened,
+    so that a missing database is said first."""
+    if os.path.isfile(out):
+        if os.path.exists(database) and os.path.samefile(out, database):
+            raise InputError(f"--out {out}: this is the database being exported; give the "
+                             "export another name")
+        if not _is_export(out):
+            raise InputError(f"--out {out}: exists and is not an export synth wrote (synth "
+                             "replaces only its own outputs); give another name or move it")
+    yield
 
 
 def _is_export(path: str) -> bool:
-    """Whether ``path`` is an export of :func:`export_database` (JSON, HDF5 or NPZ)."""
-    with open(path, "rb") as f:
-        head = f.read(8)
-    if head.startswith(b"\x89HDF"):
-        try:
+    """Whether ``path`` is an export of :func:`export_database` (JSON, HDF5 or NPZ; an NPZ
+    from before the format tag by its arrays); a file that cannot be parsed is not."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+        if head.startswith(b"\x89HDF"):
             import h5py
 
             with h5py.File(path, "r") as h5:
-                return bool(h5.attrs.get("format") == _FORMAT_TAG)
-        except (ImportError, OSError):
-            return False
-    if head.startswith(b"PK"):
-        try:
+                return str(h5.attrs.get("format", "")) == _FORMAT_TAG
+        if head.startswith(b"PK"):
             with np.load(path, allow_pickle=False) as z:
-                return {"params", "planner", "mesh_id"} <= set(z.files)
-        except (OSError, ValueError):
-            return False
+                if "format" in z.files:
+                    return str(z["format"]) == _FORMAT_TAG
+                return {"params", "planner", "mesh_id", "contact_start"} <= set(z.files)
+    except Exception:  # noqa: BLE001 - unreadable, damaged, odd: not an export of synth's
+        return False
     return wrote_by_synth(path)

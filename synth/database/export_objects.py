@@ -139,11 +139,34 @@ def export_objects(database: str | os.PathLike[str], out: str | os.PathLike[str]
     if folder.exists() and not folder.is_dir():
         raise InputError(f"{folder}: is a file; --format {fmt} writes one file per mesh into a "
                          "folder: give a folder name")
+    targets = [folder / f"{obj.name}{WRITERS[fmt]}" for obj in objects]
+    for path in targets:  # all checked before any is written
+        if path.exists() and not (path.is_file() and _ours(path)):
+            raise InputError(f"--out {folder}: {path.name} there is not a file synth exported "
+                             "(synth replaces only its own outputs); give another folder or "
+                             "move it")
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for obj in objects:
-        path = folder / f"{obj.name}{WRITERS[fmt]}"
+    for obj, path in zip(objects, targets, strict=True):
         with atomic_path(path) as tmp:
             write(tmp, obj)
         paths.append(path)
     return paths
+
+
+def _ours(path: Path) -> bool:
+    """Whether a per-object file is one synth exported: its ``written_by`` (an HDF5
+    attribute, the ``synth`` entry of a JSON or YAML document) names synth."""
+    import re
+
+    try:
+        if path.suffix == ".h5":
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                return str(f.attrs.get("written_by", "")).startswith("synth ")
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 20)
+    except Exception:  # noqa: BLE001 - unreadable or damaged: not synth's
+        return False
+    return re.search(rb'(^|\s|")written_by"?\s*:\s*"?synth ', head) is not None

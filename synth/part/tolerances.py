@@ -130,9 +130,10 @@ def coordinate_precision(vertices: np.ndarray) -> float:
     files written with a fixed number of decimals (4 to 8), half the last decimal when that
     is larger. The decimals are read from the values only where they show them: every value
     a nonzero multiple of the last decimal, and one at least of three significant digits
-    ending in it. Round numbers (0.5, 0.25, 5e-08) are written exactly with any number of
-    decimals and say nothing of it; taken as 4 decimals they gave a box of side 1e-8 a
-    rounding error of 5e-5, 5,000 times its size.
+    ending in it, or three different values ending in it (a small part's 0.0012). Round
+    numbers (0.5, 0.25, 5e-08) are written exactly with any number of decimals and say
+    nothing of it; taken as 4 decimals they gave a box of side 1e-8 a rounding error of
+    5e-5, 5,000 times its size.
 
     Parameters
     ----------
@@ -168,7 +169,7 @@ def coordinate_precision(vertices: np.ndarray) -> float:
         if not steps.all():
             continue  # a value these decimals would write as 0: they are more
         last = np.abs(steps) % 10 != 0  # the value needs its last decimal
-        if np.any(last & (np.abs(steps) >= 100)):
+        if np.any(last & (np.abs(steps) >= 100)) or len(np.unique(np.abs(steps[last]))) >= 3:
             err = max(err, 0.5 * 10.0**-digits)
         break
     return err

@@ -227,3 +227,23 @@ def test_a_database_from_before_surface_resumes_only_with_the_smooth_model(
     with pytest.raises(DatabaseError, match="surface: stored 'smooth', asked 'both'"):
         build_database([mesh_dir], reference, PARAMS, planner=PLANNER)
     build_database([mesh_dir], reference, {**PARAMS, "surface": "smooth"}, planner=PLANNER)
+
+
+def test_a_scheduler_address_is_bad_input_and_a_silent_one_the_systems(
+        tmp_path: Path, mesh_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An address dask cannot parse is the user's to fix (InputError, exit status 2); a
+    scheduler that does not answer is the system's refusal (DatabaseError, exit status 1),
+    not an internal error."""
+    distributed = pytest.importorskip("distributed")
+    with pytest.raises(InputError, match="not a Dask scheduler address"):
+        build_database([mesh_dir], tmp_path / "a.sqlite", PARAMS, engine="dask",
+                       scheduler="notanaddress", planner=PLANNER)
+
+    def silent(*args: object, **kwargs: object) -> None:
+        raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 30 s")
+
+    monkeypatch.setattr(distributed, "Client", silent)
+    with pytest.raises(DatabaseError, match="cannot connect to the Dask scheduler") as e:
+        build_database([mesh_dir], tmp_path / "b.sqlite", PARAMS, engine="dask",
+                       scheduler="tcp://127.0.0.1:1", planner=PLANNER)
+    assert not isinstance(e.value, InputError)

@@ -35,7 +35,7 @@ from synth.database.progress import ProgressBar, format_duration
 from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
 from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
-from synth.errors import InputError
+from synth.errors import DatabaseError, InputError
 from synth.filetype import MESH_FORMATS
 from synth.plan import LOAD_KEYS
 from synth.plan.params import BUILD_TIME, PlanParams
@@ -584,8 +584,13 @@ def _run_dask(
         else:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True)
             client = Client(cluster)
-    except (OSError, TimeoutError) as e:
-        raise InputError(f"cannot connect to the Dask scheduler {scheduler!r}: {e}") from e
+    except ValueError as e:  # dask's words for an address it cannot parse
+        raise InputError(f"--scheduler {scheduler!r}: not a Dask scheduler address ({e}); "
+                         "expected one such as tcp://host:8786") from e
+    except (OSError, TimeoutError) as e:  # a scheduler that does not answer: the system's
+        # refusal (exit status 1), not the address's fault
+        raise DatabaseError(f"cannot connect to the Dask scheduler {scheduler!r}: {e}; is it "
+                            "running, and reachable from here?") from e
     try:
         nthreads = max(1, sum(client.nthreads().values()))
         on_workers(nthreads)

@@ -760,3 +760,18 @@ def test_fcl_trees_of_the_faces_near_an_object_answer_as_the_whole_part(monkeypa
     assert local == whole
     assert 100 < sum(whole) < 700  # hits and misses of both kinds
     assert short != whole
+
+
+def test_a_tip_lost_in_the_coordinates_rounding_is_refused() -> None:
+    """A fingertip of radius 1e-20 on the unit cube: its centre one radius off the surface is
+    the surface point itself in float64, so every finger check failed and the plan blamed its
+    budget; refused by name, while 1e-11 still plans."""
+    import trimesh
+
+    from synth.errors import InputError
+    from synth.fingers import default_fingers
+
+    box = trimesh.creation.box()
+    with pytest.raises(InputError, match="finger radius 1e-20: expected at least"):
+        default_fingers(box, tip_radius=1e-20)
+    assert default_fingers(box, tip_radius=1e-11).tip_radius == 1e-11

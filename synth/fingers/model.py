@@ -42,6 +42,7 @@ __all__ = [
     "PENETRATION_RTOL",
     "SHARED_TIP_FIT_RTOL",
     "DEFAULT_TIP_RELATIVE_RADIUS",
+    "MIN_TIP_RELATIVE_RADIUS",
     "DEFAULT_BODY_RELATIVE_LENGTH",
     "DEFAULT_BODY_RELATIVE_RADIUS",
     "Fingers",
@@ -56,6 +57,9 @@ PENETRATION_RTOL: float = 1e-3
 SHARED_TIP_FIT_RTOL: float = 1e-2
 #: ``default_fingers`` picks a tip radius of this fraction of the part's bounding-box diagonal.
 DEFAULT_TIP_RELATIVE_RADIUS: float = 0.025
+#: ``default_fingers`` refuses a tip radius below this fraction of the part's size (its
+#: bounding-box diagonal, or its largest coordinate when that is larger).
+MIN_TIP_RELATIVE_RADIUS: float = 1e-12
 #: Default body length, in tip radii.
 DEFAULT_BODY_RELATIVE_LENGTH: float = 10.0
 #: Default body radius, in tip radii (a body thinner than its tip, like a probe).
@@ -304,6 +308,13 @@ def default_fingers(part: Any, **overrides: Any) -> Fingers:
     lo, hi = np.asarray(mesh.bounds, dtype=float)
     diag = float(np.linalg.norm(hi - lo))
     overrides.setdefault("tip_radius", DEFAULT_TIP_RELATIVE_RADIUS * diag)
+    # a tip this much smaller than the part vanishes in its coordinates' float64 rounding
+    # (a tip centre one radius off the surface is the surface point itself)
+    least = MIN_TIP_RELATIVE_RADIUS * max(diag, float(np.abs(np.concatenate([lo, hi])).max()))
+    if not float(overrides["tip_radius"]) >= least:
+        raise InputError(f"finger radius {overrides['tip_radius']:.3g}: expected at least "
+                         f"{least:.3g}, a trillionth of the part's size and distance from the "
+                         "origin (a smaller tip is lost in its coordinates' rounding)")
     return Fingers(**overrides)
 
 

@@ -112,6 +112,7 @@ def test_a_file_name_after_json_points_to_out(tmp_path: Path, capsys) -> None:
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert "--json takes no file name" in err and "--out" in err, err
+        assert f"(see 'synth {argv[0]} --help')" in err, err  # the command's own help
         assert not (tmp_path / "s.json").exists() and not (tmp_path / "r.json").exists()
 
 

@@ -121,14 +121,15 @@ def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argpa
     except InputError as e:
         at = [i for i, w in enumerate(words[:-1]) if w == "--json"]
         extra = str(e).partition("unrecognized arguments: ")[2].split(" (see ")[0].split()
+        command = " ".join(words[:2] if words[:1] == ["db"] else words[:1]) \
+            if words and words[0] in _COMMANDS else ""
+        see = f"(see 'synth {command} --help')" if command else "(see 'synth --help')"
         if at and str(words[at[-1] + 1]) in extra:
-            raise OptionError("--json takes no file name: it prints the JSON, as every "
-                              "command's --json does; write it to a file with --out "
-                              f"{shown(str(words[at[-1] + 1]), 60)}") from None
-        if extra and words and words[0] in _COMMANDS:  # the top parser says them: point
-            command = " ".join(words[:2] if words[0] == "db" and len(words) > 1 else words[:1])
-            raise InputError(str(e).replace("(see 'synth --help')",  # to the command's help
-                                            f"(see 'synth {command} --help')")) from None
+            raise InputError("--json takes no file name: it prints the JSON, as every "
+                             "command's --json does; write it to a file with --out "
+                             f"{shown(str(words[at[-1] + 1]), 60)} {see}") from None
+        if extra and command:  # the top parser says them: point to the command's help
+            raise InputError(str(e).replace("(see 'synth --help')", see)) from None
         raise
 
 

@@ -87,13 +87,20 @@ class Pieces:
         path = Path(path)
         kw = {"split_objects": True, "group_material": False} if path.suffix.lower() == ".obj" \
             else {}
-        loaded = trimesh.load(str(path), **kw)
+        loaded = trimesh.load(str(path), process=False, **kw)
         geoms = loaded.dump() if isinstance(loaded, trimesh.Scene) else [loaded]
+        # trimesh merges corners closer than an absolute 1e-8: done on a copy of unit size
+        # (a part of side 1e-9 would merge into a point), then put back where the file has it
+        allv = np.vstack([np.asarray(g.vertices, float) for g in geoms])
+        o = (allv.min(axis=0) + allv.max(axis=0)) / 2
+        s = float(np.linalg.norm(allv.max(axis=0) - allv.min(axis=0))) or 1.0
         pieces = []
         for g in geoms:
-            g = trimesh.Trimesh(g.vertices, g.faces, process=True)  # merges corners
-            pieces.extend(g.split(only_watertight=False, repair=False) if len(g.faces) > 1
-                          else [g])
+            g = trimesh.Trimesh((np.asarray(g.vertices, float) - o) / s, g.faces, process=True)
+            for q in (g.split(only_watertight=False, repair=False) if len(g.faces) > 1
+                      else [g]):
+                pieces.append(trimesh.Trimesh(np.asarray(q.vertices) * s + o, q.faces,
+                                              process=False))
         self.surface = trimesh.util.concatenate(pieces)
         lo, hi = self.surface.bounds
         self.length = float(np.linalg.norm(hi - lo))
@@ -122,7 +129,7 @@ class Pieces:
         f32 = bool(np.all(v.astype(np.float32).astype(np.float64) == v))
         ulp = 2.0**-23 * top if f32 else 0.0
         self.tol = 1e-6 * self.length + 1e-9 * top + 2.0 * max(_decimal_quantum(path), ulp)
-        self.normals = np.asarray(self.surface.face_normals, float)
+        self.normals = np.asarray(self._unit_surface.face_normals, float)  # (any size)
         self.tri = np.asarray(self.surface.triangles, float)
         # trimesh's kernel can misjudge points near triangles of area below ~1e-6 (absolute)
         edges = np.linalg.norm(self.tri - np.roll(self.tri, 1, axis=1), axis=2).max(axis=1)

@@ -1,4 +1,4 @@
-"""Any size, any placement, any float precision: from 1 mm to 1 km, in metres and in
+"""Any size, any placement, any float precision: from 1 nm to 1 km, in metres and in
 millimetres, centred and 1,000 part sizes off the origin, in float32 (binary STL) and float64
 (OBJ written with every digit) files. synth's own samples are never refused by its own
 resolver, and every planned grasp passes the independent check."""
@@ -37,6 +37,7 @@ def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
 
 
 CASES = list(itertools.product([1e-3, 1.0, 1e3], ["m", "mm"], [0.0, 1000.0], ["f32", "f64"]))
+CASES += list(itertools.product([1e-9], ["m", "mm"], [0.0, 1000.0], ["f32", "f64"]))
 
 
 @pytest.mark.parametrize("size, unit, offset, dtype", CASES,

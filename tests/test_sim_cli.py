@@ -376,3 +376,27 @@ def test_sim_labels_a_document_in_place_whatever_its_key_order(tmp_path, capsys)
     capsys.readouterr()
     assert main(["sim", str(grasps), "--quiet"]) == 0, capsys.readouterr().err
     assert "sim" in json.loads(grasps.read_text())["grasps"][0]
+
+
+@pytest.mark.parametrize(("edit", "words"), [
+    (lambda g: g["points"].__setitem__(0, [5.0, 5.0, 5.0]), "from the part's surface"),
+    (lambda g: g["normals"].__setitem__(0, [-x for x in g["normals"][0]]),
+     "fingertip 0 is not one tip radius outside contact 0"),
+    (lambda g: g["points"].__setitem__(0, [1e300, 0.0, 0.0]), "above 1e+15 in size"),
+])
+def test_a_grasp_edited_off_the_part_is_not_held(tmp_path, capsys, edit, words):
+    """A contact moved off the part, a normal turned over, a coordinate past the limit: the
+    grasp no longer touches the part where its fingers are, so it is labelled not held at the
+    start with the reason (its fingers alone were simulated, and held, before); the file's
+    other grasps are simulated as before."""
+    grasps = write_grasps(tmp_path, write_cube(tmp_path), *CUBE7)
+    doc = json.loads(grasps.read_text())
+    doc["grasps"].append(json.loads(json.dumps(doc["grasps"][0])))
+    edit(doc["grasps"][0])
+    grasps.write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["sim", str(grasps), "--quiet"]) == 0, capsys.readouterr().err
+    first, second = (g["sim"] for g in json.loads(grasps.read_text())["grasps"])
+    assert first["held"] is False and first["failed_at"] == "start", first
+    assert words in first["reason"], first["reason"]
+    assert second["held"] is True

@@ -24,7 +24,7 @@ from synth.sim.protocol import DIRECTIONS, SimRun
 from synth.sim.scene import Scene
 from synth.sim.settings import SIMULATOR
 
-__all__ = ["SimLabel", "Escape", "predicted_escape", "label_run", "error_label",
+__all__ = ["SimLabel", "Escape", "predicted_escape", "label_run", "error_label", "start_label",
            "FAILURE_STAGES"]
 
 #: Values of ``failed_at``, in the order the stages run; ``"error"``: not simulated.
@@ -155,6 +155,13 @@ class SimLabel:
             "seconds": float(self.seconds),
             "timestep": num(self.timestep),
         }
+
+
+def start_label(reason: str) -> SimLabel:
+    """The label of a grasp refused before its scene is built (its contacts are not on the
+    part, or its fingers not where its contacts say): not held, at the start."""
+    return SimLabel(False, "start", reason, np.zeros(6, bool), float("nan"), np.zeros(0), None,
+                    None, None, None, 0, 0.0)
 
 
 def error_label(reason: str) -> SimLabel:

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
 from synth.sim.document import GraspFile, SimGrasp
-from synth.sim.label import SimLabel, error_label, label_run, predicted_escape
+from synth.sim.label import SimLabel, error_label, label_run, predicted_escape, start_label
 from synth.sim.settings import SimSettings
 
 __all__ = ["SimReport", "simulate_file", "labelled_document", "check_mesh", "require_sim",
@@ -136,6 +136,36 @@ def load_planned_part(file: GraspFile) -> Any:
     return part
 
 
+#: How far (a share of the part's size) a grasp file's contact may lie from the part's surface,
+#: and its fingertip from one radius off it, before the grasp is taken for another part's.
+CONTACT_RTOL = 1e-3
+
+
+def misplaced(g: SimGrasp, part: Any) -> str | None:
+    """Why a grasp's contacts are not on the part (a hand-edited file, another part's grasps),
+    or None: each contact within ``CONTACT_RTOL`` of the part's size of its surface, its
+    fingertip one tip radius from it on the outside (against the contact's inward normal)."""
+    from synth.limits import MAX_COORDINATE
+
+    tol = CONTACT_RTOL * part.length + 4.0 * part.surface_tolerance
+    if not (np.abs(g.points) <= MAX_COORDINATE).all():
+        return f"a contact's coordinates are above {MAX_COORDINATE:g} in size"
+    off = part.surface_distance(g.points)
+    j = int(np.argmax(off))
+    if off[j] > tol:
+        return (f"contact {j} is {off[j]:.3g} from the part's surface (at most {tol:.3g}): "
+                "the grasp does not touch this part")
+    owner = np.arange(len(g.points)) if g.contact_finger is None else g.contact_finger
+    gap = g.tip_centers[owner] - g.points  # from each contact to its fingertip's centre
+    wrong = (np.abs(np.linalg.norm(gap, axis=1) - g.tip_radius) > tol) | (
+        np.einsum("ij,ij->i", gap, g.normals) > 0.0)
+    if wrong.any():
+        j = int(np.flatnonzero(wrong)[0])
+        return (f"fingertip {int(owner[j])} is not one tip radius outside contact {j} against "
+                "its normal (points, normals and fingers.tip_centers disagree)")
+    return None
+
+
 def balanced_preload(g: SimGrasp, center_mass: NDArray[np.float64], length: float,
                      mu: float, grip: float) -> NDArray[np.float64]:
     """The balanced hand's squeeze of one grasp: each finger's force in newtons.
@@ -207,6 +237,12 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     shape = part_shape(part)
     out: list[SimLabel] = []
     for i, g in enumerate(file.grasps):
+        why = misplaced(g, part)
+        if why is not None:  # not simulated: its fingers are not where its contacts say
+            out.append(start_label(why))
+            if progress is not None:
+                progress(i + 1, len(file.grasps))
+            continue
         try:
             preload = None if st.hand == "saturated" else balanced_preload(
                 g, file.center_mass, file.length, model.mu, st.grip)

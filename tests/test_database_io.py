@@ -329,3 +329,19 @@ def test_an_export_named_for_another_format_and_an_order_without_its_measure(
         assert all(g.tolerance is None for g in db.top(name, 5))
         with pytest.raises(InputError, match="no placement tolerance"):
             db.top(name, 5, "tolerance")
+
+
+def test_a_damaged_page_found_while_exporting_is_a_database_error(
+        built: tuple[Path, Path], tmp_path: Path) -> None:
+    """SQLite reads a table's pages as a query goes: a database damaged past its first pages
+    opens, then fails mid-export; that is the file's failure (DatabaseError, exit status 1),
+    not an internal error, and no export is written."""
+    _, db_path = built
+    copy = tmp_path / "damaged.sqlite"
+    data = bytearray(db_path.read_bytes())
+    data[-3 * 4096:] = b"\xff" * (3 * 4096)  # the last pages: grasps and meshes rows
+    copy.write_bytes(bytes(data))
+    for fmt in ("json", "npz"):
+        with pytest.raises(DatabaseError, match="query failed"):
+            export_database(copy, tmp_path / f"x.{fmt}")
+        assert not (tmp_path / f"x.{fmt}").exists()

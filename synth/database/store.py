@@ -288,6 +288,14 @@ class GraspDatabase:
         except sqlite3.Error as e:
             raise DatabaseError(f"{self.path}: query failed: {e}") from e
 
+    def _rows(self, sql: str, args: Iterable[Any] = ()) -> Iterator[sqlite3.Row]:
+        """The rows of a query one at a time; a damaged file found while reading them (SQLite
+        reads its pages as it goes) is :class:`DatabaseError`, as in :meth:`_query`."""
+        try:
+            yield from self._conn.execute(sql, tuple(args))
+        except sqlite3.Error as e:
+            raise DatabaseError(f"{self.path}: query failed: {e}") from e
+
     def info(self) -> DatabaseInfo:
         """Counts, failures and parameters of the database."""
         counts: dict[str, int] = {
@@ -362,10 +370,9 @@ class GraspDatabase:
     def meshes(self, status: str | None = None) -> Iterator[MeshRecord]:
         """Iterate over mesh records in id order, optionally only those of one ``status``."""
         if status is None:
-            rows = self._conn.execute("SELECT * FROM meshes ORDER BY id")
+            rows = self._rows("SELECT * FROM meshes ORDER BY id")
         else:
-            rows = self._conn.execute("SELECT * FROM meshes WHERE status = ? ORDER BY id",
-                                      (status,))
+            rows = self._rows("SELECT * FROM meshes WHERE status = ? ORDER BY id", (status,))
         for row in rows:
             yield MeshRecord.from_row(row)
 
@@ -385,11 +392,10 @@ class GraspDatabase:
             of the mesh they duplicate.
         """
         if mesh is None:
-            rows = self._conn.execute("SELECT * FROM grasps ORDER BY mesh_id, rank")
+            rows = self._rows("SELECT * FROM grasps ORDER BY mesh_id, rank")
         else:
-            rows = self._conn.execute(
-                "SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank", (self._grasp_owner(mesh),)
-            )
+            rows = self._rows("SELECT * FROM grasps WHERE mesh_id = ? ORDER BY rank",
+                              (self._grasp_owner(mesh),))
         for row in rows:
             yield GraspRecord.from_row(row)
 
@@ -399,10 +405,10 @@ class GraspDatabase:
         if self.schema_version < 4:
             return
         if mesh is None:
-            rows = self._conn.execute("SELECT * FROM gripper_grasps ORDER BY mesh_id, rank")
+            rows = self._rows("SELECT * FROM gripper_grasps ORDER BY mesh_id, rank")
         else:
-            rows = self._conn.execute("SELECT * FROM gripper_grasps WHERE mesh_id = ? ORDER BY "
-                                      "rank", (self._grasp_owner(mesh),))
+            rows = self._rows("SELECT * FROM gripper_grasps WHERE mesh_id = ? ORDER BY rank",
+                              (self._grasp_owner(mesh),))
         for row in rows:
             yield GripperGraspRecord.from_row(row)
 

@@ -227,3 +227,24 @@ def test_plan_and_rank_report_tolerance(tmp_path):
     plain = synth("plan", MESHES / "cube.stl", "--evals", "3000", "--top", "1", "--quiet",
                   "--no-files")
     assert "tolerance" not in plain.stdout
+
+
+def test_rank_reads_a_plan_whose_fingertips_touch_several_faces(tmp_path):
+    """A --fingers plan puts one fingertip in a groove or an inside corner, touching two or
+    three faces: rank groups those contacts into that one finger (their tips coincide), so
+    it finds the plan's grasps collision free with the plan's d*, where it saw two fingers
+    in one place before."""
+    out = tmp_path / "f.json"
+    plan = synth("plan", MESHES / "bracket.stl", "--units", "dm", "--fingers", "auto",
+                 "--evals", "3000", "--top", "4", "--out", out, "--quiet")
+    assert plan.returncode == 0, plan.stderr
+    doc = json.loads(out.read_text())
+    shared = [g for g in doc["grasps"]
+              if len(set(g["fingers"]["contact_finger"])) < len(g["points"])]
+    assert shared  # the plan did put a tip on more than one face
+    proc = synth("rank", MESHES / "bracket.stl", out, "--units", "dm", "--json")
+    assert proc.returncode == 0, proc.stderr
+    ranked = json.loads(proc.stdout)["candidates"]
+    assert {c["status"] for c in ranked} == {"ok"}, [c.get("reason") for c in ranked]
+    assert sorted(round(c["d_star"], 9) for c in ranked) == \
+        sorted(round(g["d_star"], 9) for g in doc["grasps"])

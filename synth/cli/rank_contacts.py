@@ -88,6 +88,28 @@ class RankedCandidate:
         }
 
 
+def _shared_tips(ids: np.ndarray, P: np.ndarray, N: np.ndarray, radius: float, tol: float
+                 ) -> np.ndarray:
+    """Fingers of the contacts (k,): those of ``ids`` (the resolver's: one per given point),
+    joined where the tips would be one (their centres one radius off the surface, against
+    the normals, within ``tol``), as in a groove or an inside corner of a plan made with
+    ``--fingers``: one fingertip touching two or three faces."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    tips = P - radius * N
+    pairs = cKDTree(tips).query_pairs(max(tol, 0.0), output_type="ndarray")
+    if not len(pairs):
+        return ids
+    n = int(ids.max()) + 1
+    a = np.concatenate([ids[pairs[:, 0]], np.arange(n)])
+    b = np.concatenate([ids[pairs[:, 1]], np.arange(n)])
+    joined = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n)),
+                                  directed=False)[1]
+    return np.unique(joined[ids], return_inverse=True)[1]
+
+
 def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
                     regions: bool = False, rank_by: str = "d_star", min_tolerance: float = 0.0,
                     weight: float | None = None, grip: float | None = None,
@@ -174,7 +196,8 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         _, d, closure = min(graded, key=lambda g: (g[0], g[1]))  # the weaker reading
         cond = worst_reading(partial(conditioning_of, P, m), N, S, surface)
         eps = worst_reading(partial(epsilon_of, P, m), N, S, surface)
-        ids = np.unique(con.finger, return_inverse=True)[1]
+        ids = _shared_tips(np.unique(con.finger, return_inverse=True)[1], P, N,
+                           fingers.tip_radius, part.surface_tolerance)
         spw = max(float(finger_hold_batch(P[None], n[None], center, L, m, ids[None], edges)
                         .squeeze_per_weight[0]) for n in readings(N, S, surface))
         least = None if weight is None or not np.isfinite(spw) else spw * weight

@@ -207,3 +207,18 @@ def test_the_commands_refuse_these_files_with_exit_status_2(tmp_path, capsys, ar
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and words in lines[0] and name in lines[0], lines
         assert "pickle" not in lines[0] and "sys." not in lines[0]
+
+
+def test_a_plan_files_grasps_carry_its_friction(tmp_path):
+    """A synth plan file of frictional grasps (--mu 0.5 --contacts 3) records mu once, in its
+    params: each grasp read from it has that mu unless it gives its own."""
+    from synth.grasps.candidates import read_candidates
+
+    pts = [[0.5, 0, 0], [-0.5, 0, 0], [0, 0.5, 0]]
+    nrm = [[-1, 0, 0], [1, 0, 0], [0, -1, 0]]
+    doc = {"format": "synth.grasps", "params": {"mu": 0.5},
+           "grasps": [{"points": pts, "normals": nrm}, {"points": pts, "normals": nrm,
+                                                        "mu": 0.2}]}
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(doc))
+    assert [c.mu for c in read_candidates(path)] == [0.5, 0.2]

@@ -397,7 +397,12 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
     if _holds_poses(data):
         raise InputError(f"{p}: holds " + _POSES_HINT.format(path=p))
     wanted = "'points' and 'normals'" if require_normals else "'points'"
+    planned_mu = None  # a plan's friction (its params), for grasps that do not give their own
     if isinstance(data, dict):
+        params = data.get("params")
+        if isinstance(params, dict) and isinstance(params.get("mu"), (int, float)) \
+                and not isinstance(params.get("mu"), bool):
+            planned_mu = float(params["mu"])
         for key in ("candidates", "grasps"):
             if key in data:
                 data = data[key]
@@ -434,7 +439,7 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
                 nrm[-1] = np.full(np.shape(obj["points"]), np.nan)
             except (TypeError, ValueError):
                 nrm[-1] = None
-        mus.append(obj.get("mu") if ok else None)
+        mus.append(obj.get("mu", planned_mu) if ok else None)
     return _table(where, names, named, pts, nrm, mus, errors)
 
 

@@ -221,3 +221,19 @@ def test_the_independent_check_catches_broken_grasps():
     slid[0]["point"] = (np.array(slid[0]["point"]) + 0.01 * part.length * T[:3, 1]).tolist()
     assert any("friction cone" in e for e in check_grasp(dict(g, contacts=slid), path, desc,
                                                          1.0, 1e-4, 0.0))
+
+
+@pytest.mark.parametrize("kw", [dict(mass=-1.0), dict(mass=0.0), dict(min_margin=-1.0),
+                                dict(mu=1e9), dict(density=-5.0), dict(mass=1.0, density=2.0),
+                                dict(table=float("nan")), dict(top=-3), dict(top="3"),
+                                dict(samples=10**9), dict(edges=10**5), dict(seed=-1),
+                                dict(gravity="down"), dict(gravity=(0.0, 0.0, 0.0))])
+def test_gripper_params_out_of_range_are_refused_by_name(kw):
+    """The Python API holds GripperParams to the command line's ranges: a negative mass
+    planned 'too heavy', a billion samples ran out of memory; now each is an InputError
+    naming its field."""
+    from synth.errors import InputError
+
+    with pytest.raises(InputError) as e:
+        GripperParams(**kw)
+    assert str(e.value).split(":")[0] in kw or "not both" in str(e.value)

@@ -215,3 +215,15 @@ def test_frictional_squeezable_matches_one_lp_per_contact() -> None:
         full = frictional_form_closure(P, N, mu, edges=6)
         assert (sq.closure in ("frictional form", "form")) == full.is_closure
     assert {"frictional form", "strong force", "force"} <= kinds
+
+
+def test_cone_edges_are_held_to_their_range():
+    """A billion cone edges filled 24 GB before the kernel stopped the process: the API takes
+    the command line's 3 to 64."""
+    from synth.errors import InputError
+    from synth.scores import frictional_form_closure
+
+    P = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0]])
+    with pytest.raises(InputError, match="edges must be an integer from 3 to 64"):
+        frictional_form_closure(P, -P, 0.5, edges=10**9)
+    assert frictional_form_closure(P, -P, 0.5, edges=64).closure == "frictional form"

@@ -14,16 +14,13 @@ from synth.cli.options import check_weight_options
 from synth.cli.vocabulary import check_top
 from synth.errors import OptionError
 from synth.limits import MAX_LENGTH
+from synth.plan.gripper_params import MAX_MARGIN, MAX_SAMPLES
 
 __all__ = ["add_gripper_options", "add_hold_options", "refuse_gripper_options",
            "refuse_finger_options", "gripper_params", "run_gripper", "format_gripper_table",
            "store_gripper_source"]
 
 _ONLY_GRIPPER = ("gravity", "torsion", "samples", "min_margin")
-#: Most surface points a gripper plan may draw (``--samples``).
-MAX_SAMPLES = 1_000_000
-#: Largest ``--min-margin``.
-MAX_MARGIN = 1000.0
 
 
 def add_hold_options(g: argparse._ArgumentGroup) -> None:

@@ -6,14 +6,34 @@ FCL, so that the command line can state the defaults in ``--help`` without loadi
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 
-__all__ = ["APPROACHES", "GRIPPER_RANK_BY", "GripperParams"]
+from synth.errors import InputError, shown
+from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES
+
+__all__ = ["APPROACHES", "GRIPPER_RANK_BY", "MAX_MARGIN", "MAX_SAMPLES", "GripperParams"]
 
 #: Approach directions tried about each closing axis (every 360 / APPROACHES degrees).
 APPROACHES: int = 4
 #: Orders gripper grasps can be ranked by.
 GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
+#: Most surface points a gripper plan may draw (``--samples``).
+MAX_SAMPLES = 1_000_000
+#: Largest ``min_margin`` (``--min-margin``).
+MAX_MARGIN = 1000.0
+
+
+def _number(value: object) -> bool:
+    """A finite real number, Python's or numpy's (not a bool, not a string)."""
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _whole(value: object) -> bool:
+    """A Python or numpy integer, not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -63,3 +83,43 @@ class GripperParams:
     table: float | None = None
     edges: int = 8
     min_margin: float | None = 1.0
+
+    def __post_init__(self) -> None:
+        """Every field against the range the command line's options have."""
+        def bad(name: str, expected: str) -> InputError:
+            return InputError(f"{name}: expected {expected}, got {shown(getattr(self, name))}")
+
+        def within(name: str, lo: float, hi: float, low_open: bool = False,
+                   optional: bool = False) -> None:
+            v = getattr(self, name)
+            if optional and v is None:
+                return
+            if not (_number(v) and (lo < v if low_open else lo <= v) and v <= hi):
+                raise bad(name, f"a number in {'(' if low_open else '['}{lo:g}, {hi:g}]"
+                          + (" or None" if optional else ""))
+
+        def count(name: str, lo: int, hi: int) -> None:
+            if not (_whole(getattr(self, name)) and lo <= getattr(self, name) <= hi):
+                raise bad(name, f"an integer from {lo} to {hi:,}")
+
+        if not isinstance(self.gripper, str) or not self.gripper:
+            raise bad("gripper", "a built-in gripper's name or a description file's path")
+        within("mu", 0.0, MAX_MU, low_open=True)
+        within("torsion", 0.0, MAX_LENGTH, optional=True)
+        within("mass", 0.0, math.inf, low_open=True, optional=True)
+        within("density", 0.0, math.inf, low_open=True, optional=True)
+        if self.mass is not None and self.density is not None:
+            raise InputError("give mass or density, not both")
+        g = self.gravity
+        if g is not None and not (
+                not isinstance(g, (str, bytes)) and hasattr(g, "__len__") and len(g) == 3
+                and all(_number(x) for x in g) and any(x != 0 for x in g)):
+            raise bad("gravity", "three finite numbers, not all 0, or None")
+        count("top", 1, MAX_TOP)
+        count("samples", 1, MAX_SAMPLES)
+        count("seed", 0, MAX_SEED)
+        if self.rank_by not in GRIPPER_RANK_BY:
+            raise bad("rank_by", f"one of {', '.join(GRIPPER_RANK_BY)}")
+        within("table", -MAX_LENGTH, MAX_LENGTH, optional=True)
+        count("edges", MIN_EDGES, MAX_EDGES)
+        within("min_margin", 0.0, MAX_MARGIN, optional=True)

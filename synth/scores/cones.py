@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
+from synth.limits import MAX_EDGES, MIN_EDGES
 
 __all__ = [
     "SOFT_LATITUDES",
@@ -180,8 +181,9 @@ def cone_wrenches_batch(
     (1, 6, 52)
     """
     B, k, _ = points.shape
-    if int(edges) != edges or edges < 3:
-        raise InputError(f"edges must be an integer >= 3, got {edges!r}")
+    if int(edges) != edges or not MIN_EDGES <= edges <= MAX_EDGES:
+        raise InputError(f"edges must be an integer from {MIN_EDGES} to {MAX_EDGES}, got "
+                         f"{edges!r}")
     gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (B, k)) if np.ndim(torsion) < 2 \
         else np.asarray(torsion, dtype=np.float64)
     soft = bool(np.any(gam > 0)) if soft is None else bool(soft)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from synth.errors import InputError
+from synth.limits import MAX_EDGES, MIN_EDGES
 from synth.scores.batch import BatchScores
 from synth.scores.cones import check_contacts_batch, cone_wrenches_batch, generators_per_contact
 from synth.scores.friction_lp import solve_frictional_lp
@@ -86,8 +87,9 @@ def frictional_form_closure_batch(
     if not (np.any(mu_a > 0) or np.any(gam > 0)):
         raise InputError("mu or torsion must be somewhere > 0 (use form_closure_batch "
                          "without friction)")
-    if int(edges) != edges or edges < 3:
-        raise InputError(f"edges must be an integer >= 3, got {edges!r}")
+    if int(edges) != edges or not MIN_EDGES <= edges <= MAX_EDGES:
+        raise InputError(f"edges must be an integer from {MIN_EDGES} to {MAX_EDGES}, got "
+                         f"{edges!r}")
     mu_b = np.broadcast_to(mu_a, (B, k))
     gam_b = np.broadcast_to(gam, (B, k))
     if B == 0:

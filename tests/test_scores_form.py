@@ -221,3 +221,19 @@ def test_bad_input():
         wrench_matrix(np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(InputError, match="shape"):
         wrench_matrix(np.zeros((3, 3)), np.ones((4, 3)))
+
+
+@pytest.mark.parametrize("scale", [1e-10, 1e-300, 1e10, 1e200])
+def test_d_star_does_not_depend_on_the_wrenches_units(scale):
+    """W c = 0 whatever W's scale, so d* is the same for W in any unit; HiGHS's absolute
+    tolerances took W * 1e-10 for balanced by any c (d* 1.0 against 0.5)."""
+    from synth.scores import form_closure, wrench_matrix
+
+    P = np.array([[.5, .1, .1], [-.5, -.1, -.1], [.1, .5, .1], [-.1, -.5, -.1], [.2, .2, -.5],
+                  [-.2, .2, -.5], [.2, .4, .5]])
+    N = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1],
+                  [0, 0, -1.0]])
+    W = wrench_matrix(P, N)
+    base, scaled = form_closure(W), form_closure(W * scale)
+    assert scaled.closure == base.closure == "form"
+    assert scaled.d_star == pytest.approx(base.d_star, abs=1e-9)

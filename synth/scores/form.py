@@ -14,6 +14,7 @@ the ``c_i >= d`` rows.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -135,6 +136,12 @@ def form_closure(W: ArrayLike, free: tuple[int, ...] | list[int] = ()) -> FormCl
     # variables x = [c (n), d]; minimise -d
     cost = np.zeros(n + 1)
     cost[-1] = -1.0
+    # HiGHS's tolerances are absolute: a matrix of entries far from 1 (a wrench in other
+    # units, 1e-10 or 1e10) is scaled by a power of two (exactly), which leaves W c = 0 and
+    # so d* as they are; one of entries near 1 (every wrench synth builds) is left as given
+    top = float(np.abs(A).max())
+    scale = 2.0 ** -round(math.log2(top)) if top > 0 and not 2**-10 <= top <= 2**10 else 1.0
+    A = A * scale if scale != 1.0 else A  # (the rank and the escape twist do not depend on it)
     A_eq = np.hstack([A, np.zeros((m, 1))])
     A_ub = np.zeros((ordinary.size, n + 1))
     A_ub[np.arange(ordinary.size), ordinary] = -1.0

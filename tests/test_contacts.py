@@ -224,3 +224,17 @@ def test_first_hits_fine_mesh_matches_brute_force() -> None:
     assert len(a[1]) > 100
     for x, y in zip(a, b, strict=True):
         assert np.array_equal(x, y)
+
+
+def test_sampling_arguments_are_checked_by_name():
+    """No part, a trillion contacts, a count given as text, a negative seed: each an
+    InputError naming its argument (they were numpy's errors, or memory exhausted)."""
+    from synth import load_part, sample_contacts
+    from synth.errors import InputError
+
+    part = load_part(MESHES / "cube.stl")
+    cases = [((None, 10), {}, "part"), ((part, 10**12), {}, "n"), ((part, "5"), {}, "n"),
+             ((part, 10), {"seed": -1}, "seed")]
+    for args, kw, word in cases:
+        with pytest.raises(InputError, match=f"^{word}: expected"):
+            sample_contacts(*args, **kw)

@@ -237,3 +237,13 @@ def test_gripper_params_out_of_range_are_refused_by_name(kw):
     with pytest.raises(InputError) as e:
         GripperParams(**kw)
     assert str(e.value).split(":")[0] in kw or "not both" in str(e.value)
+
+
+def test_plan_gripper_names_a_wrong_argument():
+    from synth.errors import InputError
+
+    with pytest.raises(InputError, match="part: expected a synth.Part"):
+        plan_gripper(None, GripperParams())
+    part = load_part(ROOT / "meshes" / "cube.stl", units="cm")
+    with pytest.raises(InputError, match="params: expected a synth.GripperParams"):
+        plan_gripper(part, {"samples": 40})

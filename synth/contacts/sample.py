@@ -10,6 +10,9 @@ import numpy as np
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
 
+#: Most contacts one call samples (10 million: about 1 GB of points, normals and labels).
+MAX_SAMPLES = 10_000_000
+
 if TYPE_CHECKING:
     from synth.part.model import Part
 
@@ -116,12 +119,19 @@ def sample_contacts(
     --------
     >>> c = sample_contacts(part, 100, seed=0, method="even")  # doctest: +SKIP
     """
+    if not hasattr(part, "mesh") or not hasattr(part, "resolve"):
+        raise InputError(f"part: expected a synth.Part (see synth.load_part), got "
+                         f"{type(part).__name__}")
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not 0 <= n <= MAX_SAMPLES:
+        raise InputError(f"n: expected a count from 0 to {MAX_SAMPLES:,}, got {n!r}")
     n = int(n)
-    if n < 0:
-        raise InputError(f"n: expected a non-negative count, got {n}")
     if method not in SAMPLE_METHODS:
         raise InputError(f"method: expected one of {SAMPLE_METHODS}, got {method!r}")
-    rng = np.random.default_rng(seed)
+    try:
+        rng = np.random.default_rng(seed)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"seed: expected a non-negative integer, a numpy Generator or None, "
+                         f"got {seed!r}") from err
     if method in ("uniform", "even", "regions"):
         if regions is None:
             faces = np.arange(len(part.mesh.faces))

@@ -374,6 +374,13 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
     GripperPlan
     """
     t0 = time.perf_counter()
+    from synth.part import Part
+
+    if not isinstance(part, Part):
+        raise InputError(f"part: expected a synth.Part (see synth.load_part), got "
+                         f"{type(part).__name__}")
+    if not isinstance(params, GripperParams):
+        raise InputError(f"params: expected a synth.GripperParams, got {type(params).__name__}")
     if params.rank_by not in GRIPPER_RANK_BY:
         raise InputError(f"--rank-by: {params.rank_by!r} is not a gripper measure; expected one "
                          f"of {', '.join(GRIPPER_RANK_BY)}")
@@ -420,7 +427,7 @@ def plan_gripper(part: Any, params: GripperParams) -> GripperPlan:
         if len(ranked):
             best = pool.take(_distinct(pool.points, ranked, size, params.top))
             grasps = grasp_results(best, part, gripper, params, gamma, mass)
-    message = _message(gripper, grasps, counts, narrowest, mass, part.units)
+    message = _message(gripper, grasps, counts, narrowest, mass, str(part.units))  # (known)
     if heavy is not None:
         where = ("in every orientation" if params.gravity is None else
                  "against gravity along --gravity")

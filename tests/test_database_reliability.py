@@ -473,3 +473,9 @@ def test_a_reader_in_the_writers_process_leaves_the_writers_locks(tmp_path: Path
         other = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
         assert other.stdout.strip() == "refused", other.stderr
         assert w._conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+
+
+def test_one_source_given_as_a_string_is_one_source(mesh_dir: Path) -> None:
+    """``build_database("parts", ...)``: a folder's name, not the folders 'p', 'a', 'r', ..."""
+    assert collect_mesh_files(str(mesh_dir)).paths == collect_mesh_files([mesh_dir]).paths
+    assert collect_mesh_files(mesh_dir).paths == collect_mesh_files([mesh_dir]).paths

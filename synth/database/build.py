@@ -367,6 +367,8 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     seen: set[str] = set()  # real paths of the folders searched
     revisited: list[str] = []
     scenes: list[str] = []
+    if isinstance(sources, (str, os.PathLike)):  # one source, not its letters
+        sources = [sources]
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
     for src in (os.fspath(s) for s in sources):

@@ -187,3 +187,15 @@ def test_an_export_folder_keeps_the_users_files_and_replaces_its_own(built, tmp_
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "not a file synth exported" in err
     assert written.read_bytes() == b"the user's own notes"
+
+
+def test_rank_of_a_whole_database_export_points_to_the_per_mesh_export(built, tmp_path,
+                                                                       capsys):
+    _, db = built
+    whole = tmp_path / "all.h5"
+    assert main(["db", "export", str(db), "--out", str(whole), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["rank", str(ROOT / "meshes" / "cube.stl"), str(whole), "--gripper", "franka",
+                 "--units", "cm"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "db export --format acronym" in err

@@ -75,8 +75,11 @@ def read_acronym(path: str | Path) -> GripperPoses:
         raise InputError(f"{where}: not a readable HDF5 file: {e}") from e
     with f:
         if "grasps/transforms" not in f:
+            export = str(f.attrs.get("format", "")).startswith("synth.")
             raise InputError(f"{where}: missing dataset 'grasps/transforms' (ACRONYM's (n, 4, 4) "
-                             "gripper poses)")
+                             "gripper poses)" + ("; this is a whole database exported by synth "
+                                                 "db export: give one mesh's poses, from synth "
+                                                 "db export --format acronym" if export else ""))
         T = np.asarray(f["grasps/transforms"][()], dtype=float)
         if T.ndim != 3 or T.shape[1:] != (4, 4):
             raise InputError(f"{where}: dataset 'grasps/transforms' has shape {T.shape}, "

@@ -252,6 +252,12 @@ def test_db_build_gripper_takes_its_rank_keys_and_resumes(meshes: Path, tmp_path
     assert main(args) == 0
     assert main(args) == 0  # the same build again: resumed, nothing planned
     assert "0 planned" in capsys.readouterr().err
+    # resumed without --gripper: told which planner built it, not a list of differences
+    assert main(["db", "build", str(meshes), "--out", str(out), "--units", "cm",
+                 "--workers", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "plan_gripper_file" in err and "--gripper" in err
+    assert "other planner parameters" not in err
     doc = plan_gripper_file(str(meshes / "cube.stl"), normalize_params(
         {"gripper": "franka", "units": "cm", "top": 2, "samples": 60, "mass": 0.05,
          "rank_by": "mu_min"}))

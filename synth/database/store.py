@@ -544,6 +544,14 @@ class GraspDatabase:
             return
         import json
 
+        if self.meta.get("planner") != planner:  # (another planner's parameters differ too)
+            gripper = "gripper" in str(self.meta.get("planner"))
+            raise DatabaseFileError(
+                f"{self.path}: this database was built with planner {self.meta.get('planner')!r}, "
+                f"not {planner!r}" + (" (gripper grasps: give --gripper and the build's "
+                                      "gripper options)" if gripper else "")
+                + "; use the same planner to resume, or another --out file"
+            )
         old = {**(defaults or {}), **json.loads(stored)}
         diff = _differences(old, params)
         if diff:
@@ -551,11 +559,6 @@ class GraspDatabase:
             raise DatabaseFileError(
                 f"{self.path}: this database was built with other planner parameters ({shown}); "
                 "use the same parameters to resume, or another --out file"
-            )
-        if self.meta.get("planner") != planner:
-            raise DatabaseFileError(
-                f"{self.path}: this database was built with planner {self.meta.get('planner')!r}, "
-                f"not {planner!r}; use the same planner to resume, or another --out file"
             )
         self._require_write()  # the build goes on: migrate an older schema now
 

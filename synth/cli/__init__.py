@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import traceback
 from collections.abc import Callable, Sequence
@@ -81,6 +82,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
+    from synth import interrupt
+
+    previous = interrupt.install()
+    try:
+        return _main(argv)
+    finally:
+        interrupt.clear()
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from synth import interrupt
+
     parser = build_parser()
     args = None
     try:
@@ -109,6 +124,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
+        if interrupt.pending():  # an import cut short by Ctrl-C failing later: interrupted
+            print("synth: interrupted", file=sys.stderr)
+            return 130
         return _internal(e)
 
 

@@ -6,6 +6,8 @@ import sys
 import time
 from typing import TextIO
 
+from synth.interrupt import check
+
 __all__ = ["LineProgress"]
 
 
@@ -24,7 +26,9 @@ class LineProgress:
         self.drawn = False
 
     def __call__(self, fraction: float, message: str) -> None:
-        """Draw the bar at ``fraction`` (clipped to [0, 1]) with ``message`` after it."""
+        """Draw the bar at ``fraction`` (clipped to [0, 1]) with ``message`` after it (an
+        interrupt swallowed since is raised again: :mod:`synth.interrupt`)."""
+        check()
         if not self.enabled or time.perf_counter() - self.t0 < 0.5:
             return
         f = min(max(fraction, 0.0), 1.0)

@@ -10,6 +10,8 @@ import sys
 import time
 from typing import TextIO
 
+from synth.interrupt import check
+
 __all__ = ["ProgressBar", "format_duration"]
 
 
@@ -76,7 +78,9 @@ class ProgressBar:
         )
 
     def update(self, done: int, failed: int, grasps: int, force: bool = False) -> None:
-        """Redraw if enabled and ``interval`` has passed (or ``force``)."""
+        """Redraw if enabled and ``interval`` has passed (or ``force``); an interrupt
+        swallowed since is raised again (:mod:`synth.interrupt`)."""
+        check()
         if not self.enabled:
             return
         now = time.monotonic()

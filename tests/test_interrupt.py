@@ -1,0 +1,35 @@
+"""Ctrl-C that a library swallowed is raised again (synth/interrupt.py)."""
+
+from __future__ import annotations
+
+import signal
+
+import pytest
+
+from synth import interrupt
+from synth.cli import main
+from synth.cli.progress import LineProgress
+
+
+def test_an_interrupt_swallowed_is_raised_at_the_next_progress_report():
+    """trimesh catches BaseException around its optional imports: an interrupt landing there
+    is lost to Python, not to synth, whose next progress report raises it again."""
+    interrupt.clear()
+    try:
+        try:
+            interrupt.on_interrupt(signal.SIGINT, None)
+        except BaseException:  # noqa: BLE001 - what such a library does
+            pass
+        assert interrupt.pending()
+        with pytest.raises(KeyboardInterrupt):
+            LineProgress(enabled=False)(0.5, "planning")
+    finally:
+        interrupt.clear()
+    LineProgress(enabled=False)(0.5, "planning")  # handled: nothing to raise
+
+
+def test_main_restores_the_interrupt_handler(tmp_path, capsys):
+    before = signal.getsignal(signal.SIGINT)
+    assert main(["score", str(tmp_path / "none.json")]) == 2
+    capsys.readouterr()
+    assert signal.getsignal(signal.SIGINT) is before and not interrupt.pending()

@@ -237,3 +237,19 @@ def test_d_star_does_not_depend_on_the_wrenches_units(scale):
     base, scaled = form_closure(W), form_closure(W * scale)
     assert scaled.closure == base.closure == "form"
     assert scaled.d_star == pytest.approx(base.d_star, abs=1e-9)
+
+
+def test_conditioning_and_twist_words_name_a_wrong_argument():
+    """None, a vector, NaN: InputError naming the argument (numpy's LinAlgError and
+    IndexError before)."""
+    from synth.errors import InputError
+    from synth.scores import describe_twist
+    from synth.scores.quality import conditioning
+
+    for bad in (None, np.ones(6), np.full((6, 7), np.nan)):
+        with pytest.raises(InputError, match="^W: expected"):
+            conditioning(bad)
+    for bad in (None, "abc", np.ones(7)):
+        with pytest.raises(InputError, match="^twist: expected"):
+            describe_twist(bad)
+    assert describe_twist([0, 0, 1, 0, 0, 0]) == "free to translate along +z"

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
+from synth.errors import InputError
 from synth.scores.wrench import balance_rows
 
 __all__ = ["escape_twist", "describe_twist"]
@@ -127,10 +128,19 @@ def describe_twist(
     -------
     str
     """
-    t = np.asarray(t, dtype=np.float64)
+    try:
+        t = np.asarray(t, dtype=np.float64)
+        o = None if center is None else np.asarray(center, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise InputError(f"twist: expected numbers ({e})") from None
+    if t.shape not in ((6,), (3,)) or not np.isfinite(t).all():
+        raise InputError(f"twist: expected 6 (or, planar, 3) finite numbers, got shape "
+                         f"{t.shape}")
     planar = t.shape == (3,)
     d = 2 if planar else 3
-    o = np.zeros(d) if center is None else np.asarray(center, dtype=np.float64)
+    if o is not None and (o.shape != (d,) or not np.isfinite(o).all()):
+        raise InputError(f"center: expected {d} finite numbers, got shape {o.shape}")
+    o = np.zeros(d) if o is None else o
     v, w = (t[:2], t[2:]) if planar else (t[:3], t[3:])
     nv, nw = np.linalg.norm(v), np.linalg.norm(w)
     sign = "±" if both_senses else ""

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
+from synth.errors import InputError
 from synth.scores.cones import cone_wrenches_batch
 
 __all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "conditioning_at_least",
@@ -105,7 +106,13 @@ def conditioning(W: ArrayLike) -> NDArray[np.float64] | float:
     -------
     float or (B,) float
     """
-    A = np.asarray(W, dtype=np.float64)
+    try:
+        A = np.asarray(W, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise InputError(f"W: expected a numeric matrix ({e})") from None
+    if A.ndim < 2 or A.shape[-2] not in (3, 6) or not np.isfinite(A).all():
+        raise InputError(f"W: expected finite (6, k) or (B, 6, k) wrenches (3 rows planar), "
+                         f"got shape {A.shape}")
     s = np.linalg.svd(A, compute_uv=False)
     m = A.shape[-2]
     if A.shape[-1] < m:

@@ -345,3 +345,18 @@ def test_a_damaged_page_found_while_exporting_is_a_database_error(
         with pytest.raises(DatabaseError, match="query failed"):
             export_database(copy, tmp_path / f"x.{fmt}")
         assert not (tmp_path / f"x.{fmt}").exists()
+
+
+def test_database_arguments_are_named(built: tuple[Path, Path]) -> None:
+    """None as a path, a count given as text, no mesh: InputError naming the argument (a
+    TypeError from deep inside before)."""
+    _, db_path = built
+    with pytest.raises(InputError, match="^path: expected"):
+        GraspDatabase(None)  # type: ignore[arg-type]
+    with GraspDatabase(db_path) as db:
+        name = next(m.path for m in db.meshes() if m.n_grasps)
+        with pytest.raises(InputError, match="^k: expected an integer"):
+            db.top(name, "2")  # type: ignore[arg-type]
+        with pytest.raises(InputError, match="^mesh: expected"):
+            db.top(None, 2)  # type: ignore[arg-type]
+        assert len(db.top(name, 1)) == 1

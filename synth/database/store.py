@@ -8,6 +8,7 @@ transaction.
 from __future__ import annotations
 
 import datetime as _dt
+import numbers
 import os
 import sqlite3
 from collections.abc import Iterable, Iterator
@@ -182,6 +183,8 @@ class GraspDatabase:
     ) -> None:
         if mode not in ("r", "w"):
             raise InputError(f"mode must be 'r' or 'w', got {mode!r}")
+        if not isinstance(path, (str, os.PathLike)):
+            raise InputError(f"path: expected a database file's path, got {path!r}")
         self.path = os.fspath(path)
         self.mode = mode
         self._lock: int | None = None  # see synth.database.access
@@ -432,8 +435,10 @@ class GraspDatabase:
         InputError
             ``k`` below 1, or ``rank_by`` not an order of the mesh's kind of grasps.
         """
-        if k < 1:
-            raise InputError(f"k must be at least 1, got {k}")
+        if isinstance(k, bool) or not isinstance(k, numbers.Integral) or k < 1:
+            raise InputError(f"k: expected an integer of at least 1, got {k!r}")
+        if not isinstance(mesh, (str, numbers.Integral)) or isinstance(mesh, bool):
+            raise InputError(f"mesh: expected a mesh's id, path, name or SHA-256, got {mesh!r}")
         if rank_by not in TOP_ORDERS + GRIPPER_TOP_ORDERS:
             raise InputError(f"rank_by: expected one of "
                              f"{', '.join(dict.fromkeys(TOP_ORDERS + GRIPPER_TOP_ORDERS))}, got "

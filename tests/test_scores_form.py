@@ -253,3 +253,24 @@ def test_conditioning_and_twist_words_name_a_wrong_argument():
         with pytest.raises(InputError, match="^twist: expected"):
             describe_twist(bad)
     assert describe_twist([0, 0, 1, 0, 0, 0]) == "free to translate along +z"
+
+
+def test_epsilon_and_mu_min_name_a_wrong_argument():
+    """A 2-element centre, a negative length or mu, zero normals: InputError naming the
+    argument (a broadcast error, or a LinAlgError, before)."""
+    from synth.errors import InputError
+    from synth.scores.mu_min import mu_min
+    from synth.scores.quality import epsilon_quality
+
+    P = np.array([[.5, .1, .1], [-.5, -.1, -.1], [.1, .5, .1], [-.1, -.5, -.1], [.2, .2, -.5],
+                  [-.2, .2, -.5], [.2, .4, .5]])
+    N = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1],
+                  [0, 0, -1.0]])
+    assert epsilon_quality(P, N, [0, 0, 0], 1.0) > 0
+    for kw, word in ((dict(center=[0, 0]), "center"), (dict(length=-1.0), "length"),
+                     (dict(mu=-1.0), "mu")):
+        args = {"center": [0, 0, 0], "length": 1.0, **kw}
+        with pytest.raises(InputError, match=f"^{word}"):
+            epsilon_quality(P, N, **args)
+    with pytest.raises(InputError, match="^normals"):
+        mu_min(P, np.zeros_like(N))

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from synth.errors import InputError
 from synth.limits import MAX_MU
 from synth.scores.cones import check_contacts_batch, cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
@@ -148,4 +149,6 @@ def mu_min(
     """
     P = np.asarray(points, dtype=np.float64)
     N = np.asarray(normals, dtype=np.float64)
+    if N.ndim == 2 and N.shape[-1] == 3 and not (np.linalg.norm(N, axis=1) > 0).all():
+        raise InputError("normals: expected unit inward normals, got one of length 0")
     return float(mu_min_batch(P[None], N[None], torsion, edges).mu_min[0])

@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from synth.errors import InputError
-from synth.scores.cones import cone_wrenches_batch
+from synth.scores.cones import check_contacts_batch, cone_wrenches_batch
 
 __all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "conditioning_at_least",
            "epsilon_quality"]
@@ -190,8 +190,19 @@ def epsilon_quality(
     >>> epsilon_quality(P, N, [0, 0, 0], 2.0, mu=0.5) == 0.0  # two point contacts: no closure
     True
     """
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
+    P, N = (a[0] for a in check_contacts_batch(np.asarray(points, dtype=np.float64)[None],
+                                                np.asarray(normals, dtype=np.float64)[None]))
+    c = np.asarray(center, dtype=np.float64) if center is not None else None
+    if c is None or c.shape != (3,) or not np.isfinite(c).all():
+        raise InputError(f"center: expected 3 finite numbers, got {center!r}")
+    if not (isinstance(length, (int, float, np.floating)) and np.isfinite(length)
+            and length > 0):
+        raise InputError(f"length: expected a positive finite number, got {length!r}")
+    if not (np.isfinite(mu) and mu >= 0 and np.isfinite(torsion) and torsion >= 0):
+        raise InputError(f"mu and torsion: expected finite numbers >= 0, got {mu!r} and "
+                         f"{torsion!r}")
+    if not (np.linalg.norm(N, axis=1) > 0).all():
+        raise InputError("normals: expected unit inward normals, got one of length 0")
     if mu > 0 or torsion > 0:
         G = cone_wrenches_batch(P[None], N[None], mu, np.asarray(center, dtype=np.float64),
                                 edges, torsion)[0]

@@ -274,3 +274,19 @@ def test_epsilon_and_mu_min_name_a_wrong_argument():
             epsilon_quality(P, N, **args)
     with pytest.raises(InputError, match="^normals"):
         mu_min(P, np.zeros_like(N))
+
+
+def test_gravity_hold_names_a_wrong_argument():
+    """NaN friction, a zero length, a 2-element centre of mass, icosphere level 99 (a memory
+    error): InputError naming the argument."""
+    from synth.errors import InputError
+    from synth.scores.gravity import gravity_hold_batch
+
+    P = np.array([[[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0]]])
+    base = {"points": P, "normals": -P, "mu": 0.5, "torsion": 0.0, "center_mass": np.zeros(3),
+            "length": 2.0}
+    assert gravity_hold_batch(**base).squeeze_per_weight[0] > 0
+    for kw, word in (({"mu": float("nan")}, "mu"), ({"length": 0.0}, "length"),
+                     ({"center_mass": np.zeros(2)}, "center_mass"), ({"level": 99}, "level")):
+        with pytest.raises(InputError, match=f"^{word}"):
+            gravity_hold_batch(**{**base, **kw})

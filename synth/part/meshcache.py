@@ -14,6 +14,8 @@ from typing import Any, TypeVar
 import numpy as np
 import trimesh
 
+from synth.part.tolerances import bounds
+
 __all__ = ["cached", "face_geometry", "scaled_zero"]
 
 T = TypeVar("T")
@@ -29,8 +31,7 @@ def scaled_zero(vertices: np.ndarray, power: int = 1) -> float:
     v = np.asarray(vertices, np.float64)
     if not len(v):
         return float(trimesh.util.TOL_ZERO)
-    lo = np.array([v[:, k].min() for k in range(3)])
-    hi = np.array([v[:, k].max() for k in range(3)])
+    lo, hi = bounds(v)
     return float(trimesh.util.TOL_ZERO) * min(1.0, float(np.linalg.norm(hi - lo))) ** power
 
 

@@ -7,11 +7,11 @@ FCL, so that the command line can state the defaults in ``--help`` without loadi
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 from synth.errors import InputError, shown
 from synth.limits import MAX_EDGES, MAX_LENGTH, MAX_MU, MAX_SEED, MAX_TOP, MIN_EDGES
+from synth.plan.params import _integer, _real
 
 __all__ = ["APPROACHES", "GRIPPER_RANK_BY", "MAX_MARGIN", "MAX_SAMPLES", "GripperParams"]
 
@@ -23,17 +23,6 @@ GRIPPER_RANK_BY: tuple[str, ...] = ("margin", "d_star", "mu_min", "epsilon")
 MAX_SAMPLES = 1_000_000
 #: Largest ``min_margin`` (``--min-margin``).
 MAX_MARGIN = 1000.0
-
-
-def _number(value: object) -> bool:
-    """A finite real number, Python's or numpy's (not a bool, not a string)."""
-    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
-            and math.isfinite(value))
-
-
-def _whole(value: object) -> bool:
-    """A Python or numpy integer, not a bool."""
-    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -94,12 +83,12 @@ class GripperParams:
             v = getattr(self, name)
             if optional and v is None:
                 return
-            if not (_number(v) and (lo < v if low_open else lo <= v) and v <= hi):
+            if not (_real(v) and (lo < v if low_open else lo <= v) and v <= hi):
                 raise bad(name, f"a number in {'(' if low_open else '['}{lo:g}, {hi:g}]"
                           + (" or None" if optional else ""))
 
         def count(name: str, lo: int, hi: int) -> None:
-            if not (_whole(getattr(self, name)) and lo <= getattr(self, name) <= hi):
+            if not (_integer(getattr(self, name)) and lo <= getattr(self, name) <= hi):
                 raise bad(name, f"an integer from {lo} to {hi:,}")
 
         if not isinstance(self.gripper, str) or not self.gripper:
@@ -113,7 +102,7 @@ class GripperParams:
         g = self.gravity
         if g is not None and not (
                 not isinstance(g, (str, bytes)) and hasattr(g, "__len__") and len(g) == 3
-                and all(_number(x) for x in g) and any(x != 0 for x in g)):
+                and all(_real(x) for x in g) and any(x != 0 for x in g)):
             raise bad("gravity", "three finite numbers, not all 0, or None")
         count("top", 1, MAX_TOP)
         count("samples", 1, MAX_SAMPLES)

@@ -238,3 +238,34 @@ def test_sampling_arguments_are_checked_by_name():
     for args, kw, word in cases:
         with pytest.raises(InputError, match=f"^{word}: expected"):
             sample_contacts(*args, **kw)
+
+
+def test_ray_and_query_arguments_are_checked_by_name():
+    """No part, no origins, a (2,) vector, text, NaN, a row count that differs: each an
+    InputError naming the argument (they were numpy's reshape or broadcast errors)."""
+    from synth import contacts_from_rays, load_part
+    from synth.errors import InputError
+
+    part = load_part(MESHES / "torus.stl")  # two sides: the exposure test runs
+    with pytest.raises(InputError, match="^contacts_from_rays: part must be a synth Part"):
+        contacts_from_rays(None, [[0, 0, 5.0]], [[0, 0, -1.0]])
+    cases = [
+        (lambda: contacts_from_rays(part, None, None), "^origins: expected shape"),
+        (lambda: contacts_from_rays(part, [1, 2], [1, 2]), r"^origins: expected shape \(n, 3\)"),
+        (lambda: contacts_from_rays(part, "a", "b"), "^origins: expected an"),
+        (lambda: contacts_from_rays(part, [[0, 0, 5.0]], [[0, 0, np.nan]]),
+         "^directions: row 0 is not finite"),
+        (lambda: part.exposed(None, None), "^points: expected shape"),
+        (lambda: part.exposed([[np.inf, 0, 0]], [[1.0, 0, 0]]), "^points: row 0 is not finite"),
+        (lambda: part.exposed(np.zeros((2, 3)), np.ones((3, 3))), "^normals: expected 2 rows"),
+        (lambda: part.surface_distance("ab"), "^points: expected an"),
+        (lambda: part.first_hits([[0, 0, 5.0]], [[0, 0, -1], [0, 0, 1]]),
+         "^directions: expected 1 rows"),
+        (lambda: part.resolve([[np.nan, 0, 0]]), "^points: row 0 is not finite"),
+    ]
+    for call, message in cases:
+        with pytest.raises(InputError, match=message):
+            call()
+    # a single point is one row, as before
+    assert part.surface_distance([0.0, 0.0, 0.0]).shape == (1,)
+    assert part.exposed(np.zeros((0, 3)), np.zeros((0, 3))).shape == (0,)

@@ -254,3 +254,27 @@ def test_more_than_seven_contacts_certified_by_a_subset():
                                          part.length)
         assert closure is True and d_min <= d.min() + 1e-7
     assert checked
+
+
+def test_certify_regions_names_a_wrong_argument():
+    """None, NaN, a zero normal, a missing region, a flat point given as two numbers, no
+    centre, a length of zero: each an InputError naming it (they were numpy's AxisError,
+    TypeError or ValueError, or a NaN bound returned)."""
+    P = np.array([[1.0, 0, 0]] * 7)
+    N = np.array([[-1.0, 0, 0]] * 7)
+    regions = [p[None] for p in P]
+    cases = [
+        ((None, None, None, None, None), "field 'points' must have shape"),
+        ((P * np.nan, N, regions, [0, 0, 0], 1.0), "field 'points' row 0 is not finite"),
+        ((P, N * 0, regions, [0, 0, 0], 1.0), "field 'normals' row 0 has zero length"),
+        ((P[:6], N[:6], regions[:6], [0, 0, 0], 1.0), "at least 7 contacts"),
+        ((P, N, None, [0, 0, 0], 1.0), "polygons: expected a list of 7"),
+        ((P, N, regions[:6], [0, 0, 0], 1.0), "polygons: expected a list of 7 .* of 6"),
+        ((P, N, [[1, 2]] * 7, [0, 0, 0], 1.0), r"polygons\[0\]: expected shape"),
+        ((P, N, regions, None, 1.0), "center: expected 3 finite numbers"),
+        ((P, N, regions, [0, 0, 0], 0.0), "length: expected a positive finite number"),
+        ((P, N, regions, [0, 0, 0], np.inf), "length: expected a positive finite number"),
+    ]
+    for args, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            certify_regions(*args)

@@ -192,12 +192,16 @@ def contacts_from_rays(part: Part, origins: np.ndarray, directions: np.ndarray) 
     --------
     >>> c = contacts_from_rays(part, [[0, 0, 5.0]], [[0, 0, -1.0]])  # doctest: +SKIP
     """
-    o = np.asarray(origins, dtype=float).reshape(-1, 3) if np.size(origins) else np.zeros((0, 3))
-    d = np.asarray(directions, dtype=float)
-    if d.shape != o.shape or d.ndim != 2:
+    from synth.part.model import Part
+    from synth.part.points import xyz_rows
+
+    if not isinstance(part, Part):
+        raise InputError(f"contacts_from_rays: part must be a synth Part (synth.load_part), "
+                         f"got {type(part).__name__}")
+    o = xyz_rows(origins, "origins") if np.size(origins) else np.zeros((0, 3))
+    d = xyz_rows(directions, "directions", len(o)) if np.size(directions) else np.zeros((0, 3))
+    if d.shape != o.shape:
         raise InputError(f"directions: expected shape {o.shape} like origins, got {d.shape}")
-    if not (np.isfinite(o).all() and np.isfinite(d).all()):
-        raise InputError("origins and directions must be finite")
     norm = np.linalg.norm(d, axis=1)
     if (norm <= 0).any():
         raise InputError(f"directions: row {int(np.argmin(norm))} has zero length")

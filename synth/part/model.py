@@ -14,6 +14,7 @@ from synth.part import tolerances as tol
 from synth.part.bodies import Body, Solids, body_labels, compute_bodies, face_sample_weights
 from synth.part.closest import BoxTree
 from synth.part.features import EDGE_KINDS, VERTEX_KINDS, Features, compute_features
+from synth.part.points import xyz_rows
 from synth.part.regions import Region, RegionSet, compute_regions
 
 __all__ = ["Part"]
@@ -287,8 +288,8 @@ class Part:
         exposed : (n,) bool
             All True on a part of one convex body.
         """
-        pts = np.asarray(points, float).reshape(-1, 3)
-        nrm = np.asarray(normals, float).reshape(-1, 3)
+        pts = xyz_rows(points, "points")
+        nrm = xyz_rows(normals, "normals", len(pts))
         nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
         return self._exposed(pts, nrm)
 
@@ -383,7 +384,7 @@ class Part:
         """
         from synth.part.resolve import resolve_points
 
-        return resolve_points(self, np.asarray(points, float), faces, snap=snap)
+        return resolve_points(self, points, faces, snap=snap)
 
     def surface_distance(self, points: np.ndarray) -> np.ndarray:
         """Distance (n,) from each point (n, 3) to the part's surface (every body's faces;
@@ -396,14 +397,15 @@ class Part:
         >>> part.surface_distance([[0.0, 0.0, 2.0]])  # doctest: +SKIP
         array([1.5])
         """
-        return self._index.distance(np.asarray(points, float).reshape(-1, 3))
+        return self._index.distance(xyz_rows(points, "points"))
 
     def first_hits(self, origins: np.ndarray, directions: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
         """The first face (n,) each ray from ``origins`` (n, 3) along unit ``directions``
         (n, 3) meets ahead of its origin, and how far (n,); -1 and inf for a miss (see
         :meth:`synth.part.closest.BoxTree.first_hits`: single precision)."""
-        return self._index.first_hits(origins, directions)
+        o = xyz_rows(origins, "origins")
+        return self._index.first_hits(o, xyz_rows(directions, "directions", len(o)))
 
     def raycast(self, origins: np.ndarray, directions: np.ndarray) -> Any:
         """Contacts where fingers moving from ``origins`` along ``directions`` first hit.

@@ -37,6 +37,7 @@ import trimesh
 from synth.contacts.contacts import Contacts
 from synth.errors import InputError
 from synth.part.closest import closest_on_triangles
+from synth.part.points import xyz_rows
 
 if TYPE_CHECKING:
     from synth.part.model import Part
@@ -88,13 +89,7 @@ def resolve_points(
     snap: bool = False,
 ) -> Contacts:
     """See :meth:`synth.part.Part.resolve`."""
-    pts = np.asarray(points, dtype=float)
-    if pts.ndim == 1 and pts.shape == (3,):
-        pts = pts[None, :]
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise InputError(f"points: expected shape (n, 3), got {pts.shape}")
-    if not np.isfinite(pts).all():
-        raise InputError("points: must be finite (found NaN or inf)")
+    pts = xyz_rows(points, "points")
     n_f = len(part.mesh.faces)
     if faces is None:
         q, f, dist = closest_points(part, pts)

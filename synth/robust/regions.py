@@ -32,12 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 from synth.errors import InputError
 from synth.part.model import Part
 from synth.part.pieces import convex_piece
+from synth.part.points import xyz_rows
 from synth.part.tolerances import COPLANAR_ANGLE
 from synth.robust.certificate import CERT_RTOL, certify, expand, minor_scale
 from synth.scores.batch import form_closure_batch
 from synth.scores.cones import tangent_basis
 from synth.scores.quality import scaled_wrenches
 from synth.scores.surface import DEFAULT_SURFACE, check_surface, differs, surface_scores
+from synth.scores.wrench import check_contacts
 
 __all__ = ["ContactRegions", "contact_regions", "certify_regions"]
 
@@ -441,17 +443,30 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
     d_star_min : float
         Certified lower bound of d* over the regions.
     """
-    P = np.asarray(points, float)
-    N = np.asarray(normals, float)
-    N = N / np.linalg.norm(N, axis=1, keepdims=True)
+    P, N = check_contacts(points, normals, name="certify_regions")
     k = len(P)
-    if P.ndim != 2 or P.shape[1] != 3 or k < 7 or N.shape != P.shape or len(polygons) != k:
-        raise InputError(f"certify_regions: expected at least 7 contacts, as many normals and "
-                         f"regions; got {P.shape}, {N.shape} and {len(polygons)}")
+    if P.shape[1] != 3 or k < 7:
+        raise InputError(f"certify_regions: expected at least 7 contacts in space, (k, 3) "
+                         f"with k >= 7; got points of shape {P.shape}")
+    sized = isinstance(polygons, (list, tuple, np.ndarray))
+    if not sized or len(polygons) != k:
+        raise InputError(f"certify_regions: polygons: expected a list of {k} regions (one per "
+                         f"contact), got {type(polygons).__name__}"
+                         + (f" of {len(polygons)}" if sized else ""))
+    o = np.asarray(center, dtype=float) if center is not None else None
+    if o is None or o.shape != (3,) or not np.isfinite(o).all():
+        raise InputError(f"certify_regions: center: expected 3 finite numbers, got {center!r}")
+    if not (isinstance(length, (int, float, np.integer, np.floating))
+            and not isinstance(length, bool) and np.isfinite(length) and length > 0):
+        raise InputError(f"certify_regions: length: expected a positive finite number, got "
+                         f"{length!r}")
+    length = float(length)
     axes = np.zeros((k, 2, 3))
     shapes = []
     for i, poly in enumerate(polygons):
-        Q = np.asarray(poly, float).reshape(-1, 3) - P[i]
+        Q = xyz_rows(poly, f"certify_regions: polygons[{i}]") - P[i]
+        if not len(Q):
+            raise InputError(f"certify_regions: polygons[{i}] has no corners")
         # the region's own plane (its normal may differ from the contact's by up to the
         # coplanarity angle, as on the faces of real meshes): frame from its principal axes
         size = float(np.linalg.norm(Q, axis=1).max(initial=0.0))
@@ -469,7 +484,7 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
         if not _contains(xy, 1e-9 * length):
             raise InputError(f"certify_regions: region {i} does not contain its contact point")
         shapes.append(xy)
-    W, D = _wrenches(P, N, np.asarray(center, float), float(length), axes)
+    W, D = _wrenches(P, N, o, length, axes)
     if k == 7:
         cert = certify(expand(W, D), shapes)
         return cert.closure, cert.d_star_min

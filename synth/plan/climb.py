@@ -250,7 +250,7 @@ def _cofactors(W: NDArray[np.float64], j: int) -> tuple[NDArray[np.float64], NDA
     if singular.any():
         Wp = Wp.copy()
         Wp[singular] = np.eye(6)
-    C: NDArray[np.float64] = np.linalg.inv(Wp)
+    C = np.linalg.inv(Wp).astype(np.float64, copy=False)
     C *= (-((-1.0) ** j) * np.where(singular, 0.0, det))[:, None, None]
     return C, ((-1.0) ** j) * det
 

@@ -33,3 +33,19 @@ def test_main_restores_the_interrupt_handler(tmp_path, capsys):
     assert main(["score", str(tmp_path / "none.json")]) == 2
     capsys.readouterr()
     assert signal.getsignal(signal.SIGINT) is before and not interrupt.pending()
+
+
+def test_an_interrupt_while_the_parser_is_built_is_one_line(monkeypatch, capsys):
+    """Building the parser imports most of the command line (the first 0.1 s of a command):
+    a Ctrl-C there printed Python's traceback and exited by the signal."""
+    import synth.cli
+
+    def cut(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(synth.cli, "build_parser", cut)
+    assert main(["plan", "meshes/cube.stl"]) == 130
+    assert capsys.readouterr().err == "synth: interrupted\n"
+    monkeypatch.setattr(interrupt, "install", cut)  # before _main's own try
+    assert main(["plan", "meshes/cube.stl"]) == 130
+    assert capsys.readouterr().err == "synth: interrupted\n"

@@ -32,7 +32,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
-from synth import __version__
+from synth import __version__, interrupt
 from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError, shown
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
@@ -82,11 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status."""
-    from synth import interrupt
-
-    previous = interrupt.install()
+    previous = None
     try:
+        previous = interrupt.install()
         return _main(argv)
+    except KeyboardInterrupt:  # between the handler and _main's own try
+        print("synth: interrupted", file=sys.stderr)
+        return 130
     finally:
         interrupt.clear()
         if previous is not None:
@@ -94,11 +96,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    from synth import interrupt
-
-    parser = build_parser()
     args = None
     try:
+        # in the try: building the parser imports most of the command line's modules, and a
+        # Ctrl-C there (the first 0.1 s) is an interruption like any other
+        parser = build_parser()
         args = _parse(parser, argv)
         if getattr(args, "json", False):  # stdout holds the JSON alone (synth.cli.vocabulary)
             args.quiet = True

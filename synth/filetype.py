@@ -46,6 +46,9 @@ _HEAD = 4096
 _SQLITE = b"SQLite format 3\x00"
 _HDF5 = b"\x89HDF\r\n\x1a\n"
 _ZIP = b"PK\x03\x04"
+#: The start of a JSON array (of objects, arrays, strings, numbers or literals), not a TOML
+#: or INI file's ``[section]`` header, which also starts with a bracket.
+_JSON_ARRAY = re.compile(rb"\[\s*(?:\[\s*)*(?:[{\"\]\-0-9]|(?:true|false|null)\b)")
 #: Mesh formats told by their first bytes, and their names.
 _MESH_MAGIC: tuple[tuple[bytes, str], ...] = ((b"glTF", "GLB"), (b"ply\n", "PLY"),
                                               (b"ply\r", "PLY"), (b"OFF", "OFF"))
@@ -140,7 +143,7 @@ def _sniff(path: Path) -> tuple[str, str] | None:
     if ext == "gltf":  # JSON too
         return "mesh", "GLTF"
     text = head.lstrip()
-    if text[:1] in (b"{", b"["):
+    if text[:1] == b"{" or _JSON_ARRAY.match(text) or (ext == "json" and text[:1] == b"["):
         return "json", ""
     if ext in MESH_FORMATS:
         return "mesh", ext.upper()

@@ -65,6 +65,16 @@ def test_kinds_are_told_by_content_then_extension(files: dict[str, Path]) -> Non
     assert kind_of(files["text"]) is None
     assert kind_of(files["mesh"].parent / "missing.stl") is None
     assert kind_of(files["mesh"].parent) is None  # a folder
+    # a bracket starts a JSON array, and a TOML or INI file's section header too
+    folder = files["text"].parent
+    for text, kind in (("[project]\nname = 'x'\n", None), ("[[tool.x]]\na = 1\n", None),
+                       ("[section]\nkey=value\n", None), ('[{"a": 1}]', "json"),
+                       ("[\n  [1, 2], [3]\n]", "json"), ("[]", "json"), ("[null]", "json"),
+                       ("[-1.5]", "json")):
+        (folder / "x.cfg").write_text(text)
+        assert kind_of(folder / "x.cfg") == kind, text
+    (folder / "x.json").write_text("[project]\n")  # named JSON: read (and refused) as JSON
+    assert kind_of(folder / "x.json") == "json"
     for name in MESH_FORMATS:  # every mesh extension, even with contents it cannot tell
         (files["text"].parent / f"x.{name}").write_text("# a mesh\n")
         assert kind_of(files["text"].parent / f"x.{name}") == "mesh", name

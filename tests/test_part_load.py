@@ -232,6 +232,15 @@ def test_bad_files_get_one_clear_error(tmp_path: Path) -> None:
         assert reason.lower() in msg.lower(), (label, msg)
 
 
+def test_an_unsupported_extension_lists_the_formats_in_words(tmp_path: Path) -> None:
+    notes = tmp_path / "README.md"
+    notes.write_text("# notes\n")
+    with pytest.raises(MeshError) as info:
+        load_part(notes)
+    assert str(info.value).endswith("unsupported format 'md'; expected one of stl, obj, ply, "
+                                    "off, glb, gltf, 3mf")  # not a Python tuple
+
+
 def test_bad_inputs() -> None:
     with pytest.raises(MeshError, match="expected a path"):
         load_part(42)  # type: ignore[arg-type]

@@ -95,7 +95,8 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     require(path, MESH)  # a grasp file or a database is named as such
     ext = path.suffix.lower().lstrip(".")
     if ext not in SUPPORTED_FORMATS:
-        raise _fail(name, f"unsupported format {ext!r}; expected one of {SUPPORTED_FORMATS}")
+        raise _fail(name, f"unsupported format {ext!r}; expected one of "
+                          f"{', '.join(SUPPORTED_FORMATS)}")
     data = path.read_bytes()
     if len(data) == 0:
         raise _fail(name, "file is empty")

@@ -99,7 +99,8 @@ def add_rank_by(p: argparse.ArgumentParser | Any, what: str = "grasps",
                    help=f"order of the {what} (default d_star: by d* as printed, 5 decimals, "
                    "then by conditioning; conditioning, epsilon or tolerance, the placement "
                    "tolerance: by that measure, largest first, then as by d*; margin: by the "
-                   "least squeeze per weight, smallest first: the largest margin of --grip first)"
+                   "least squeeze per weight, smallest first, which puts the largest margin "
+                   "of --grip first)"
                    + (f"; with --gripper: margin (the default), {', '.join(extra[1:])}"
                       if more else ""))
 
@@ -130,7 +131,7 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
                    f"(default {d.evals:,}); with --seed it fixes the result on any machine. "
                    "The search ends early when every climber has converged (a default plan "
                    "of a corpus part evaluates about 10,000), and each stage does a least "
-                   "amount of work, so small budgets evaluate about 1,700 grasps")
+                   "amount of work, so a budget under about 2,000 evaluates 1,200 to 2,000 grasps")
     s.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     s.add_argument("--max-squeeze", type=float, default=None, metavar="WEIGHTS",
@@ -169,7 +170,7 @@ def add_friction_options(g: argparse.ArgumentParser | Any, default: str,
 
 def add_grip(g: argparse.ArgumentParser | Any, what: str) -> None:
     """``--grip``: the force limit of each point finger (``what``: grasp or candidate)."""
-    g.add_argument("--grip", type=float, default=None, metavar="N",
+    g.add_argument("--grip", type=float, default=None, metavar="NEWTONS",
                    help="force limit of each point finger in newtons, positive: with --mass "
                    f"or --density each {what} reports its margin, the grip over the least "
                    "squeeze that holds the part")
@@ -179,7 +180,8 @@ def add_table(g: argparse.ArgumentParser | Any) -> None:
     """``--table``: a support plane the hand may not cross."""
     g.add_argument("--table", type=float, default=None, metavar="Z",
                    help="a support plane z = Z in the part's frame and units that the fingers "
-                   f"or the gripper may not cross, |Z| at most {MAX_LENGTH:g}")
+                   f"or the gripper may not cross, |Z| at most {MAX_LENGTH:g} (the JSON's "
+                   "params.support_z)")
 
 
 def add_weight_options(p: argparse.ArgumentParser) -> None:

@@ -41,7 +41,7 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
                    help="point fingers: 'balanced' presses with the grasp's own balanced "
                    "squeeze; 'saturated' presses every finger with the full grip (default "
                    f"{d.hand})")
-    g.add_argument("--sim-grip", type=float, default=d.grip, metavar="N",
+    g.add_argument("--sim-grip", type=float, default=d.grip, metavar="NEWTONS",
                    help=f"force limit of each point finger, N, {rng('grip')} (default "
                    f"{d.grip:g}); a gripper presses with its rated force")
     g.add_argument("--sim-stiffness", type=float, default=d.stiffness, metavar="N/M",

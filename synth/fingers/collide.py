@@ -494,16 +494,26 @@ class FingerChecker:
 
     def mesh_object(self, vertices: np.ndarray, faces: np.ndarray) -> Any:
         """An FCL object of a rigid triangle mesh (vertices in its own frame, part units), to
-        place with :meth:`mesh_hits` (a gripper's palm or finger)."""
-        bvh = fcl.BVHModel()
-        bvh.beginModel(len(vertices), len(faces))
-        bvh.addSubModel(np.asarray(vertices, float) / self._scale, np.asarray(faces, np.int64))
-        bvh.endModel()
+        place with :meth:`mesh_hits` (a gripper's palm or finger).
+
+        Raises
+        ------
+        InputError
+            No face, shapes other than (n, 3) and (m, 3), a coordinate that is not finite
+            or a face index out of range (FCL would crash the process on some of them).
+        """
+        problem = mesh_problem(vertices, faces)
+        if problem is not None:
+            raise InputError(f"mesh_object: {problem}")
+        bvh = bvh_model(np.asarray(vertices, float) / self._scale, np.asarray(faces, np.int64))
         return fcl.CollisionObject(bvh, fcl.Transform())
 
     def mesh_hits(self, obj: Any, rotation: np.ndarray, translation: np.ndarray) -> bool:
         """Whether ``obj`` (from :meth:`mesh_object`), rotated (3 x 3) and moved in the
         part's frame, intersects the part (any body)."""
+        if not isinstance(obj, fcl.CollisionObject):
+            raise InputError(f"mesh_hits: obj must come from mesh_object, got "
+                             f"{type(obj).__name__}")
         obj.setRotation(np.asarray(rotation, float))
         obj.setTranslation(self._fcl_frame(translation))
         return bool(fcl.collide(self._part, obj, self._request, fcl.CollisionResult()))

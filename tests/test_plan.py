@@ -233,8 +233,20 @@ def test_bad_parameters():
         PlanParams(mu=-1)
     with pytest.raises(InputError, match="finger_radius"):
         PlanParams(finger_radius=0.0)
-    with pytest.raises(TypeError):
+    # a key the planner has no parameter for is named (it was Python's TypeError)
+    unknown = ("^plan_mesh_file: unknown parameter 'no_such_option'; valid: contacts, .*, "
+               "units, body, sharp_angle, decimate$")
+    with pytest.raises(InputError, match=unknown):
         plan_mesh_file(MESHES / "cube.stl", {"no_such_option": 1})
+    with pytest.raises(InputError, match="^plan_mesh_file: params must be a dict"):
+        plan_mesh_file(MESHES / "cube.stl", [("evals", 2000)])  # type: ignore[arg-type]
+    given = {"evals": 2000, "units": "dm"}
+    plan_mesh_file(MESHES / "cube.stl", given)
+    assert given == {"evals": 2000, "units": "dm"}  # the caller's dict is left as it was
+    from synth.plan.gripper import plan_gripper_file
+
+    with pytest.raises(InputError, match="^plan_gripper_file: unknown parameter 'grip'"):
+        plan_gripper_file(str(MESHES / "cube.stl"), {"grip": 10})
 
 
 def test_support_plane_keeps_fingers_above_the_table():

@@ -6,8 +6,9 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from synth.errors import InputError
 from synth.lazy import lazy_attributes
-from synth.plan.params import PlanParams
+from synth.plan.params import PlanParams, from_dict
 
 if TYPE_CHECKING:  # what the lazy names are, for type checkers
     from synth.plan.gripper import plan_gripper_file
@@ -71,8 +72,11 @@ def plan_mesh_file(path: str | Path, params: dict[str, Any] | None = None) -> di
     from synth.part import load_part
     from synth.plan.search import plan_part
 
+    if params is not None and not isinstance(params, dict):
+        raise InputError(f"plan_mesh_file: params must be a dict of parameter names, got "
+                         f"{type(params).__name__}")
     given = dict(params or {})
     load = {k: given.pop(k) for k in LOAD_KEYS if k in given}
-    prm = PlanParams(**given)
+    prm = from_dict(PlanParams, given, "plan_mesh_file", LOAD_KEYS)
     part = load_part(path, **load_options(load))
     return plan_part(part, prm).to_json()

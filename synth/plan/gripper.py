@@ -49,6 +49,7 @@ from synth.fingers.gripper_collide import CLEAR, GripperChecker
 from synth.fingers.jaws import EDGE_TOUCH, LANDED, TOO_WIDE, JawContacts, close_jaws, pad_touch
 from synth.plan.gripper_params import APPROACHES, GRIPPER_RANK_BY, GripperParams
 from synth.plan.gripper_refine import Scored, refine
+from synth.plan.params import from_dict
 from synth.plan.result import describe_part, new_run_id
 from synth.scores.cones import cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
@@ -595,12 +596,16 @@ def plan_gripper_file(path: str, params: dict[str, Any]) -> dict[str, Any]:
     from synth.part import load_part
     from synth.plan import LOAD_KEYS, load_options
 
+    if not isinstance(params, dict):
+        raise InputError(f"plan_gripper_file: params must be a dict of parameter names, got "
+                         f"{type(params).__name__}")
     prm = dict(params)
     load = {k: prm.pop(k) for k in LOAD_KEYS if k in prm}
     if isinstance(prm.get("gravity"), list):
         prm["gravity"] = tuple(prm["gravity"])
+    gp = from_dict(GripperParams, prm, "plan_gripper_file", LOAD_KEYS)
     part = load_part(path, **load_options(load))
-    doc = plan_gripper(part, GripperParams(**prm)).to_json()
+    doc = plan_gripper(part, gp).to_json()
     doc["mesh"].update(loaded_with(load))
     return doc
 

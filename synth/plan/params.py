@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from typing import Any, TypeGuard
 
 from synth.errors import InputError, shown
@@ -53,6 +53,19 @@ def _integer(value: object) -> TypeGuard[int]:
     ``--help`` need not load it). To the type checker an ``int``: numpy's integers compare
     as ints do."""
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def from_dict(cls: Any, given: dict[str, Any], what: str, also: tuple[str, ...] = ()) -> Any:
+    """``cls(**given)`` for a parameter dataclass, with a key it has no field for named
+    (``what``: the function or file the dict came to; ``also``: the other keys it takes,
+    listed as valid) instead of Python's TypeError."""
+    names = [f.name for f in fields(cls)]
+    unknown = sorted(map(str, (k for k in given if k not in names)))
+    if unknown:
+        raise InputError(f"{what}: unknown parameter{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(map(repr, unknown))}; valid: "
+                         f"{', '.join(names + list(also))}")
+    return cls(**given)
 
 
 def _real(value: object) -> bool:

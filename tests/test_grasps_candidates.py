@@ -137,6 +137,24 @@ def test_without_required_normals_only_points_are_asked_for(tmp_path) -> None:
     assert "expected an object with 'points' and 'normals'" in with_normals[0][1]
 
 
+
+def test_normals_that_are_nan_in_the_file_are_refused(tmp_path) -> None:
+    """Only normals the file leaves out (synth rank) come back as NaN; normals written as NaN,
+    in an NPZ or as JSON's NaN, were taken for left out and passed on as NaN."""
+    P = np.asarray(CUBE["points"], float)[None]
+    np.savez(tmp_path / "c.npz", points=P, normals=np.full(P.shape, np.nan))
+    (tmp_path / "c.json").write_text(json.dumps([{"points": CUBE["points"],
+                                                  "normals": [[float("nan")] * 3] * 7}]))
+    for name in ("c.npz", "c.json"):
+        for require_normals in (True, False):
+            table = read_candidate_table(tmp_path / name, require_normals=require_normals)
+            assert not table.candidates(), name
+            assert "field 'normals' row 0 is not finite" in table.errors[0][1], name
+    (tmp_path / "left_out.json").write_text(json.dumps([{"points": CUBE["points"]}]))
+    left_out = read_candidate_table(tmp_path / "left_out.json", require_normals=False)
+    assert np.isnan(left_out.candidates()[0].normals).all()
+
+
 I4 = np.eye(4).tolist()
 
 

@@ -181,9 +181,11 @@ def _uniform(points: object, normals: object) -> tuple[np.ndarray, np.ndarray] |
 
 
 def _table(where: str, names: list[str], named: list[bool], points: Any, normals: Any,
-           mu: list[object], errors: dict[int, str]) -> CandidateTable:
+           mu: list[object], errors: dict[int, str],
+           omitted: frozenset[int] = frozenset()) -> CandidateTable:
     """Validate candidates given as lists or (B, k, d) arrays (None marks an item already in
-    ``errors``).
+    ``errors``); ``omitted``: the candidates whose normals the file left out (NaN here), the
+    only ones whose normals may be NaN.
 
     Candidates of one shape are checked together as arrays; only those that fail are checked
     one by one, for their message.
@@ -228,6 +230,7 @@ def _table(where: str, names: list[str], named: list[bool], points: Any, normals
             P = np.stack([arrays[i][0] for i in idx])
             N = np.stack([arrays[i][1] for i in idx])
         placeholder = np.asarray(np.isnan(N).all(axis=(1, 2)))  # (B,) bool
+        placeholder &= np.isin(np.asarray(idx), list(omitted))  # left out, not NaN in the file
         length = np.linalg.norm(N, axis=2)
         finite = np.asarray(np.isfinite(P).all(axis=(1, 2)))
         huge = finite & (np.abs(np.where(np.isfinite(P), P, 0.0)) > MAX_COORDINATE).any(
@@ -415,6 +418,7 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
         raise InputError(f"{p}: holds no candidates")
     errors: dict[int, str] = {}
     names, named, pts, nrm, mus = [], [], [], [], []
+    omitted: set[int] = set()
     for i, obj in enumerate(data):
         ok = isinstance(obj, dict)
         has_name = ok and "name" in obj
@@ -435,12 +439,13 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
         pts.append(obj.get("points") if ok else None)
         nrm.append(obj.get("normals", None) if ok else None)
         if ok and "normals" not in obj and "points" in obj and not require_normals:
+            omitted.add(i)
             try:
                 nrm[-1] = np.full(np.shape(obj["points"]), np.nan)
             except (TypeError, ValueError):
                 nrm[-1] = None
         mus.append(obj.get("mu", planned_mu) if ok else None)
-    return _table(where, names, named, pts, nrm, mus, errors)
+    return _table(where, names, named, pts, nrm, mus, errors, frozenset(omitted))
 
 
 def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[Candidate]:

@@ -10,6 +10,7 @@ import trimesh
 
 pytest.importorskip("mujoco")
 
+from synth.errors import InputError  # noqa: E402
 from synth.fingers.gripper import load_gripper  # noqa: E402
 from synth.part import load_part  # noqa: E402
 from synth.sim import SimSettings  # noqa: E402
@@ -84,3 +85,19 @@ def test_a_soft_pinch_has_no_predicted_escape_and_a_point_pinch_turns_about_its_
     esc = predicted_escape(P, N, 0.5, np.zeros(3), 1.0)
     assert np.allclose(np.abs(esc.twist), [0, 0, 0, 1, 0, 0], atol=1e-6)
     assert predicted_escape(P, N, 0.5, np.zeros(3), 1.0, torsion=0.05) is None
+
+
+@pytest.mark.parametrize("gripper", ["nope", None, [1]])
+def test_a_gripper_field_of_another_type_falls_back_to_the_params(tmp_path, gripper):
+    """A document whose 'gripper' is not an object was checked (its params.gripper named the
+    hand) and then crashed the simulation ('str' object has no attribute 'get')."""
+    from synth.sim.document import check_jaw_document
+
+    doc, part, _ = _pinch(tmp_path, 0.1)
+    doc["gripper"] = gripper
+    check_jaw_document(doc)
+    lab = simulate_jaw_document(doc, part, SimSettings(shake=0.0))["grasps"][0]["sim"]
+    assert lab["held"]
+    del doc["params"]
+    with pytest.raises(InputError, match="gripper.source: expected the gripper's name"):
+        check_jaw_document(doc)

@@ -335,9 +335,9 @@ def _gripper_file(doc: dict, grasps: Path) -> Path | None:
     (relative to the grasp file; older files: to the folder the plan ran in; an absolute
     path stays itself); None for a built-in gripper's name or a file that is not there."""
     from synth.paths import resolve_mesh_path
+    from synth.sim.document import jaw_gripper_source
 
-    gripper = doc.get("gripper")
-    source = gripper.get("source") if isinstance(gripper, dict) else None
+    source = jaw_gripper_source(doc)
     if not isinstance(source, str) or not Path(source).suffix:
         return None
     found = resolve_mesh_path(source, grasps)

@@ -23,7 +23,7 @@ from synth.filetype import read_json
 
 __all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "read_json", "check_document",
            "check_jaw_document", "JAW_FORMAT", "RANKED_JAW_FORMAT", "ranking_as_jaw_document",
-           "load_keywords"]
+           "load_keywords", "jaw_gripper_source"]
 
 #: The format and version the simulation reads (see the README's "Output file format").
 FORMAT, VERSION = "synth.grasps", 1
@@ -324,6 +324,15 @@ def load_keywords(mesh: dict[str, Any], name: str) -> dict[str, Any]:
 JAW_FORMAT = "synth.gripper_grasps"
 
 
+def jaw_gripper_source(doc: dict[str, Any]) -> Any:
+    """The gripper a gripper grasp document was planned with, as written: its
+    ``gripper.source``, else its ``params.gripper`` (either may be missing or of another
+    type than a dict: None then)."""
+    gripper, params = doc.get("gripper"), doc.get("params")
+    return (gripper.get("source") if isinstance(gripper, dict) else None) or (
+        params.get("gripper") if isinstance(params, dict) else None)
+
+
 def check_jaw_document(doc: Any, name: str = "<document>",
                        labels: list[str] | None = None) -> dict[str, Any]:
     """Check that a gripper grasp document (``synth.gripper_grasps``, version 1) has what
@@ -348,10 +357,7 @@ def check_jaw_document(doc: Any, name: str = "<document>",
         raise InputError(f"{_where(name, 'format')}: expected {JAW_FORMAT!r}, got {shown(fmt)}")
     _version_1(doc, name)
     mesh = _object(doc, "mesh", name)
-    gripper = doc.get("gripper")
-    params = doc.get("params")
-    source = (gripper.get("source") if isinstance(gripper, dict) else None) or (
-        params.get("gripper") if isinstance(params, dict) else None)
+    source = jaw_gripper_source(doc)
     if not isinstance(source, str) or not source:
         raise InputError(f"{_where(name, 'gripper.source')}: expected the gripper's name or "
                          f"description file, got {shown(source)}")

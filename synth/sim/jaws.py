@@ -197,6 +197,7 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
 
     from synth.fingers.gripper import load_gripper
     from synth.formats.arrays import unit_metres
+    from synth.sim.document import jaw_gripper_source
     from synth.sim.label import SimLabel, error_label, label_run
     from synth.sim.protocol import run_refined
     from synth.sim.shape import part_shape
@@ -205,7 +206,7 @@ def simulate_jaw_document(doc: dict[str, Any], part: Any, settings: SimSettings 
     t0 = time.perf_counter()
     st = settings or SimSettings()
     metres = unit_metres(doc["mesh"]["units"], "mesh", "units")
-    source = doc.get("gripper", {}).get("source") or doc.get("params", {}).get("gripper")
+    source = jaw_gripper_source(doc)
     if not isinstance(source, str):
         raise InputError("field gripper.source: expected the gripper's name or description "
                          "file")

@@ -120,6 +120,29 @@ def test_malformed_poses_are_named_by_index_and_field_and_the_others_kept(tmp_pa
     bad = dict(read_gripper_poses(y).errors)
     assert sorted(bad) == [0, 1]
     assert "grasps.a.orientation" in bad[0] and "grasps.b.position" in bad[1]
+    # a verdict that is no number was read as "no verdict" (NaN), unsaid
+    y.write_text("format: isaac_grasp\nformat_version: 1.0\ngrasps:\n"
+                 "  a: {confidence: abc, position: [0, 0, 0],\n"
+                 "      orientation: {w: 1, xyz: [0, 0, 0]}}\n"
+                 "  b: {position: [0, 0, 0], orientation: {w: 1, xyz: [0, 0, 0]}}\n")
+    poses = read_gripper_poses(y)
+    assert [i for i, _ in poses.errors] == [0] and "'grasps.a.confidence' is 'abc'" in \
+        poses.errors[0][1]
+    assert np.isnan(poses.labels[1])  # left out: no verdict
+
+
+def test_a_width_left_null_is_refused_and_widths_left_out_are_none(tmp_path):
+    pose = np.eye(4).tolist()
+    doc = {"format": "synth.gripper_grasps", "version": 1, "units": "m",
+           "grasps": [{"pose": pose, "width": 0.04}, {"pose": pose, "width": None}]}
+    path = tmp_path / "j.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match="field 'widths' is .*expected 2 finite numbers"):
+        read_gripper_poses(path)
+    for g in doc["grasps"]:
+        del g["width"]
+    path.write_text(json.dumps(doc))
+    assert read_gripper_poses(path).widths is None
 
 
 def test_whole_file_errors_name_the_file_and_the_field(tmp_path):

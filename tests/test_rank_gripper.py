@@ -177,3 +177,57 @@ def test_an_acronym_file_gives_its_object_mass_unless_mass_is_given(tmp_path, ca
                 assert m["least_squeeze"] is None
             else:
                 assert m["least_squeeze"] == pytest.approx(m["squeeze_per_weight"] * want * g)
+
+
+def test_pose_files_of_text_or_of_another_place_are_refused_by_name(tmp_path, capsys):
+    """Text where numbers belong (ACRONYM datasets, GraspGen labels, NPZ poses) stopped the
+    command with an internal error; poses that all miss the part (another frame or unit) were
+    ranked, written and exited 0."""
+    h5py = pytest.importorskip("h5py")
+    mesh = tmp_path / "box.stl"
+    trimesh.creation.box(extents=BOX).export(mesh)
+    good = _from_above([0.0, 0.0, 0.0])
+
+    def rank(path, *extra):
+        code = main(["rank", str(mesh), str(path), "--gripper", "franka", "--units", "m",
+                     "--quiet", *extra])
+        return code, capsys.readouterr().err
+
+    cases = []
+    for key, value in (("grasps/transforms", np.array([b"a"])), ("object/scale", b"abc"),
+                       ("grasps/widths", np.array([b"w"]))):
+        h5 = tmp_path / f"{key.replace('/', '_')}.h5"
+        with h5py.File(h5, "w") as f:
+            f["grasps/transforms"] = [good]
+            f["object/scale"] = 1.0
+            if key in f:
+                del f[key]
+            f[key] = value
+        cases.append((h5, f"dataset '{key}' holds"))
+    h5 = tmp_path / "group.h5"
+    with h5py.File(h5, "w") as f:
+        f["grasps/transforms"] = [good]
+        f.create_group("object/scale")
+    cases.append((h5, "'object/scale' is a group"))
+    h5 = tmp_path / "two.h5"
+    with h5py.File(h5, "w") as f:
+        f["grasps/transforms"] = [good]
+        f["object/scale"] = [1.0, 2.0]
+    cases.append((h5, "'object/scale' holds 2 numbers, expected one"))
+    doc = {"object": {"file": "box.stl", "scale": 1.0},
+           "grasps": {"transforms": [good.tolist()], "object_in_gripper": ["abc"]}}
+    (tmp_path / "g.json").write_text(json.dumps(doc))
+    cases.append((tmp_path / "g.json", "field 'grasps.object_in_gripper' is ['abc']"))
+    np.savez(tmp_path / "s.npz", poses=np.array(["a", "b"]))
+    cases.append((tmp_path / "s.npz", "array 'poses' holds <U1 values, expected numbers"))
+    for path, message in cases:
+        code, err = rank(path)
+        assert code == 2 and message in err and "internal error" not in err, (path, err)
+    far = good.copy()
+    far[:3, 3] += 10.0  # ten metres away: every pose misses the part
+    np.savez(tmp_path / "far.npz", poses=[far, far])
+    out = tmp_path / "r.json"
+    code, err = rank(tmp_path / "far.npz", "--out", str(out))
+    assert code == 2 and "no candidate could be used" in err and "misses the part" in err
+    assert "(and 1 more unusable)" in err and "frame and unit" in err
+    assert not out.exists()

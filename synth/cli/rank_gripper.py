@@ -68,7 +68,7 @@ def format_table(rows: list[Any], mm: float) -> str:
 
 def run_rank_gripper(args: argparse.Namespace) -> int:
     """Run ``synth rank --gripper``; exit status 2 when a candidate was malformed (the others
-    are ranked) or none could be read."""
+    are ranked), or none could be read or none meets the part (nothing is written then)."""
     import trimesh
 
     from synth.cli.checks import output_path
@@ -123,6 +123,12 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                                  dict(poses.errors), poses.names, poses.labels,
                                  None if shown_n == 0 else shown_n, where.widths)
     rows = list(ranking.rows)
+    unusable = [r for r in rows if r.status in ("misses the part", "malformed")]
+    if len(unusable) == len(rows):  # none where the part is: a pose file of another frame?
+        more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
+        raise InputError(f"{args.candidates}: no candidate could be used: "
+                         f"{unusable[0].name}: {unusable[0].status}: {unusable[0].reason}{more}"
+                         "; are the poses in the mesh's frame and unit?")
     p = params
     from synth.cli.gripper import store_gripper_source
     from synth.paths import stored_mesh_path

@@ -53,6 +53,20 @@ def _text(value: Any) -> str:
     return value.decode("utf-8") if isinstance(value, bytes) else str(value)
 
 
+def _numbers(f: Any, key: str, where: str) -> np.ndarray:
+    """The dataset ``key`` of an open HDF5 file as float numbers, or an InputError that says
+    what it holds instead (a group, text, compound records)."""
+    import h5py
+
+    item = f[key]
+    if not isinstance(item, h5py.Dataset):
+        raise InputError(f"{where}: '{key}' is a group, expected a dataset of numbers")
+    if item.dtype.kind not in "biuf":
+        raise InputError(f"{where}: dataset '{key}' holds {item.dtype} values, expected "
+                         "numbers")
+    return np.asarray(item[()], dtype=float)
+
+
 def read_acronym(path: str | Path) -> GripperPoses:
     """The gripper poses of an ACRONYM HDF5 grasp file.
 
@@ -80,14 +94,18 @@ def read_acronym(path: str | Path) -> GripperPoses:
                              "gripper poses)" + ("; this is a whole database exported by synth "
                                                  "db export: give one mesh's poses, from synth "
                                                  "db export --format acronym" if export else ""))
-        T = np.asarray(f["grasps/transforms"][()], dtype=float)
+        T = _numbers(f, "grasps/transforms", where)
         if T.ndim != 3 or T.shape[1:] != (4, 4):
             raise InputError(f"{where}: dataset 'grasps/transforms' has shape {T.shape}, "
                              "expected (n, 4, 4)")
         if "object/scale" not in f:
             raise InputError(f"{where}: missing dataset 'object/scale' (the scale of the mesh "
                              "the poses refer to)")
-        scale = float(np.asarray(f["object/scale"][()]).reshape(-1)[0])
+        scales = _numbers(f, "object/scale", where).reshape(-1)
+        if scales.size != 1:
+            raise InputError(f"{where}: dataset 'object/scale' holds {scales.size} numbers, "
+                             "expected one")
+        scale = float(scales[0])
         if not (np.isfinite(scale) and scale > 0):
             raise InputError(f"{where}: dataset 'object/scale' is {scale!r}, expected a "
                              "positive number")
@@ -95,18 +113,18 @@ def read_acronym(path: str | Path) -> GripperPoses:
         if unit_name != "m":
             raise InputError(f"{where}: attribute 'units' is {unit_name!r}; ACRONYM files are "
                              "in metres ('m')")
-        labels = np.asarray(f[LABEL][()], float) if LABEL in f else None
+        labels = _numbers(f, LABEL, where) if LABEL in f else None
         if labels is not None and labels.shape != (len(T),):
             raise InputError(f"{where}: dataset '{LABEL}' has shape {labels.shape}, expected "
                              f"({len(T)},)")
-        widths = np.asarray(f["grasps/widths"][()], float) if "grasps/widths" in f else None
+        widths = _numbers(f, "grasps/widths", where) if "grasps/widths" in f else None
         if widths is not None and widths.shape != (len(T),):
             raise InputError(f"{where}: dataset 'grasps/widths' has shape {widths.shape}, "
                              f"expected ({len(T)},)")
         obj = _text(f["object/file"][()]) if "object/file" in f else None
         mass = None
         if "object/mass" in f:  # NaN where synth's own export had no mass: none
-            m = np.asarray(f["object/mass"][()], float).reshape(-1)
+            m = _numbers(f, "object/mass", where).reshape(-1)
             mass = float(m[0]) if m.size == 1 and np.isfinite(m[0]) and m[0] > 0 else None
     poses = GripperPoses(where, "acronym", T, tuple(str(i) for i in range(len(T))), 1.0, "m",
                          scale, obj, widths, labels, LABEL if labels is not None else None,

@@ -19,7 +19,7 @@ import numpy as np
 
 from synth.errors import InputError, shown
 from synth.formats.graspgen import matrices
-from synth.formats.poses import GripperPoses
+from synth.formats.poses import GripperPoses, number_list
 
 __all__ = ["read_npz", "read_json_poses", "unit_metres", "load_npz"]
 
@@ -105,15 +105,7 @@ def unit_metres(name: Any, where: str, key: str = "units") -> float:
 
 
 def _widths(value: Any, n: int, where: str) -> np.ndarray | None:
-    if value is None:
-        return None
-    try:
-        w = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        w = np.zeros(0)
-    if w.shape != (n,):
-        raise InputError(f"{where}: field 'widths' is {shown(value)}, expected {n} numbers")
-    return w
+    return None if value is None else number_list(value, n, where, "widths")
 
 
 def read_npz(path: str | Path) -> GripperPoses:
@@ -124,6 +116,9 @@ def read_npz(path: str | Path) -> GripperPoses:
     if key not in arrays:
         raise InputError(f"{where}: missing array 'poses' (or 'transforms') of shape (n, 4, 4); "
                          f"found {sorted(arrays)}")
+    if arrays[key].dtype.kind not in "biuf":
+        raise InputError(f"{where}: array '{key}' holds {arrays[key].dtype} values, expected "
+                         "numbers")
     T = np.asarray(arrays[key], dtype=float)
     if T.ndim != 3 or T.shape[1:] != (4, 4):
         raise InputError(f"{where}: array '{key}' has shape {T.shape}, expected (n, 4, 4)")
@@ -145,6 +140,8 @@ def read_json_poses(path: str | Path, doc: Any) -> GripperPoses:
             raise InputError(f"{where}: field 'grasps' is {shown(grasps)}, expected a list")
         items = [g.get("pose") if isinstance(g, dict) else None for g in grasps]
         widths = [g.get("width") if isinstance(g, dict) else None for g in grasps]
+        if all(w is None for w in widths):  # poses alone: the jaws' width is found again
+            widths = None
         units, key, fmt = doc.get("units"), "grasps[].pose", "synth.gripper_grasps"
     elif isinstance(doc, dict):
         key = "poses" if "poses" in doc else "transforms"

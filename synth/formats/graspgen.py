@@ -22,7 +22,7 @@ import numpy as np
 
 from synth.errors import InputError, shown
 from synth.formats.objects import ObjectGrasps
-from synth.formats.poses import GripperPoses
+from synth.formats.poses import GripperPoses, number_list
 
 __all__ = ["read_graspgen", "write_graspgen", "is_graspgen"]
 
@@ -84,14 +84,10 @@ def read_graspgen(path: str | Path, doc: dict[str, Any]) -> GripperPoses:
                          "metres ('m')")
     T, errors = matrices(doc["grasps"]["transforms"], where, "grasps.transforms")
     labels = doc["grasps"].get("object_in_gripper")
-    lab = None
-    if labels is not None:
-        lab = np.asarray(labels, dtype=float).reshape(-1)
-        if lab.shape != (len(T),):
-            raise InputError(f"{where}: field 'grasps.object_in_gripper' holds {lab.size} "
-                             f"values, expected {len(T)}")
+    lab = None if labels is None else number_list(labels, len(T), where,
+                                                  "grasps.object_in_gripper")
     widths = doc["synth"].get("widths") if isinstance(doc.get("synth"), dict) else None
-    w = None if widths is None else np.asarray(widths, dtype=float)
+    w = None if widths is None else number_list(widths, len(T), where, "synth.widths")
     obj = doc["object"].get("file")
     poses = GripperPoses(where, "graspgen", T, tuple(str(i) for i in range(len(T))), 1.0, "m",
                          float(scale), obj if isinstance(obj, str) else None, w, lab,

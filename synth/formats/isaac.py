@@ -141,8 +141,10 @@ def read_isaac(path: str | Path) -> GripperPoses:
                 T[i, :3, :3] = quaternion_matrix(q[0], q[1:])
                 T[i, :3, 3] = pos
         c = g.get("confidence") if isinstance(g, dict) else None
-        if isinstance(c, (int, float)) and not isinstance(c, bool):
+        if isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c):
             conf[i] = float(c)
+        elif c is not None and bad is None:  # left out: no verdict; anything else is wrong
+            bad = f"'{at}.confidence' is {shown(c)}, expected a number"
         if bad is not None:
             errors.append((i, f"{where}: candidate {i} ({name}): field {bad}"))
     poses = GripperPoses(where, "isaac_grasp", T, tuple(str(k) for k in grasps), 1.0, "m", None,

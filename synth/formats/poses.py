@@ -24,14 +24,34 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.errors import InputError
+from synth.errors import InputError, shown
 
-__all__ = ["GripperPoses", "PartPoses", "ROTATION_TOL", "check_poses", "canonical_half_turn"]
+__all__ = ["GripperPoses", "PartPoses", "ROTATION_TOL", "check_poses", "canonical_half_turn",
+           "number_list"]
 
 #: Largest entry of ``R^T R - I`` (and of the last row's error) of an accepted pose.
 ROTATION_TOL: float = 1e-6
 #: Relative difference between a file's object scale and the part's unit that is accepted.
 _SCALE_RTOL: float = 1e-6
+
+
+def number_list(value: object, n: int, where: str, key: str) -> NDArray[np.float64]:
+    """A file's field of one number per pose (widths, labels) as (n,) floats.
+
+    Raises
+    ------
+    InputError
+        Not numbers (text, objects, null), not finite, or another count than ``n``; the
+        field is named.
+    """
+    try:
+        a = np.asarray(value, dtype=float).reshape(-1)  # (null becomes NaN here)
+    except (TypeError, ValueError, OverflowError):
+        a = np.zeros(0)
+    if a.shape != (n,) or not np.isfinite(a).all():
+        raise InputError(f"{where}: field '{key}' is {shown(value)}, expected {n} finite "
+                         "numbers")
+    return a
 
 
 def check_poses(poses: NDArray[np.float64]) -> list[tuple[int, str]]:

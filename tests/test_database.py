@@ -193,6 +193,11 @@ def test_bad_sources_and_parameters_write_nothing(tmp_path: Path, mesh_dir: Path
     with pytest.raises(InputError, match="cannot import planner module"):
         build_database([mesh_dir], reference, PARAMS, planner="no_such_module:plan")
     assert snapshot(reference) == before
+    empty = tmp_path / "mine.sqlite"  # a file of the user's, empty: SQLite would take it
+    empty.write_bytes(b"")
+    with pytest.raises(InputError, match="an empty file, not a grasp database synth began"):
+        build_database([mesh_dir], empty, PARAMS, planner=PLANNER)
+    assert empty.read_bytes() == b""
 
 
 def test_plan_cut_by_the_time_cap_is_a_failure_not_a_result(tmp_path):

@@ -146,10 +146,16 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
     DatabaseError
         Naming ``path``: the database is busy (another ``synth db build`` writes it, or a
         reader holds an immutable view of it), the file cannot be opened for writing, or it
-        is not an SQLite file (then it is left as it is).
+        is not an SQLite file or an empty file that was there before (then it is left as it
+        is).
     """
+    created = False
     try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        try:  # a new file, or one that was there before (whose content is checked)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+            created = True
+        except FileExistsError:
+            fd = os.open(path, os.O_RDWR | os.O_CLOEXEC)
     except OSError as e:
         raise DatabaseError(f"{path}: cannot open grasp database for writing: "
                             f"{e.strerror or e}") from e  # fmt: skip
@@ -161,6 +167,12 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
                 f"{path}: database busy: another 'synth db build' is writing it (or a reader "
                 "holds it); run this build when that one has finished, or use another --out file"
             ) from None
+        # an empty file is SQLite's empty database, but not one synth began: it writes its
+        # schema as soon as it holds the lock (before a checkpoint, in the -wal file alone)
+        if not created and os.fstat(fd).st_size == 0 and not (
+                os.path.isfile(path + "-wal") and os.path.getsize(path + "-wal") > 0):
+            raise DatabaseFileError(f"{path}: an empty file, not a grasp database synth began; "
+                                    "remove it or write the database elsewhere")
         _read_header(path, fd)
         conn = sqlite3.connect(path, isolation_level=None)
     except sqlite3.Error as e:

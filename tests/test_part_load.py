@@ -232,6 +232,23 @@ def test_bad_files_get_one_clear_error(tmp_path: Path) -> None:
         assert reason.lower() in msg.lower(), (label, msg)
 
 
+def test_a_byte_order_mark_before_a_text_mesh_is_read_past(tmp_path: Path) -> None:
+    """Editors on Windows start text files with a UTF-8 byte-order mark: an OBJ lost its first
+    vertex to it ('face 2 refers to vertex 4, but the file has 3 vertices')."""
+    tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    texts = {"obj": tet, "stl": trimesh.exchange.stl.export_stl_ascii(box),
+             "off": trimesh.exchange.off.export_off(box)}
+    for ext, text in texts.items():
+        plain, marked = tmp_path / f"plain.{ext}", tmp_path / f"marked.{ext}"
+        plain.write_text(text)
+        marked.write_bytes(b"\xef\xbb\xbf" + text.encode())
+        a, b = load_part(plain), load_part(marked)
+        assert np.array_equal(a.mesh.vertices, b.mesh.vertices), ext
+        assert np.array_equal(a.mesh.faces, b.mesh.faces), ext
+        assert a.sha256 != b.sha256  # the file's own bytes, mark and all
+
+
 def test_an_unsupported_extension_lists_the_formats_in_words(tmp_path: Path) -> None:
     notes = tmp_path / "README.md"
     notes.write_text("# notes\n")

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import gc
 import hashlib
+import io
 import os
 from pathlib import Path
 from typing import Any, cast
@@ -86,6 +87,10 @@ def _fail(name: str, reason: str) -> MeshError:
     return MeshError(f"{name}: {reason}")
 
 
+#: The UTF-8 byte-order mark some editors put before a text file's first line.
+_BOM = b"\xef\xbb\xbf"
+
+
 def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | None]:
     name = str(path)
     if not path.exists():
@@ -101,6 +106,11 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     if len(data) == 0:
         raise _fail(name, "file is empty")
     digest = hashlib.sha256(data).hexdigest()
+    # a text file's UTF-8 byte-order mark (editors on Windows write one): trimesh took it for
+    # part of the first line, and an OBJ lost its first vertex to it
+    bom = ext in ("obj", "off", "gltf", "stl", "ply") and data.startswith(_BOM)
+    if bom:
+        data = data[len(_BOM):]
     if ext == "glb":
         from synth.plan.result import scene_run_id
 
@@ -124,7 +134,10 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
         # their convex pieces as objects that share corner positions)
         extra: dict[str, Any] = {"split_objects": True, "group_material": False} \
             if ext == "obj" else {}
-        loaded = trimesh.load(str(path), file_type=ext, process=False, force=None, **extra)
+        if bom:  # the bytes without it, their neighbours (an OBJ's materials) found by path
+            extra["resolver"] = trimesh.resolvers.FilePathResolver(str(path))
+        loaded = trimesh.load(io.BytesIO(data) if bom else str(path), file_type=ext,
+                              process=False, force=None, **extra)
     except Exception as e:  # trimesh raises many kinds, in its own words: the file's fault
         # is said in the format's (the reader's exception stays the cause, for a traceback)
         raise _fail(name, explain(path, ext, data)) from e

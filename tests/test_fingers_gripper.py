@@ -127,6 +127,20 @@ def test_malformed_descriptions_are_refused(tmp_path, change, words):
     assert str(p) in str(e.value) and words in str(e.value)
 
 
+@pytest.mark.parametrize("name", ["junk.stl", "junk.obj"])
+def test_an_unreadable_part_mesh_is_named_in_the_formats_words(tmp_path, name):
+    """trimesh's own words for a damaged STL were a missing module's ("No module named
+    'charset_normalizer'")."""
+    (tmp_path / name).write_bytes(np.random.default_rng(0).bytes(500))
+    p = _write(tmp_path, finger=[{"mesh": name}])
+    with pytest.raises(InputError) as e:
+        load_gripper(p)
+    ext = name.split(".")[1].upper()
+    assert str(e.value).endswith(f"field 'finger[0].mesh': cannot read {str(tmp_path / name)!r}: "
+                                 f"not a readable {ext} file (damaged, cut short, or not {ext} "
+                                 "at all)")
+
+
 def test_missing_field_and_unknown_gripper(tmp_path, capsys):
     doc = json.loads((DATA / "franka.json").read_text())
     del doc["grip_force"]

@@ -231,8 +231,13 @@ def _mesh_shape(item: dict[str, Any], where: str, at: str, folder: Path) -> Grip
         raise InputError(f"{where}: field '{at}.mesh': no such file {str(path)!r}")
     try:
         mesh = cast(trimesh.Trimesh, trimesh.load(path, force="mesh", process=True))
-    except Exception as e:  # trimesh raises many kinds; all mean an unreadable mesh
-        raise InputError(f"{where}: field '{at}.mesh': cannot read {str(path)!r}: {e}") from e
+    except Exception as e:  # trimesh raises many kinds, in its own words (or a missing
+        # module's): the file's fault is said in the format's, as for a part's mesh
+        from synth.part.unreadable import explain
+
+        ext = path.suffix.lower().lstrip(".")
+        raise InputError(f"{where}: field '{at}.mesh': cannot read {str(path)!r}: "
+                         f"{explain(path, ext, path.read_bytes())}") from e
     if len(mesh.faces) == 0:
         raise InputError(f"{where}: field '{at}.mesh': {str(path)!r} has no triangles")
     angle = item.get("rotate_z_deg", 0.0)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import struct
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +18,8 @@ from synth.cli import EXIT_FAILED, EXIT_INPUT, main
 from synth.part import load_part
 from synth.plan import params as lim
 from tests.cli_support import BIG, CUBE_FC, earlier_output
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture()
@@ -52,7 +56,9 @@ PLAN_REFUSED = [
     (["--seed", BIG], "--seed"),
     (["--evals", "1000000000000"], "--evals: expected an integer from 100 to 10,000,000"),
     (["--evals", "99"], "--evals"),
-    (["--contacts", "1000"], "--contacts: expected an integer from 2 to 64"),
+    (["--contacts", "1000"], "--contacts: expected an integer from 7 to 64 without friction"),
+    (["--contacts", "2", "--mu", "0.5"], "--contacts: expected an integer from 3 to 64 with "
+                                         "friction, got 2"),
     (["--mu", "1e308"], "--mu: expected a number in [0, 100]"),
     (["--mu", "nan"], "--mu"),
     (["--mu", "-0.5"], "--mu"),
@@ -66,6 +72,9 @@ PLAN_REFUSED = [
     (["--finger-radius", "-1"], "--finger-radius"),
     (["--body-length", "inf"], "--body-length"),
     (["--body-radius", "0"], "--body-radius"),
+    (["--body-radius", "1", "--units", "m"], "(--body-radius): expected at most the tip "
+                                             "radius (tip_radius, --finger-radius) 0.0433013, "
+                                             "got 1"),
     (["--approach-cone", "90"], "--approach-cone"),
     (["--sharp-angle", "0"], "--sharp-angle"),
     (["--fingers", "13"], "--fingers: expected an integer from 2 to 12"),
@@ -587,3 +596,16 @@ def test_a_users_odd_file_at_an_output_name_is_refused_not_a_crash(box, tmp_path
     bad.write_bytes(b"PK\x03\x04garbage")
     line = _refused(capsys, "db", "export", tmp_path / "g.sqlite", "--out", bad)
     assert "not an export synth wrote" in line and bad.read_bytes() == b"PK\x03\x04garbage"
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs Linux's /dev/full")
+def test_a_full_disk_under_stdout_is_said_as_such(tmp_path):
+    """stdout on a full disk: status 1 and a line that says what could not be written (it was
+    '[Errno 28] No space left on device' alone)."""
+    with open("/dev/full", "w") as full:
+        run = subprocess.run([sys.executable, "-m", "synth.cli", "plan", "meshes/cube.stl",
+                              "--units", "mm", "--evals", "200", "--no-files"], cwd=ROOT,
+                             stdout=full, stderr=subprocess.PIPE, text=True, check=False)
+    assert run.returncode == 1
+    assert run.stderr.splitlines()[-1] == ("synth: error: cannot write the output: No space "
+                                           "left on device")

@@ -25,6 +25,7 @@ parsed).
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import signal
 import sys
@@ -123,6 +124,10 @@ def _main(argv: Sequence[str] | None) -> int:
     except (InternalError, SolverError) as e:
         return _internal(e)
     except (SynthError, OSError) as e:
+        if isinstance(e, OSError) and e.filename is None and e.errno in _WRITE_ERRORS:
+            # no file named: a write to standard output (a full disk, a device error)
+            print(f"synth: error: cannot write the output: {e.strerror}", file=sys.stderr)
+            return EXIT_FAILED
         print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
@@ -174,6 +179,10 @@ def _reader_gone() -> int:
     except (OSError, ValueError):  # no file descriptor behind stdout (a test's capture)
         pass
     return EXIT_PIPE
+
+
+#: What a failed write says (no space, quota, file too large, a device error).
+_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
 
 
 def _line(e: BaseException) -> str:

@@ -19,7 +19,7 @@ from typing import Any
 
 from synth.cli.checks import integer, real
 from synth.cli.vocabulary import add_top, check_top
-from synth.errors import OptionError
+from synth.errors import OptionError, shown
 from synth.limits import (
     AUTO_MAX_FINGERS,
     DEFAULT_SURFACE,
@@ -243,11 +243,15 @@ def _fingers(text: str | None) -> int | str | None:
 
 def check_planning_options(args: argparse.Namespace) -> None:
     """Every planning option against its documented range (see :func:`add_planning_options`)."""
-    integer("--contacts", args.contacts, 2, MAX_CONTACTS)
+    real("--mu", args.mu, 0, MAX_MU)
+    # the range --help gives: closure in space takes 7 contacts without friction, 3 with
+    lo, how = (3, "with") if args.mu else (7, "without")
+    if args.contacts is not None and not lo <= args.contacts <= MAX_CONTACTS:
+        raise OptionError(f"--contacts: expected an integer from {lo} to {MAX_CONTACTS} {how} "
+                          f"friction, got {shown(args.contacts)}")
     if _fingers(args.fingers) is not None and args.contacts != PlanParams().contacts:
         raise OptionError("give --fingers or --contacts, not both (with --fingers each tip "
                           "makes one to three contacts, as the surface allows)")
-    real("--mu", args.mu, 0, MAX_MU)
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)
     check_top(args.top, listing=False)
     real("--time", args.time, 0, math.inf, open_lo=True, open_hi=True, unit=" seconds")

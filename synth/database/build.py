@@ -725,7 +725,9 @@ def build_database(
             raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
         n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
         if n_workers < 0 or (engine == "dask" and n_workers == 0):
-            raise InputError(f"workers must be >= 1 (or 0 for the local engine), got {workers}")
+            least = "1 with the dask engine (0, in this process: the local engine only)" \
+                if engine == "dask" else "0 (0: in this process)"
+            raise InputError(f"workers (--workers): expected at least {least}, got {workers}")
         if timeout is not None and not timeout > 0:
             raise InputError(f"timeout must be > 0 seconds, got {timeout!r}")
         run_params = normalize_params(params)

@@ -131,8 +131,9 @@ class Fingers:
         )
         if rb > r:
             raise InputError(
-                f"Fingers.body_radius: must be at most tip_radius={r}, got {rb} "
-                "(a body thicker than its tip would hit the surface beside every contact)"
+                f"Fingers.body_radius (--body-radius): expected at most the tip radius "
+                f"(tip_radius, --finger-radius) {r:.6g}, got {rb:.6g} (a body thicker than its "
+                "tip would hit the surface beside every contact)"
             )
         cone = _positive("approach_cone", self.approach_cone, allow_zero=True)
         if cone >= math.pi / 2:

@@ -290,3 +290,46 @@ def test_gravity_hold_names_a_wrong_argument():
                      ({"center_mass": np.zeros(2)}, "center_mass"), ({"level": 99}, "level")):
         with pytest.raises(InputError, match=f"^{word}"):
             gravity_hold_batch(**{**base, **kw})
+
+
+def test_every_measure_names_text_none_or_nan_where_numbers_belong():
+    """Text, None or NaN for a centre, friction, torsion, cone edges, free columns or the
+    contacts themselves: InputError naming it, never numpy's ValueError or TypeError, a
+    LinAlgError, HiGHS's model error (mu = 1e300), or NaN returned."""
+    import synth
+
+    P = np.array([[.5, .3, .1], [-.5, .4, 0], [-.2, .5, -.1], [-.1, -.5, 0], [-.1, .2, .5],
+                  [-.3, .2, -.5], [-.1, .4, -.5]])
+    N = -np.sign(P) * (np.abs(P) == .5)
+    W = wrench_matrix(P, N)
+    nan_c = [np.nan, 0, 0]
+    cases = [
+        (lambda: wrench_matrix(P, N, "abc"), "^center: expected 3 finite numbers"),
+        (lambda: form_closure(W, free=None), "^free: expected a list of column indices"),
+        (lambda: form_closure(W, free="ab"), "^free: expected a list"),
+        (lambda: synth.friction_cone_wrenches(P, N, .5, center=nan_c), "^center: expected"),
+        (lambda: synth.friction_cone_wrenches(P, N, .5, edges=None), "^edges must be an "
+                                                                      "integer from 3 to 64"),
+        (lambda: synth.friction_cone_wrenches(P, N, .5, edges=float("nan")), "^edges"),
+        (lambda: synth.friction_cone_wrenches(P, N, None), "^mu must be a nonnegative"),
+        (lambda: synth.frictional_form_closure(P, N, 1e300), "at most 100, got 1e"),
+        (lambda: synth.frictional_form_closure_batch(P[None], N[None], .5, center=nan_c),
+         "^center: expected"),
+        (lambda: synth.frictional_form_closure_batch(P[None], N[None], "abc"), "^mu: expected"),
+        (lambda: synth.frictional_form_closure_batch(P[None], N[None], .5, edges=None),
+         "^edges"),
+        (lambda: synth.mu_min("abc", N), "^points: expected"),
+        (lambda: synth.mu_min(P, N, torsion="abc"), "^torsion: expected"),
+        (lambda: synth.mu_min(P, N, edges=None), "^edges"),
+        (lambda: synth.mu_min_batch(P[None], "abc"), "^normals: expected"),
+        (lambda: synth.epsilon_quality(P, N, "abc", 1.0), "^center: expected"),
+        (lambda: synth.epsilon_quality(P, N, [0, 0, 0], 1.0, mu=None), "^mu and torsion"),
+        (lambda: synth.epsilon_quality("ab", N, [0, 0, 0], 1.0), "^points and normals"),
+        (lambda: synth.gravity_hold_batch(P[None], N[None], "abc", 0.0, [0, 0, 0], 1.0),
+         "^mu: expected"),
+        (lambda: synth.gravity_hold_batch(P[None], N[None], .5, 0.0, "abc", 1.0),
+         "^center_mass: expected"),
+    ]
+    for call, message in cases:
+        with pytest.raises(InputError, match=message):
+            call()

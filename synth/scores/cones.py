@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
-from synth.limits import MAX_EDGES, MIN_EDGES
+from synth.scores.arguments import edges_arg, numbers_arg
 
 __all__ = [
     "SOFT_LATITUDES",
@@ -128,8 +128,8 @@ def check_contacts_batch(points: ArrayLike, normals: ArrayLike
     InputError
         The shapes differ or are not (B, k, 3), or a value is not finite.
     """
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
+    P = numbers_arg(points, "points")
+    N = numbers_arg(normals, "normals")
     if P.ndim != 3 or P.shape[2] != 3 or N.shape != P.shape:
         raise InputError(f"points and normals must both have shape (B, k, 3), got {P.shape} "
                          f"and {N.shape}")
@@ -181,9 +181,7 @@ def cone_wrenches_batch(
     (1, 6, 52)
     """
     B, k, _ = points.shape
-    if int(edges) != edges or not MIN_EDGES <= edges <= MAX_EDGES:
-        raise InputError(f"edges must be an integer from {MIN_EDGES} to {MAX_EDGES}, got "
-                         f"{edges!r}")
+    edges = edges_arg(edges)
     gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (B, k)) if np.ndim(torsion) < 2 \
         else np.asarray(torsion, dtype=np.float64)
     soft = bool(np.any(gam > 0)) if soft is None else bool(soft)

@@ -15,6 +15,7 @@ the ``c_i >= d`` rows.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 
@@ -94,6 +95,9 @@ def check_wrench(W: ArrayLike, *, name: str = "W") -> NDArray[np.float64]:
 
 def check_free(free: tuple[int, ...] | list[int], n: int) -> tuple[int, ...]:
     """Validate a list of free column indices against ``n`` columns."""
+    if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") or not all(
+            isinstance(i, numbers.Integral) and not isinstance(i, bool) for i in free):
+        raise InputError(f"free: expected a list of column indices, got {free!r:.80}")
     out = tuple(sorted({int(i) for i in free}))
     if out and (out[0] < 0 or out[-1] >= n):
         raise InputError(f"free columns must lie in 0..{n - 1}, got {list(free)}")

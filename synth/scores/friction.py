@@ -47,6 +47,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
+from synth.limits import MAX_MU
+from synth.scores.arguments import center_arg
 from synth.scores.cones import cone_wrenches_batch
 from synth.scores.escape import describe_twist, escape_twist
 from synth.scores.friction_lp import solve_frictional_lp
@@ -148,13 +150,17 @@ class FrictionalSqueeze:
 
 
 def _check_mu(mu: ArrayLike, n: int, name: str = "mu") -> NDArray[np.float64]:
-    mu_a = np.broadcast_to(np.asarray(mu, dtype=np.float64), (n,)) if np.ndim(mu) == 0 else (
-        np.asarray(mu, dtype=np.float64)
-    )
-    if mu_a.shape != (n,) or not np.all(np.isfinite(mu_a)) or np.any(mu_a < 0):
+    try:
+        mu_a = np.broadcast_to(np.asarray(mu, dtype=np.float64), (n,)) if np.ndim(mu) == 0 \
+            else np.asarray(mu, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        mu_a = np.full(0, np.nan)
+    top = MAX_MU if name == "mu" else np.inf  # past it the LP's numbers lose their meaning
+    if mu is None or mu_a.shape != (n,) or not np.all(np.isfinite(mu_a)) or np.any(mu_a < 0) \
+            or np.any(mu_a > top):
         raise InputError(
-            f"{name} must be a nonnegative finite scalar or one value per contact ({n}), got "
-            f"{mu!r}"
+            f"{name} must be a nonnegative finite scalar or one value per contact ({n})"
+            + (f", at most {MAX_MU:g}" if name == "mu" else "") + f", got {mu!r:.80}"
         )
     return np.array(mu_a)
 
@@ -199,9 +205,7 @@ def friction_cone_wrenches(
     n, d = P.shape
     mu_a = _check_mu(mu, n)
     gam = _check_mu(torsion, n, "torsion")
-    o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
-    if o.shape != (d,):
-        raise InputError(f"center must be a ({d},) vector, got {o.shape}")
+    o = P.mean(axis=0) if center is None else center_arg(center, d)
     if d == 2:
         if np.any(gam > 0):
             raise InputError("torsion (a moment about the contact normal) needs contacts in "

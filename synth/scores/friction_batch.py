@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from synth.errors import InputError
-from synth.limits import MAX_EDGES, MIN_EDGES
+from synth.scores.arguments import center_arg, edges_arg, numbers_arg
 from synth.scores.batch import BatchScores
 from synth.scores.cones import check_contacts_batch, cone_wrenches_batch, generators_per_contact
 from synth.scores.friction_lp import solve_frictional_lp
@@ -78,8 +78,8 @@ def frictional_form_closure_batch(
     t0 = time.perf_counter()
     P, N = check_contacts_batch(points, normals)
     B, k, _ = P.shape
-    mu_a = np.asarray(mu, dtype=np.float64)
-    gam = np.asarray(torsion, dtype=np.float64)
+    mu_a = numbers_arg(mu, "mu")
+    gam = numbers_arg(torsion, "torsion")
     for name, a in (("mu", mu_a), ("torsion", gam)):
         if a.shape not in ((), (k,), (B, k)) or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise InputError(f"{name} must be finite and >= 0: one value, {k} or ({B}, {k}), "
@@ -87,15 +87,12 @@ def frictional_form_closure_batch(
     if not (np.any(mu_a > 0) or np.any(gam > 0)):
         raise InputError("mu or torsion must be somewhere > 0 (use form_closure_batch "
                          "without friction)")
-    if int(edges) != edges or not MIN_EDGES <= edges <= MAX_EDGES:
-        raise InputError(f"edges must be an integer from {MIN_EDGES} to {MAX_EDGES}, got "
-                         f"{edges!r}")
+    edges = edges_arg(edges)
     mu_b = np.broadcast_to(mu_a, (B, k))
     gam_b = np.broadcast_to(gam, (B, k))
     if B == 0:
         return BatchScores(np.zeros(0), np.zeros(0, bool), np.zeros(0, np.int64))
-    o = P.mean(axis=1) if center is None else np.broadcast_to(
-        np.asarray(center, dtype=np.float64), (B, 3))
+    o = P.mean(axis=1) if center is None else np.broadcast_to(center_arg(center), (B, 3))
     d = np.zeros(B)
     rank = np.zeros(B, dtype=np.int64)
     soft = bool(np.any(gam_b > 0))

@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
+from synth.scores.arguments import center_arg, length_arg, numbers_arg
 from synth.scores.cones import check_contacts_batch, cone_name, cone_wrenches_batch
 from synth.scores.simplex import UNVERIFIED, compiled_for, solve_batch
 
@@ -272,17 +273,17 @@ def gravity_hold_batch(
     1.0
     """
     P, N = check_contacts_batch(points, normals)
-    gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (P.shape[1],))
-    mu_a = np.asarray(mu, dtype=np.float64)
+    gam = numbers_arg(torsion, "torsion")
+    mu_a = numbers_arg(mu, "mu")
+    if gam.shape not in ((), (P.shape[1],)):
+        raise InputError(f"torsion: expected one number or {P.shape[1]}, got shape {gam.shape}")
+    gam = np.broadcast_to(gam, (P.shape[1],))
     if not (np.all(np.isfinite(mu_a)) and np.all(mu_a >= 0) and np.all(np.isfinite(gam))
             and np.all(gam >= 0)):
         raise InputError(f"mu and torsion: expected finite numbers >= 0, got {mu!r} and "
                          f"{torsion!r}")
-    cm = np.asarray(center_mass, dtype=np.float64)
-    if cm.shape != (3,) or not np.all(np.isfinite(cm)):
-        raise InputError(f"center_mass: expected 3 finite numbers, got {center_mass!r}")
-    if not (np.isfinite(length) and length > 0):
-        raise InputError(f"length: expected a positive finite number, got {length!r}")
+    center_arg(center_mass, name="center_mass")
+    length = length_arg(length)
     if isinstance(level, bool) or not isinstance(level, numbers.Integral) \
             or not 0 <= level <= MAX_LEVEL:
         raise InputError(f"level: expected an integer from 0 to {MAX_LEVEL}, got {level!r}")

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
 from synth.limits import MAX_MU
+from synth.scores.arguments import edges_arg, numbers_arg
 from synth.scores.cones import check_contacts_batch, cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 
@@ -88,7 +89,11 @@ def mu_min_batch(
     """
     P, N = check_contacts_batch(points, normals)
     B, k, _ = P.shape
-    gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (k,))
+    edges = edges_arg(edges)
+    gam = numbers_arg(torsion, "torsion")
+    if gam.shape not in ((), (k,)) or not (np.isfinite(gam).all() and (gam >= 0).all()):
+        raise InputError(f"torsion: expected one finite number >= 0 or {k}, got {torsion!r:.80}")
+    gam = np.broadcast_to(gam, (k,))
     soft = bool(np.any(gam > 0))
     name = cone_name(edges, soft)
     lo = np.zeros(B)
@@ -147,8 +152,8 @@ def mu_min(
     >>> mu_min([[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]])  # point contacts never
     inf
     """
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
+    P = numbers_arg(points, "points")
+    N = numbers_arg(normals, "normals")
     if N.ndim == 2 and N.shape[-1] == 3 and not (np.linalg.norm(N, axis=1) > 0).all():
         raise InputError("normals: expected unit inward normals, got one of length 0")
     return float(mu_min_batch(P[None], N[None], torsion, edges).mu_min[0])

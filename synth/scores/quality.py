@@ -17,11 +17,15 @@ epsilon
 
 from __future__ import annotations
 
+import math
+import numbers
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from synth.errors import InputError
+from synth.scores.arguments import center_arg, length_arg
 from synth.scores.cones import check_contacts_batch, cone_wrenches_batch
 
 __all__ = ["scaled_wrenches", "grasp_wrenches", "conditioning", "conditioning_at_least",
@@ -190,26 +194,26 @@ def epsilon_quality(
     >>> epsilon_quality(P, N, [0, 0, 0], 2.0, mu=0.5) == 0.0  # two point contacts: no closure
     True
     """
-    P, N = (a[0] for a in check_contacts_batch(np.asarray(points, dtype=np.float64)[None],
-                                                np.asarray(normals, dtype=np.float64)[None]))
-    c = np.asarray(center, dtype=np.float64) if center is not None else None
-    if c is None or c.shape != (3,) or not np.isfinite(c).all():
-        raise InputError(f"center: expected 3 finite numbers, got {center!r}")
-    if not (isinstance(length, (int, float, np.floating)) and np.isfinite(length)
-            and length > 0):
-        raise InputError(f"length: expected a positive finite number, got {length!r}")
-    if not (np.isfinite(mu) and mu >= 0 and np.isfinite(torsion) and torsion >= 0):
+    try:
+        P0, N0 = np.asarray(points, dtype=np.float64), np.asarray(normals, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"points and normals: expected (k, 3) arrays of numbers, got "
+                         f"{points!r:.60} and {normals!r:.60}") from None
+    P, N = (a[0] for a in check_contacts_batch(P0[None], N0[None]))
+    c = center_arg(center)
+    length = length_arg(length)
+    if not all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
+               and x >= 0 for x in (mu, torsion)):
         raise InputError(f"mu and torsion: expected finite numbers >= 0, got {mu!r} and "
                          f"{torsion!r}")
     if not (np.linalg.norm(N, axis=1) > 0).all():
         raise InputError("normals: expected unit inward normals, got one of length 0")
     if mu > 0 or torsion > 0:
-        G = cone_wrenches_batch(P[None], N[None], mu, np.asarray(center, dtype=np.float64),
-                                edges, torsion)[0]
+        G = cone_wrenches_batch(P[None], N[None], mu, c, edges, torsion)[0]
         G = G / np.linalg.norm(G[:3], axis=0)  # unit force along each generator
         G[3:] /= float(length)
     else:
-        G = scaled_wrenches(P, N, center, length)
+        G = scaled_wrenches(P, N, c, length)
     equations = _hull_equations(G.T)
     if equations is None:
         return 0.0

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from synth.errors import CandidateError, InputError
+from synth.errors import CandidateError
+from synth.scores.arguments import center_arg
 from synth.tolerances import MOMENT_NOISE_RTOL, NORMAL_NORM_TOL, RANK_RTOL
 
 __all__ = ["wrench_matrix", "check_contacts", "balance_rows", "numerical_rank"]
@@ -99,9 +100,7 @@ def wrench_matrix(
     """
     P, N = check_contacts(points, normals)
     d = P.shape[1]
-    o = P.mean(axis=0) if center is None else np.asarray(center, dtype=np.float64)
-    if o.shape != (d,) or not np.all(np.isfinite(o)):
-        raise InputError(f"center must be a finite ({d},) vector, got {o.shape}")
+    o = P.mean(axis=0) if center is None else center_arg(center, d)
     R = P - o
     if d == 3:
         return np.vstack([N.T, np.cross(R, N).T])

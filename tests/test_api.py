@@ -25,3 +25,50 @@ def test_error_tree():
     assert issubclass(synth.MeshError, synth.InputError)
     assert issubclass(synth.InputError, ValueError)
     assert issubclass(synth.SolverError, synth.SynthError)
+
+
+def test_top_level_functions_name_a_wrong_argument(tmp_path):
+    """Each was Python's TypeError, ValueError, IndexError, AttributeError or OverflowError,
+    or (precision NaN, unit 'abc', d_star NaN, faces NaN) accepted and carried on."""
+    import dataclasses
+
+    import numpy as np
+    import trimesh
+
+    part = synth.load_part("meshes/cube.stl", units="dm")
+    c = synth.sample_contacts(part, 3, seed=0)
+    P = np.array([[0.5, 0.1, 0.1]] * 7)
+    N = np.array([[-1.0, 0, 0]] * 7)
+    box = trimesh.creation.box()
+    cube = ["meshes/cube.stl"]
+    out = tmp_path / "d.sqlite"
+    cases = [
+        (lambda: synth.Part(box, precision=float("nan")), "^Part: precision: expected"),
+        (lambda: synth.Part(box, units="abc"), "^Part: units: expected a length unit"),
+        (lambda: synth.load_part("meshes/cube.stl", sharp_angle=None), "^sharp_angle: expected"),
+        (lambda: dataclasses.replace(c, faces=np.full(3, np.nan)), "^Contacts.faces: expected "
+                                                                   "integers"),
+        (lambda: c.select(np.array([0, 99])), "^Contacts.select: row indices from -3 to 2"),
+        (lambda: synth.Contacts.concatenate([c, None]), "^Contacts.concatenate: item 1"),
+        (lambda: synth.read_candidates(None), "^path: expected a candidate file's path"),
+        (lambda: synth.contact_regions(part, P, N, d_star=float("nan")), "^d_star: expected"),
+        (lambda: synth.contact_regions(part, P, N, seed=-1), "^seed: expected an integer"),
+        (lambda: synth.contact_regions(part, P, N, mu=None), "^mu: expected a number"),
+        (lambda: synth.certify_regions(P, N, [p[None] for p in P], "abc", 1.0),
+         "^certify_regions: center: expected 3 finite numbers"),
+        (lambda: synth.certify_regions(P, N, [p[None] for p in P], [0, 0, 0], 1.0, seed="x"),
+         "^seed: expected an integer"),
+        (lambda: synth.default_fingers(part, nosuch=1), "^default_fingers: unknown field "
+                                                        "'nosuch'"),
+        (lambda: synth.plan_part(part, synth.PlanParams(), progress="abc"), "^progress: "),
+        (lambda: synth.build_database(5, out, {}), "^sources: expected folders"),
+        (lambda: synth.build_database(cube, out, {}, workers="abc"), r"^workers \(--workers\)"),
+        (lambda: synth.build_database(cube, out, {}, workers=float("inf")), "^workers"),
+        (lambda: synth.build_database(cube, out, {}, timeout="abc"), "^timeout: expected"),
+        (lambda: synth.build_database(cube, out, {}, planner=5), "^planner: expected"),
+    ]
+    for call, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            call()
+    assert not out.exists()
+    assert synth.default_fingers(part, tip_radius=None) == synth.default_fingers(part)

@@ -98,7 +98,14 @@ class Contacts:
             ("region", np.int64),
             ("finger", np.int64),
         ):
-            conv[name] = np.array(getattr(self, name), dtype=dtype, copy=True)
+            given = np.asarray(getattr(self, name))
+            if dtype is not bool and given.size and not (
+                    np.issubdtype(given.dtype, np.integer) or given.dtype == bool or (
+                    np.issubdtype(given.dtype, np.floating) and np.isfinite(given).all()
+                    and (given == np.round(given)).all())):
+                raise InputError(f"Contacts.{name}: expected integers, got {given.dtype} "
+                                 "values that are not (fractions, NaN or text)")
+            conv[name] = np.array(given, dtype=dtype, copy=True)
         for name, arr in conv.items():
             if name not in ("points", "normals", "smooth_normals") and arr.shape != (n,):
                 raise InputError(f"Contacts.{name}: expected shape ({n},), got {arr.shape}")
@@ -127,6 +134,14 @@ class Contacts:
         idx = np.asarray(mask)
         if idx.dtype == bool and idx.shape != (len(self),):
             raise InputError(f"Contacts.select: mask shape {idx.shape}, expected ({len(self)},)")
+        if idx.dtype != bool and (idx.ndim != 1 or not (
+                len(idx) == 0 or np.issubdtype(idx.dtype, np.integer))):
+            raise InputError(f"Contacts.select: expected a boolean mask ({len(self)},) or an "
+                             f"array of row indices, got {mask!r:.80}")
+        if idx.dtype != bool and len(idx) and not (
+                -len(self) <= idx.min() and idx.max() < len(self)):
+            raise InputError(f"Contacts.select: row indices from {-len(self)} to "
+                             f"{len(self) - 1}, got {int(idx.min())} to {int(idx.max())}")
         return Contacts(**{f.name: getattr(self, f.name)[idx] for f in fields(self)})
 
     @staticmethod
@@ -143,6 +158,10 @@ class Contacts:
         """
         if not parts:
             raise InputError("Contacts.concatenate: need at least one Contacts")
+        for i, c in enumerate(parts):
+            if not isinstance(c, Contacts):
+                raise InputError(f"Contacts.concatenate: item {i} is a "
+                                 f"{type(c).__name__}, expected Contacts")
         cols: dict[str, list[np.ndarray]] = {f.name: [] for f in fields(Contacts)}
         offset = 0
         for c in parts:

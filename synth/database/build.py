@@ -21,6 +21,8 @@ engine and the number of workers. (``timeout`` only turns a runaway mesh into a 
 from __future__ import annotations
 
 import hashlib
+import math
+import numbers
 import os
 import signal
 import threading
@@ -369,6 +371,10 @@ def collect_mesh_files(sources: Sequence[str | os.PathLike[str]]) -> MeshInputs:
     scenes: list[str] = []
     if isinstance(sources, (str, os.PathLike)):  # one source, not its letters
         sources = [sources]
+    if not isinstance(sources, (list, tuple)) or not all(
+            isinstance(s, (str, os.PathLike)) for s in sources):
+        raise InputError(f"sources: expected folders, mesh files or list files (paths), got "
+                         f"{sources!r:.80}")
     if not sources:
         raise InputError("no mesh source given (a folder, mesh files or a list file)")
     for src in (os.fspath(s) for s in sources):
@@ -723,13 +729,18 @@ def build_database(
         start = time.perf_counter()
         if engine not in ("local", "dask"):
             raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
+        if workers is not None and (isinstance(workers, bool)
+                                    or not isinstance(workers, numbers.Integral)):
+            raise InputError(f"workers (--workers): expected an integer, got {workers!r}")
         n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
         if n_workers < 0 or (engine == "dask" and n_workers == 0):
             least = "1 with the dask engine (0, in this process: the local engine only)" \
                 if engine == "dask" else "0 (0: in this process)"
             raise InputError(f"workers (--workers): expected at least {least}, got {workers}")
-        if timeout is not None and not timeout > 0:
-            raise InputError(f"timeout must be > 0 seconds, got {timeout!r}")
+        if timeout is not None and (isinstance(timeout, bool) or not isinstance(
+                timeout, numbers.Real) or not (timeout > 0 and math.isfinite(timeout))):
+            raise InputError(f"timeout: expected a finite number of seconds > 0, or None, got "
+                             f"{timeout!r}")
         run_params = normalize_params(params)
         planner_name = resolve_planner(planner)
         load_planner(planner_name)  # fail now, not once per mesh

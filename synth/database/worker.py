@@ -145,6 +145,8 @@ def resolve_planner(spec: str | None = None) -> str:
     InputError
         If the name is not of the form ``module:function``.
     """
+    if spec is not None and not isinstance(spec, str):
+        raise InputError(f"planner: expected 'module:function' (text), got {spec!r}")
     name = spec or os.environ.get(PLANNER_ENV) or DEFAULT_PLANNER
     module, sep, func = name.partition(":")
     if not sep or not module or not func:

@@ -30,7 +30,7 @@ SHARED_TIP_FIT_RTOL
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -306,9 +306,16 @@ def default_fingers(part: Any, **overrides: Any) -> Fingers:
     0.325
     """
     mesh = part_mesh(part)
+    names = [f.name for f in fields(Fingers)]
+    unknown = sorted(k for k in overrides if k not in names)
+    if unknown:
+        raise InputError(f"default_fingers: unknown field{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(map(repr, unknown))}; Fingers has {', '.join(names)}")
+    overrides = {k: v for k, v in overrides.items() if v is not None}  # None: the default
     lo, hi = np.asarray(mesh.bounds, dtype=float)
     diag = float(np.linalg.norm(hi - lo))
     overrides.setdefault("tip_radius", DEFAULT_TIP_RELATIVE_RADIUS * diag)
+    _positive("tip_radius", overrides["tip_radius"])
     # a tip this much smaller than the part vanishes in its coordinates' float64 rounding
     # (a tip centre one radius off the surface is the surface point itself)
     least = MIN_TIP_RELATIVE_RADIUS * max(diag, float(np.abs(np.concatenate([lo, hi])).max()))

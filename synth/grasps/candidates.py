@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import gc
 import json
+import os
 import re
 import sys
 from collections.abc import Iterator
@@ -382,6 +383,8 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
         The file is missing or unreadable, or is not JSON / NPZ of the documented layout
         (no candidate can be read at all).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"path: expected a candidate file's path, got {type(path).__name__}")
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{p}: a folder, not {CANDIDATES.what}")

@@ -40,7 +40,7 @@ from synth.part import tolerances as tol
 from synth.part.bodies import body_labels, is_convex, mesh_moments
 from synth.part.compound import group_bodies, unite_overlapping
 from synth.part.meshcache import face_geometry, scaled_zero
-from synth.part.model import Part
+from synth.part.model import Part, checked_sharp_angle
 from synth.part.repair import (
     close,
     drop_duplicate_faces,
@@ -558,6 +558,7 @@ def load_part(
     --------
     >>> part = load_part("meshes/cube.stl", units="decimeters")  # doctest: +SKIP
     """
+    checked_sharp_angle(sharp_angle)  # before the file is read
     repairs: list[str] = []
     warnings: list[str] = []
     if isinstance(source, trimesh.Trimesh):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import replace
 from typing import Any
 
@@ -18,6 +20,14 @@ from synth.part.points import xyz_rows
 from synth.part.regions import Region, RegionSet, compute_regions
 
 __all__ = ["Part"]
+
+
+def checked_sharp_angle(value: object) -> float:
+    """``sharp_angle`` in radians, in (0, pi), or an InputError naming it."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
+            0.0 < float(value) < math.pi):
+        raise InputError(f"sharp_angle: expected radians in (0, pi), got {value!r}")
+    return float(value)
 
 #: trimesh's cached arrays that only building a part reads (edges, adjacency, angles, and the
 #: faces' corners, which :meth:`Part._corners` gathers when asked).
@@ -135,9 +145,17 @@ class Part:
     ) -> None:
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             raise InputError("Part: mesh must be a non-empty trimesh.Trimesh")
-        sharp_angle = float(sharp_angle)
-        if not 0.0 < sharp_angle < np.pi:
-            raise InputError(f"sharp_angle: expected radians in (0, pi), got {sharp_angle}")
+        sharp_angle = checked_sharp_angle(sharp_angle)
+        if units is not None:
+            try:
+                trimesh.units.unit_conversion(units, "meters")
+            except Exception:  # trimesh raises bare errors for a name it does not know
+                raise InputError(f"Part: units: expected a length unit trimesh knows (such as "
+                                 f"'millimeters' or 'm'), or None, got {units!r}") from None
+        if precision is not None and (isinstance(precision, bool) or not isinstance(
+                precision, numbers.Real) or not (math.isfinite(precision) and precision >= 0)):
+            raise InputError(f"Part: precision: expected a finite length >= 0 (or None), got "
+                             f"{precision!r}")
         self.mesh = mesh
         self.units = units
         self.sharp_angle = sharp_angle

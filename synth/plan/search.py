@@ -185,6 +185,9 @@ def plan_part(part: Part, params: PlanParams | None = None,
                          f"{type(part).__name__}")
     if not isinstance(prm, PlanParams):
         raise InputError(f"params: expected a synth.PlanParams, got {type(prm).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a function of (fraction, message), got "
+                         f"{type(progress).__name__}")
     t0 = time.perf_counter()
     overrides: dict[str, Any] = {k: v for k, v in (("tip_radius", prm.finger_radius),
                                    ("body_length", prm.body_length),

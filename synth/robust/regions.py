@@ -21,6 +21,7 @@ regions are sampled with both readings.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 from itertools import combinations
 from math import comb
@@ -30,11 +31,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
+from synth.limits import MAX_MU
 from synth.part.model import Part
 from synth.part.pieces import convex_piece
 from synth.part.points import xyz_rows
 from synth.part.tolerances import COPLANAR_ANGLE
 from synth.robust.certificate import CERT_RTOL, certify, expand, minor_scale
+from synth.scores.arguments import center_arg, edges_arg, length_arg
 from synth.scores.batch import form_closure_batch
 from synth.scores.cones import tangent_basis
 from synth.scores.quality import scaled_wrenches
@@ -266,16 +269,18 @@ def contact_regions(part: Part, points: ArrayLike, normals: ArrayLike, *, mu: fl
     """
     if not isinstance(part, Part):
         raise InputError(f"part: expected a synth.Part, got {type(part).__name__}")
-    P = np.asarray(points, dtype=np.float64)
-    N = np.asarray(normals, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] != 3 or N.shape != P.shape or not len(P):
-        raise InputError(f"points and normals: expected two (k, 3) arrays, got {P.shape} and "
-                         f"{N.shape}")
-    N = N / np.linalg.norm(N, axis=1, keepdims=True)
-    S = N if smooth is None else np.asarray(smooth, dtype=np.float64)
-    if S.shape != N.shape:
-        raise InputError(f"smooth: expected shape {N.shape}, got {S.shape}")
-    S = S / np.linalg.norm(S, axis=1, keepdims=True)
+    P, N = check_contacts(points, normals, name="contact_regions")
+    if P.shape[1] != 3:
+        raise InputError(f"points and normals: expected two (k, 3) arrays, got {P.shape}")
+    S = N if smooth is None else check_contacts(P, smooth, name="contact_regions: smooth")[1]
+    if not (isinstance(mu, numbers.Real) and not isinstance(mu, bool)
+            and 0 <= mu <= MAX_MU):
+        raise InputError(f"mu: expected a number from 0 to {MAX_MU:g}, got {mu!r}")
+    edges = edges_arg(edges)
+    if d_star is not None and not (isinstance(d_star, numbers.Real) and not isinstance(
+            d_star, bool) and 0 <= d_star <= 1):
+        raise InputError(f"d_star: expected a number in [0, 1] or None, got {d_star!r}")
+    _seed(seed)
     surface = check_surface(surface)
     if surface == "smooth":
         N = S  # the certificate needs one reading: the one that counts
@@ -444,6 +449,7 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
         Certified lower bound of d* over the regions.
     """
     P, N = check_contacts(points, normals, name="certify_regions")
+    _seed(seed)
     k = len(P)
     if P.shape[1] != 3 or k < 7:
         raise InputError(f"certify_regions: expected at least 7 contacts in space, (k, 3) "
@@ -453,14 +459,8 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
         raise InputError(f"certify_regions: polygons: expected a list of {k} regions (one per "
                          f"contact), got {type(polygons).__name__}"
                          + (f" of {len(polygons)}" if sized else ""))
-    o = np.asarray(center, dtype=float) if center is not None else None
-    if o is None or o.shape != (3,) or not np.isfinite(o).all():
-        raise InputError(f"certify_regions: center: expected 3 finite numbers, got {center!r}")
-    if not (isinstance(length, (int, float, np.integer, np.floating))
-            and not isinstance(length, bool) and np.isfinite(length) and length > 0):
-        raise InputError(f"certify_regions: length: expected a positive finite number, got "
-                         f"{length!r}")
-    length = float(length)
+    o = center_arg(center, name="certify_regions: center")
+    length = length_arg(length, "certify_regions: length")
     axes = np.zeros((k, 2, 3))
     shapes = []
     for i, poly in enumerate(polygons):
@@ -494,6 +494,12 @@ def certify_regions(points: ArrayLike, normals: ArrayLike, polygons: list[ArrayL
     if not any(cert.closure for _, cert in certs):
         return None, 0.0
     return True, _cover_bound(certs, k)
+
+
+def _seed(seed: object) -> None:
+    """A seed for numpy's generator: an integer >= 0 (not a bool)."""
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise InputError(f"seed: expected an integer >= 0, got {seed!r}")
 
 
 def _contains(poly: NDArray[np.float64], tol: float) -> bool:

@@ -111,7 +111,7 @@ def test_plan_bad_input(tmp_path):
     junk.write_bytes(np.random.default_rng(0).bytes(900))
     assert "junk.stl" in _one_line_error(synth("plan", junk, "--no-files"))
     msg = _one_line_error(synth("plan", MESHES / "cube.stl", "--contacts", "4", "--no-files"))
-    assert "at least 7" in msg and "--mu" in msg
+    assert "from 7 to 64 without friction" in msg and "--mu > 0" in msg
 
 
 def test_rank_end_to_end(tmp_path):

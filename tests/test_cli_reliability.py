@@ -58,7 +58,7 @@ PLAN_REFUSED = [
     (["--evals", "99"], "--evals"),
     (["--contacts", "1000"], "--contacts: expected an integer from 7 to 64 without friction"),
     (["--contacts", "2", "--mu", "0.5"], "--contacts: expected an integer from 3 to 64 with "
-                                         "friction, got 2"),
+                                         "friction (--mu > 0), got 2"),
     (["--mu", "1e308"], "--mu: expected a number in [0, 100]"),
     (["--mu", "nan"], "--mu"),
     (["--mu", "-0.5"], "--mu"),

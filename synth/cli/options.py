@@ -245,10 +245,11 @@ def check_planning_options(args: argparse.Namespace) -> None:
     """Every planning option against its documented range (see :func:`add_planning_options`)."""
     real("--mu", args.mu, 0, MAX_MU)
     # the range --help gives: closure in space takes 7 contacts without friction, 3 with
-    lo, how = (3, "with") if args.mu else (7, "without")
+    lo, how = (3, "with friction (--mu > 0)") if args.mu else (
+        7, "without friction (3 or more with --mu > 0)")
     if args.contacts is not None and not lo <= args.contacts <= MAX_CONTACTS:
-        raise OptionError(f"--contacts: expected an integer from {lo} to {MAX_CONTACTS} {how} "
-                          f"friction, got {shown(args.contacts)}")
+        raise OptionError(f"--contacts: expected an integer from {lo} to {MAX_CONTACTS} {how}, "
+                          f"got {shown(args.contacts)}")
     if _fingers(args.fingers) is not None and args.contacts != PlanParams().contacts:
         raise OptionError("give --fingers or --contacts, not both (with --fingers each tip "
                           "makes one to three contacts, as the surface allows)")

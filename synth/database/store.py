@@ -479,9 +479,13 @@ class GraspDatabase:
         Raises
         ------
         InputError
-            If nothing matches, or several meshes do (their paths are listed).
+            If nothing matches, or several meshes do (their paths are listed); or ``key`` is
+            neither text nor an integer.
         """
-        if isinstance(key, int):
+        if isinstance(key, bool) or not isinstance(key, (str, numbers.Integral)):
+            raise InputError(f"mesh: expected a mesh's id, path, name or SHA-256, got {key!r}")
+        if isinstance(key, numbers.Integral):
+            key = int(key)
             rows = self._query("SELECT * FROM meshes WHERE id = ?", (key,))
         else:
             rows = self._query(
@@ -536,6 +540,9 @@ class GraspDatabase:
         DatabaseError
             If the database was built with other parameters or another planner.
         """
+        if not isinstance(params, dict) or not isinstance(planner, str):
+            raise InputError(f"bind: expected a dict of parameters and a planner name, got "
+                             f"{type(params).__name__} and {type(planner).__name__}")
         self._require_write(migrate=False)  # a refused build leaves an old file as it is
         text = canonical_json(params)
         stored = self.meta.get("params")
@@ -614,7 +621,9 @@ class GraspDatabase:
     def rows_by_path(self, paths: Iterable[str]) -> dict[str, sqlite3.Row]:
         """Existing ``meshes`` rows of these paths."""
         out: dict[str, sqlite3.Row] = {}
-        paths = list(paths)
+        if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__"):
+            raise InputError(f"paths: expected a list of mesh paths, got {paths!r:.80}")
+        paths = [str(p) for p in paths]
         for i in range(0, len(paths), 500):
             chunk = paths[i : i + 500]
             marks = ", ".join("?" * len(chunk))
@@ -631,8 +640,11 @@ class GraspDatabase:
         return int(rows[0][0]) if rows else None
 
     def id_of(self, path: str) -> int:
-        """Id of the mesh row of ``path``."""
-        return int(self._query("SELECT id FROM meshes WHERE path = ?", (path,))[0][0])
+        """Id of the mesh row of ``path`` (as stored: absolute)."""
+        rows = self._query("SELECT id FROM meshes WHERE path = ?", (str(path),))
+        if not rows:
+            raise InputError(f"{self.path}: no mesh stored with the path {path!r}")
+        return int(rows[0][0])
 
     @staticmethod
     def now() -> str:

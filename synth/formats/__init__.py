@@ -15,6 +15,7 @@ converted to a part by :meth:`~synth.formats.poses.GripperPoses.to_part`); write
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from synth.errors import InputError
@@ -44,6 +45,8 @@ def read_gripper_poses(path: str | Path) -> GripperPoses:
     InputError
         A missing or unreadable file, or one without poses.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"path: expected a gripper pose file's path, got {type(path).__name__}")
     where = str(path)
     p = Path(path)
     if p.is_dir():

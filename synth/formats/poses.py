@@ -19,6 +19,8 @@ than ``(0, 0, 0, 1)``, or its rotation block is not a rotation within ``ROTATION
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -228,8 +230,13 @@ class GripperPoses:
         InputError
             When the part's unit is unknown and the file has no object scale, or when the
             file's object scale and the part's unit disagree (the poses were made for the
-            object at another size).
+            object at another size); or ``part_metres`` is not a positive number.
         """
+        if part_metres is not None and (isinstance(part_metres, bool) or not isinstance(
+                part_metres, numbers.Real) or not (math.isfinite(part_metres)
+                                                   and part_metres > 0)):
+            raise InputError(f"part_metres: expected a positive number of metres per unit, or "
+                             f"None, got {part_metres!r}")
         if self.object_scale is not None:
             m = self.object_scale * self.unit  # metres per mesh unit, by the file
             if part_metres is not None and abs(m / part_metres - 1.0) > _SCALE_RTOL:

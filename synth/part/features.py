@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from synth.errors import InputError
 from synth.part.meshcache import cached, face_geometry
 from synth.part.order import stable_order
 
@@ -81,10 +82,14 @@ class Features:
 
     def edges_of_kind(self, kind: str) -> np.ndarray:
         """Indices of the edges of one kind (``"smooth"``, ``"convex"``, ...), (k,) int."""
+        if kind not in EDGE_KINDS:
+            raise InputError(f"kind: expected one of {', '.join(EDGE_KINDS)}, got {kind!r}")
         return np.flatnonzero(self.edge_kind == EDGE_KINDS.index(kind))
 
     def vertices_of_kind(self, kind: str) -> np.ndarray:
         """Indices of the vertices of one kind (``"convex_corner"``, ...), (k,) int."""
+        if kind not in VERTEX_KINDS:
+            raise InputError(f"kind: expected one of {', '.join(VERTEX_KINDS)}, got {kind!r}")
         return np.flatnonzero(self.vertex_kind == VERTEX_KINDS.index(kind))
 
     @property

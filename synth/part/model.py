@@ -22,6 +22,14 @@ from synth.part.regions import Region, RegionSet, compute_regions
 __all__ = ["Part"]
 
 
+def _index(value: object, n: int, name: str) -> int:
+    """An index into ``n`` items (an integer from 0 to n - 1), or an InputError naming it."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
+            0 <= int(value) < n):
+        raise InputError(f"{name}: expected an integer from 0 to {n - 1}, got {value!r}")
+    return int(value)
+
+
 def checked_sharp_angle(value: object) -> float:
     """``sharp_angle`` in radians, in (0, pi), or an InputError naming it."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
@@ -357,23 +365,28 @@ class Part:
             One normal for a face, two for an edge, one per incident facet (planar
             region or smooth component) for a vertex.
         """
+        counts = {"face": len(self.mesh.faces), "edge": len(self.features.edges),
+                  "vertex": len(self.mesh.vertices)}
+        if kind not in counts:
+            raise InputError(f"kind: expected 'face', 'edge' or 'vertex', got {kind!r}")
+        index = _index(index, counts[kind], f"{kind} index")
         if kind == "face":
             return -np.asarray(self.mesh.face_normals[[index]], float)
         if kind == "edge":
             fs = self.features.edge_faces[index]
             return -np.asarray(self.mesh.face_normals[fs[fs >= 0]], float)
-        if kind == "vertex":
-            off, _, cn = self._vertex_cone
-            return np.array(cn[off[index] : off[index + 1]])
-        raise InputError(f"kind: expected 'face', 'edge' or 'vertex', got {kind!r}")
+        off, _, cn = self._vertex_cone
+        return np.array(cn[off[index] : off[index + 1]])
 
     def edge_kind(self, index: int) -> str:
         """Kind of a unique edge: one of ``"smooth", "convex", "concave", "boundary"``."""
-        return EDGE_KINDS[int(self.features.edge_kind[index])]
+        return EDGE_KINDS[int(self.features.edge_kind[_index(index, len(self.features.edges),
+                                                             "edge index")])]
 
     def vertex_kind(self, index: int) -> str:
         """Kind of a vertex (see :data:`synth.part.features.VERTEX_KINDS`)."""
-        return VERTEX_KINDS[int(self.features.vertex_kind[index])]
+        return VERTEX_KINDS[int(self.features.vertex_kind[_index(index, len(self.mesh.vertices),
+                                                                 "vertex index")])]
 
     # contacts -------------------------------------------------------------------------
     def resolve(

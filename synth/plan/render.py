@@ -9,19 +9,33 @@ the GLB in its scene's extras (``scene.metadata["synth"]["run_id"]`` once loaded
 
 from __future__ import annotations
 
+import numbers
+import os
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import trimesh
 
+from synth.errors import InputError
 from synth.files import write_atomic
+from synth.part.model import Part
 from synth.plan.result import Plan
 
 __all__ = ["render_png", "export_glb", "run_title", "save_png", "scene_extras", "same_units"]
 
 _COLOURS = np.array([[0.85, 0.33, 0.10], [0.00, 0.45, 0.74], [0.47, 0.67, 0.19],
                      [0.49, 0.18, 0.56], [0.93, 0.69, 0.13], [0.30, 0.75, 0.93]])
+
+
+def _check_args(part: Any, plan: Any, path: Any) -> None:
+    """The part, plan and path every writer here takes, or an InputError naming the wrong one."""
+    if not isinstance(part, Part):
+        raise InputError(f"part: expected a synth.Part, got {type(part).__name__}")
+    if not isinstance(plan, Plan):
+        raise InputError(f"plan: expected a synth.Plan, got {type(plan).__name__}")
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"path: expected a file path, got {type(path).__name__}")
 
 
 def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool = True
@@ -46,6 +60,9 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool
     """
     from synth.plan.picture import GraspPicture, draw_grasps
 
+    _check_args(part, plan, path)
+    if isinstance(panels, bool) or not isinstance(panels, numbers.Integral) or panels < 1:
+        raise InputError(f"panels: expected an integer of at least 1, got {panels!r}")
     rows = [GraspPicture(_finger_hand(g, 1e-3 * part.length), f"#{i}  " + _measures(g),
                          _finger_ends(g)) for i, g in enumerate(plan.grasps[:panels], 1)]
     surface = plan.params.get("surface")
@@ -187,6 +204,12 @@ def export_glb(part, plan: Plan, path: str | Path, grasp: int = 0, atomic: bool 
     -------
     Path
     """
+    _check_args(part, plan, path)
+    n = len(plan.grasps)
+    if isinstance(grasp, bool) or not isinstance(grasp, numbers.Integral) or not (
+            0 <= grasp < max(n, 1)):
+        raise InputError(f"grasp: expected an index from 0 to {max(n - 1, 0)} (the plan has "
+                         f"{n} grasps), got {grasp!r}")
     scene = trimesh.Scene()
     scene.metadata["synth"] = scene_extras(plan.mesh, plan.run_id, plan.params,
                                            grasp_rank=grasp + 1 if plan.grasps else None)

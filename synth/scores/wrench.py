@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from synth.errors import CandidateError
+from synth.errors import CandidateError, InputError
 from synth.scores.arguments import center_arg
 from synth.tolerances import MOMENT_NOISE_RTOL, NORMAL_NORM_TOL, RANK_RTOL
 
@@ -157,7 +157,14 @@ def numerical_rank(W: ArrayLike) -> NDArray[np.int64] | int:
     -------
     rank : int or (B,) int
     """
-    Ws, _ = balance_rows(W)
+    try:
+        A = np.asarray(W, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"W: expected a numeric matrix, got {W!r:.80}") from None
+    if A.ndim not in (2, 3) or not np.isfinite(A).all():
+        raise InputError(f"W: expected a finite (m, n) or (B, m, n) matrix, got shape {A.shape}"
+                         + ("" if A.ndim not in (2, 3) else " with NaN or infinite entries"))
+    Ws, _ = balance_rows(A)
     s = np.linalg.svd(Ws, compute_uv=False)
     r = np.sum(s > RANK_RTOL * s[..., :1], axis=-1)
     return int(r) if np.ndim(r) == 0 else r.astype(np.int64)

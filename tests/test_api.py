@@ -72,3 +72,47 @@ def test_top_level_functions_name_a_wrong_argument(tmp_path):
             call()
     assert not out.exists()
     assert synth.default_fingers(part, tip_radius=None) == synth.default_fingers(part)
+
+
+def test_module_functions_name_a_wrong_argument(tmp_path):
+    """The second batch: each was a bare IndexError, TypeError, ZeroDivisionError or
+    LinAlgError (or, for an edge given as None, the normals of all 36 edges)."""
+    import numpy as np
+
+    from synth.formats import read_gripper_poses
+    from synth.formats.poses import GripperPoses
+    from synth.plan.render import export_glb, render_png
+    from synth.scores.wrench import numerical_rank
+
+    part = synth.load_part("meshes/cube.stl", units="dm")
+    plan = synth.plan_part(part, synth.PlanParams(evals=2000, top=2))
+    db_path = tmp_path / "d.sqlite"
+    with synth.GraspDatabase(db_path, "w"):
+        pass
+    db = synth.GraspDatabase(db_path)
+    poses = GripperPoses("p.npz", "npz", np.eye(4)[None], ("0",), 1.0, "m", None, None)
+    cases = [
+        (lambda: part.normal_cone("edge", None), "^edge index: expected an integer from 0 to"),
+        (lambda: part.normal_cone("face", 10**6), "^face index: expected an integer from 0 to 11"),
+        (lambda: part.edge_kind(1.5), "^edge index"),
+        (lambda: part.features.edges_of_kind("nosuch"), "^kind: expected one of"),
+        (lambda: numerical_rank(5), r"^W: expected a finite \(m, n\)"),
+        (lambda: numerical_rank(np.full((6, 7), np.nan)), "NaN or infinite"),
+        (lambda: read_gripper_poses(None), "^path: expected a gripper pose file's path"),
+        (lambda: poses.to_part(0.0, "cm"), "^part_metres: expected a positive number"),
+        (lambda: poses.to_part(float("nan"), "cm"), "^part_metres"),
+        (lambda: export_glb(part, plan, tmp_path / "a.glb", grasp=5), "^grasp: expected an "
+                                                                      "index from 0 to 1"),
+        (lambda: export_glb(None, plan, tmp_path / "a.glb"), "^part: expected a synth.Part"),
+        (lambda: render_png(part, plan, None), "^path: expected a file path"),
+        (lambda: render_png(part, plan, tmp_path / "a.png", panels=1.5), "^panels: expected"),
+        (lambda: db.mesh(None), "^mesh: expected a mesh's id"),
+        (lambda: list(db.grasps(mesh=1.5)), "^mesh: expected a mesh's id"),
+        (lambda: db.id_of("nosuch.stl"), "no mesh stored with the path 'nosuch.stl'"),
+        (lambda: db.rows_by_path(None), "^paths: expected a list of mesh paths"),
+    ]
+    for call, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            call()
+    db.close()
+    assert not (tmp_path / "a.glb").exists() and not (tmp_path / "a.png").exists()

@@ -116,3 +116,36 @@ def test_module_functions_name_a_wrong_argument(tmp_path):
             call()
     db.close()
     assert not (tmp_path / "a.glb").exists() and not (tmp_path / "a.png").exists()
+
+
+def test_simulation_and_certificate_functions_name_a_wrong_argument():
+    """The third batch: the simulator's and the region certificate's entry points (a zero
+    length divided by zero, NaN made a LinAlgError, None an AttributeError, an empty region an
+    IndexError, and expand's own ValueError was not an InputError)."""
+    import numpy as np
+
+    from synth.robust.certificate import certify, expand
+
+    sim = pytest.importorskip("synth.sim")
+    W = np.hstack([np.eye(6), -np.ones((6, 1))])
+    D = np.zeros((7, 2, 6))
+    e = expand(W, D)
+    cases = [
+        (lambda: expand(W[:, :3], D), r"^expand: W must be m x \(m \+ 1\)"),
+        (lambda: expand(W * np.nan, D), "^expand: W and D must be finite"),
+        (lambda: certify(None, [np.zeros((1, 2))] * 7), "^certify: e must come from expand"),
+        (lambda: certify(e, [np.zeros((0, 2))] * 7), r"^certify: polygons\[0\]: expected"),
+        (lambda: certify(e, [np.full((1, 2), np.nan)] * 7), r"^certify: polygons\[0\]"),
+        (lambda: sim.predicted_escape(W[:3].T, W[:3].T, 0.0, np.zeros(3), float("nan")),
+         "^length: expected a positive finite number"),
+        (lambda: sim.part_shape(None), "^part: expected a synth.Part"),
+        (lambda: sim.run_protocol(None), "^scene: expected a Scene"),
+        (lambda: sim.simulate_file(None), "^file: expected a GraspFile"),
+        (lambda: sim.check_mesh(None), "^file: expected a GraspFile"),
+        (lambda: sim.check_document({}, name=None), "^name: expected the document's name"),
+        (lambda: sim.check_jaw_document({}, labels=[1]), "^labels: expected a list of grasp "
+                                                        "names"),
+    ]
+    for call, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            call()

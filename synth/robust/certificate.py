@@ -33,6 +33,8 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import NDArray
 
+from synth.errors import InputError
+
 __all__ = ["Certificate", "Expansion", "certify", "expand", "minor_scale"]
 
 #: A cofactor (or its bound) counts as non-zero above this fraction of the Hadamard bound of
@@ -138,10 +140,16 @@ def expand(W: NDArray[np.float64], D: NDArray[np.float64]) -> Expansion:
     -------
     Expansion
     """
-    m, k = W.shape
-    if k != m + 1 or D.shape != (k, 2, m):
-        raise ValueError(f"expand: W must be m x (m + 1) and D (m + 1, 2, m); got {W.shape} "
+    try:
+        W, D = np.asarray(W, dtype=np.float64), np.asarray(D, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError("expand: W and D must be arrays of numbers") from None
+    if W.ndim != 2 or W.shape[1] != W.shape[0] + 1 or D.shape != (W.shape[1], 2, W.shape[0]):
+        raise InputError(f"expand: W must be m x (m + 1) and D (m + 1, 2, m); got {W.shape} "
                          f"and {D.shape}")
+    if not (np.isfinite(W).all() and np.isfinite(D).all()):
+        raise InputError("expand: W and D must be finite (found NaN or inf)")
+    m, k = W.shape
     order = 3 if m == 6 else 1
     sel, meta = _layout(k, order)
     ext = np.concatenate([W.T, D.reshape(2 * k, m)])  # rows are columns
@@ -306,7 +314,21 @@ def certify(e: Expansion, polygons: list[NDArray[np.float64]], *, max_boxes: int
     -------
     Certificate
     """
+    if not isinstance(e, Expansion):
+        raise InputError(f"certify: e must come from expand(), got {type(e).__name__}")
     k = len(e.c0)
+    if not isinstance(polygons, (list, tuple)) or len(polygons) != k:
+        raise InputError(f"certify: polygons: expected a list of {k} regions, got "
+                         f"{type(polygons).__name__}")
+    for i, given in enumerate(polygons):
+        try:
+            corners = np.asarray(given, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            corners = np.zeros((0, 0))
+        if corners.ndim != 2 or corners.shape[1] != 2 or not len(corners) or not np.isfinite(
+                corners).all():
+            raise InputError(f"certify: polygons[{i}]: expected (v, 2) finite corners, v >= 1, "
+                             f"got shape {corners.shape}")
     tol = CERT_RTOL * e.scale
     lower, upper = np.full(k, np.inf), np.full(k, -np.inf)
     if e.c0.min() <= tol:  # the planned grasp itself (zero displacement) is not closure

@@ -257,6 +257,7 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
     if not isinstance(doc, dict):
         raise InputError(f"{name}: expected a synth.grasps JSON object, got "
                          f"{type(doc).__name__}")
+    _check_name(name, None)
     fmt = _get(doc, "format", "", name)
     if fmt == "synth.gripper_grasps":
         raise InputError(f"{name}: a gripper grasp file: simulate it with synth sim "
@@ -324,6 +325,15 @@ def load_keywords(mesh: dict[str, Any], name: str) -> dict[str, Any]:
 JAW_FORMAT = "synth.gripper_grasps"
 
 
+def _check_name(name: object, labels: object) -> None:
+    """The document's name (for messages) is text; ``labels``, when given, a list of text."""
+    if not isinstance(name, str):
+        raise InputError(f"name: expected the document's name (text), got {name!r}")
+    if labels is not None and not (isinstance(labels, list)
+                                   and all(isinstance(x, str) for x in labels)):
+        raise InputError(f"labels: expected a list of grasp names, got {labels!r:.80}")
+
+
 def jaw_gripper_source(doc: dict[str, Any]) -> Any:
     """The gripper a gripper grasp document was planned with, as written: its
     ``gripper.source``, else its ``params.gripper`` (either may be missing or of another
@@ -352,6 +362,7 @@ def check_jaw_document(doc: Any, name: str = "<document>",
     InputError
         A field is missing or of the wrong type, shape or range; the message names it.
     """
+    _check_name(name, labels)
     fmt = _get(doc, "format", "", name)
     if fmt != JAW_FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {JAW_FORMAT!r}, got {shown(fmt)}")
@@ -389,6 +400,9 @@ def check_jaw_document(doc: Any, name: str = "<document>",
     if not isinstance(grasps, list) or not grasps:
         raise InputError(f"{_where(name, 'grasps')}: expected a list of at least one grasp, "
                          f"got {shown(grasps)}")
+    if labels is not None and len(labels) != len(grasps):
+        raise InputError(f"labels: expected {len(grasps)} grasp names, one per grasp, got "
+                         f"{len(labels)}")
     for i, g in enumerate(grasps):
         where = labels[i] if labels is not None else f"grasps[{i}]"
         pose = _get(g, "pose", where, name)

@@ -69,7 +69,10 @@ def predicted_escape(points: NDArray[np.float64], normals: NDArray[np.float64], 
         contacts).
     """
     from synth.scores import form_closure, frictional_form_closure, wrench_matrix
+    from synth.scores.arguments import center_arg, length_arg
 
+    center = center_arg(center)
+    length = length_arg(length)
     if mu == 0:
         W = wrench_matrix(points, normals, center)
         esc = form_closure(W).escape

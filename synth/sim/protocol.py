@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from synth.errors import InputError
 from synth.sim.scene import GRAVITY, HAND_BITS, Scene, quiet_mujoco
 from synth.sim.settings import SimSettings
 
@@ -276,6 +277,8 @@ def run_protocol(scene: Scene) -> SimRun:
     -------
     SimRun
     """
+    if not isinstance(scene, Scene):
+        raise InputError(f"scene: expected a Scene (build_scene), got {type(scene).__name__}")
     t0 = time.perf_counter()
     r = _Runner(scene)
     st = scene.settings

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from synth.errors import SimulationError
+from synth.errors import InputError, SimulationError
 from synth.sim.contact import ContactModel
 from synth.sim.settings import TRANSLATION_RTOL, SimSettings
 from synth.sim.shape import PartShape, within
@@ -312,8 +312,17 @@ def build_scene(shape: PartShape, tip_centers: NDArray[np.float64],
     """
     import mujoco
 
+    from synth.scores.arguments import center_arg, length_arg
+
+    length = length_arg(length)
+    tip_radius = length_arg(tip_radius, "tip_radius")
+    com = center_arg(center_mass, name="center_mass")
+    if not isinstance(shape, PartShape) or not isinstance(settings, SimSettings) or not \
+            isinstance(contact, ContactModel):
+        raise InputError("build_scene: expected a PartShape (part_shape), SimSettings and a "
+                         f"ContactModel, got {type(shape).__name__}, {type(settings).__name__} "
+                         f"and {type(contact).__name__}")
     s = settings.size / length
-    com = np.asarray(center_mass, float)
     spec = new_spec(settings)
     common = contact_params(settings, contact)
     C = np.asarray(tip_centers, float)

@@ -28,13 +28,13 @@ is closed).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from synth.errors import SimulationError
+from synth.errors import InputError, SimulationError
 
 __all__ = ["PartShape", "part_shape", "within", "SLAB_RTOL", "WALL_SHARE", "SHEET_RTOL",
            "FLAT_RTOL", "SLIVER_RTOL"]
@@ -342,6 +342,10 @@ def part_shape(part: Any) -> PartShape:
     >>> len(s.pieces), s.faceted
     (1, 0)
     """
+    from synth.part.model import Part
+
+    if not isinstance(cast(object, part), Part):  # (part stays Any for the type checker)
+        raise InputError(f"part: expected a synth.Part (load_part), got {type(part).__name__}")
     pieces: list[NDArray[np.float64]] = []
     faces: list[NDArray[np.int64]] = []
     used: set[int] = set()

@@ -99,6 +99,9 @@ def check_mesh(file: GraspFile) -> None:
     InputError
         Naming the grasp file, the mesh and what is wrong.
     """
+    if not isinstance(file, GraspFile):
+        raise InputError(f"file: expected a GraspFile (read_grasp_file), got "
+                         f"{type(file).__name__}")
     path = file.mesh_path
     if path.is_dir():
         raise InputError(f"{file.path}: field mesh.path: {path} is a folder, not a mesh file "
@@ -176,8 +179,16 @@ def balanced_preload(g: SimGrasp, center_mass: NDArray[np.float64], length: floa
     internal squeeze (:func:`synth.scores.hold.internal_squeeze`) at half the grip force, its
     contacts' forces summed per finger; equal forces of half the grip when there is none.
     """
+    from synth.scores.arguments import center_arg, length_arg
     from synth.scores.hold import finger_hold_batch, internal_squeeze
 
+    if not isinstance(g, SimGrasp):
+        raise InputError(f"g: expected a SimGrasp (read_grasp_file), got {type(g).__name__}")
+    center_mass = center_arg(center_mass, name="center_mass")
+    length = length_arg(length)
+    grip = length_arg(grip, "grip")
+    if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0 <= mu < float("inf"):
+        raise InputError(f"mu: expected a finite number >= 0, got {mu!r}")
     f = len(g.tip_centers)
     owner = np.arange(len(g.points)) if g.contact_finger is None else g.contact_finger
     hold = finger_hold_batch(g.points[None], g.normals[None], center_mass, length, mu,
@@ -228,6 +239,14 @@ def simulate_file(file: GraspFile, settings: SimSettings | None = None, *,
     from synth.sim.scene import build_scene
     from synth.sim.shape import part_shape
 
+    if not isinstance(file, GraspFile):
+        raise InputError(f"file: expected a GraspFile (read_grasp_file), got "
+                         f"{type(file).__name__}")
+    if settings is not None and not isinstance(settings, SimSettings):
+        raise InputError(f"settings: expected SimSettings or None, got {type(settings).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a function of (done, total), got "
+                         f"{type(progress).__name__}")
     t0 = time.perf_counter()
     st = settings or SimSettings()
     model = contact or ContactModel(file.mu)

@@ -144,6 +144,7 @@ def compute_regions(
     corner = _corner_normals(mesh, features.edges[smooth], features.edge_faces[smooth],
                              face_planar, normals)
     regions = _build_regions(mesh, features, face_region, face_planar, normals, areas)
+    _fill_normalless(corner, normals, features)
     for arr in (face_region, face_group, corner):
         arr.flags.writeable = False
     return RegionSet(regions, face_region, face_group, corner)
@@ -252,6 +253,23 @@ def _corner_normals(
     corner = np.take(acc, fan, axis=0).reshape(-1, 3, 3)
     corner[planar] = normals[planar][:, None, :]
     return np.negative(corner, out=corner)
+
+
+def _fill_normalless(corner: np.ndarray, normals: np.ndarray, features: Features) -> None:
+    """Give the corners that have no normal one, in place: a face too thin for trimesh to
+    give it a normal (a sliver, as in float32 CAD) takes the mean inward normal of the faces
+    across its edges, which for a sliver of a planar facet is the facet's (its own cross
+    product, from corners a rounding apart, may point anywhere); the faces of a sliver with
+    no such neighbour keep none."""
+    rows = np.flatnonzero(~(np.abs(corner).max(axis=(1, 2)) > 0))
+    if not len(rows):
+        return
+    ef = features.edge_faces[features.face_edges[rows]]  # (r, 3 edges, 2 sides)
+    other = np.where(ef[..., 0] == rows[:, None], ef[..., 1], ef[..., 0])  # (r, 3)
+    side = np.where(other[..., None] >= 0, normals[np.maximum(other, 0)], 0.0).sum(axis=1)
+    length = np.linalg.norm(side, axis=1)
+    ok = length > 0
+    corner[rows[ok]] = (-side[ok] / length[ok, None])[:, None, :]
 
 
 def _face_angles(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -261,7 +261,11 @@ def _fill_normalless(corner: np.ndarray, normals: np.ndarray, features: Features
     across its edges, which for a sliver of a planar facet is the facet's (its own cross
     product, from corners a rounding apart, may point anywhere); the faces of a sliver with
     no such neighbour keep none."""
-    rows = np.flatnonzero(~(np.abs(corner).max(axis=(1, 2)) > 0))
+    # only a face without a normal can have corners without one (a smooth fan of faces with
+    # normals sums to a nonzero vector): found a block at a time, no (f, 3, 3) temporary
+    rows = np.concatenate([s + np.flatnonzero(~(np.abs(normals[s:s + _BLOCK]).max(axis=1) > 0))
+                           for s in range(0, len(normals), _BLOCK)] or [np.zeros(0, np.int64)])
+    rows = rows[~(np.abs(corner[rows]).max(axis=(1, 2)) > 0)]
     if not len(rows):
         return
     ef = features.edge_faces[features.face_edges[rows]]  # (r, 3 edges, 2 sides)

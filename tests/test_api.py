@@ -149,3 +149,30 @@ def test_simulation_and_certificate_functions_name_a_wrong_argument():
     for call, message in cases:
         with pytest.raises(synth.InputError, match=message):
             call()
+
+
+def test_finger_and_export_helpers_name_a_wrong_argument():
+    """The fourth batch: tip_centers (a NaN radius gave NaN centres), a finger check's
+    placement, sweep_length, load_options and export_database's output."""
+    import numpy as np
+
+    from synth.database import export_database
+    from synth.fingers import checker_for
+    from synth.fingers.model import tip_centers
+    from synth.plan import load_options
+
+    part = synth.load_part("meshes/cube.stl", units="dm")
+    P, N = np.zeros((1, 1, 3)), np.array([[[0.0, 0.0, -1.0]]])
+    check = synth.check_fingers(part, P, N, synth.default_fingers(part))
+    cases = [
+        (lambda: tip_centers(P, N, float("nan")), "^tip_radius: expected a positive finite"),
+        (lambda: tip_centers(None, N, 0.1), r"^points and normals: expected two \(B, k, 3\)"),
+        (lambda: check.placement(5), "^i: expected a grasp index from 0 to 0, got 5"),
+        (lambda: checker_for(part).sweep_length(None), "^fingers: expected a synth Fingers"),
+        (lambda: load_options(None), "^load_options: expected a dict"),
+        (lambda: load_options({"sharp_angle": "x"}), "^sharp_angle: expected degrees"),
+        (lambda: export_database("grasps.sqlite", None), "^out: expected the export file's"),
+    ]
+    for call, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            call()

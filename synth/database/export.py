@@ -318,6 +318,8 @@ def export_database(
     >>> export_database("grasps.sqlite", "grasps.h5")  # doctest: +SKIP
     'h5'
     """
+    if not isinstance(out, (str, os.PathLike)):
+        raise InputError(f"out: expected the export file's path, got {type(out).__name__}")
     out = os.fspath(out)
     if fmt is None:
         ext = os.path.splitext(out)[1].lower().lstrip(".")

@@ -39,6 +39,7 @@ a broad-phase manager would add nothing (every finger's box overlaps the part's)
 from __future__ import annotations
 
 import math
+import numbers
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -186,6 +187,10 @@ class FingerCheck:
 
     def placement(self, i: int) -> FingerPlacement:
         """Finger geometry of accepted grasp ``i`` (fingers renumbered 0..f_i-1 by slot)."""
+        if isinstance(i, bool) or not isinstance(i, numbers.Integral) or not (
+                0 <= int(i) < len(self.mask)):
+            raise InputError(f"i: expected a grasp index from 0 to {len(self.mask) - 1}, got "
+                             f"{i!r}")
         if not self.mask[i]:
             raise InputError(f"grasp {i} was rejected ({self.reasons[i]}); it has no placement")
         slots = np.flatnonzero(self.status[i] != ABSENT)
@@ -527,6 +532,8 @@ class FingerChecker:
 
     def sweep_length(self, fingers: Fingers) -> float:
         """Length of the approach sweep: from the tip centre to beyond the bounding sphere."""
+        if not isinstance(fingers, Fingers):
+            raise InputError(f"fingers: expected a synth Fingers, got {type(fingers).__name__}")
         length = float(fingers.body_length)  # type: ignore[arg-type]
         return 2.0 * self.radius + 2.0 * fingers.tip_radius + length
 

@@ -30,6 +30,7 @@ SHARED_TIP_FIT_RTOL
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -362,6 +363,14 @@ def tip_centers(
     >>> c[0, 0].tolist()
     [0.0, 0.0, 2.0]
     """
+    if isinstance(tip_radius, bool) or not isinstance(tip_radius, numbers.Real) or not (
+            0 < tip_radius < math.inf):
+        raise InputError(f"tip_radius: expected a positive finite number, got {tip_radius!r}")
+    if not (isinstance(points, np.ndarray) and isinstance(normals, np.ndarray)
+            and points.ndim == 3 and points.shape[2] == 3 and normals.shape == points.shape):
+        raise InputError(f"points and normals: expected two (B, k, 3) arrays, got "
+                         f"{getattr(points, 'shape', type(points).__name__)} and "
+                         f"{getattr(normals, 'shape', type(normals).__name__)}")
     B, k, _ = points.shape
     single = points - tip_radius * normals
     if finger_ids is None:

@@ -54,6 +54,12 @@ def load_options(params: dict[str, Any]) -> dict[str, Any]:
     """:func:`synth.load_part` keywords from a parameter dict's ``LOAD_KEYS`` (absent keys:
     the defaults). ``body`` may be the text of an index (``"2"``); ``sharp_angle`` is in
     degrees."""
+    if not isinstance(params, dict):
+        raise InputError(f"load_options: expected a dict of parameters, got "
+                         f"{type(params).__name__}")
+    angle = params.get("sharp_angle", 30.0)
+    if isinstance(angle, bool) or not isinstance(angle, (int, float)):
+        raise InputError(f"sharp_angle: expected degrees in (0, 180), got {angle!r}")
     body = params.get("body", "largest")
     if isinstance(body, str) and body.strip().lstrip("-").isdigit():
         body = int(body)

@@ -176,3 +176,31 @@ def test_finger_and_export_helpers_name_a_wrong_argument():
     for call, message in cases:
         with pytest.raises(synth.InputError, match=message):
             call()
+
+
+def test_squeeze_escape_and_sink_helpers_name_a_wrong_argument():
+    """least_squeeze_batch (linprog's ValueError for a NaN mu or a zero length),
+    escape_twist (an IndexError for a free column past the last) and tip_sinks."""
+    import numpy as np
+    import trimesh
+
+    from synth.fingers.collide import tip_sinks
+    from synth.scores.escape import escape_twist
+    from synth.scores.gravity import least_squeeze_batch
+
+    P = np.array([[[0.5, 0, 0], [-0.5, 0, 0]]])
+    N = -2 * P
+    assert least_squeeze_batch(P, N, 0.5, 0.0, [0, 0, 0], 1.0, [0, 0, -1])[0, 0] == 1.0
+    cases = [
+        (lambda: least_squeeze_batch(P, N, float("nan"), 0.0, [0, 0, 0], 1.0, [0, 0, -1]),
+         "^mu: expected finite numbers >= 0"),
+        (lambda: least_squeeze_batch(P, N, 0.5, 0.0, [0, 0, 0], 0.0, [0, 0, -1]), "^length"),
+        (lambda: least_squeeze_batch(P, N, 0.5, 0.0, [0, 0, 0], 1.0, np.zeros(2)),
+         r"^directions: expected gravity directions \(3,\) or \(n, 3\)"),
+        (lambda: escape_twist(np.eye(6, 7), (99,), rank_deficient=False),
+         "^free: expected column indices from 0 to 6"),
+        (lambda: tip_sinks(trimesh.creation.box(), 5, 0.1), "^centers: expected finite"),
+    ]
+    for call, message in cases:
+        with pytest.raises(synth.InputError, match=message):
+            call()

@@ -951,8 +951,16 @@ def tip_sinks(part: Any, centers: np.ndarray, tip_radius: float) -> np.ndarray:
     [0.0]
     """
     checker = checker_for(part)
-    return np.array([checker._penetration(np.asarray(c, float), float(tip_radius))
-                     for c in np.asarray(centers, float).reshape(-1, 3)])
+    try:
+        C = np.asarray(centers, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        C = np.zeros(0)
+    if C.ndim not in (1, 2) or C.shape[-1] != 3 or not np.isfinite(C).all():
+        raise InputError(f"centers: expected finite fingertip centres (f, 3), got {centers!r:.80}")
+    if isinstance(tip_radius, bool) or not isinstance(tip_radius, numbers.Real) or not (
+            0 < tip_radius < math.inf):
+        raise InputError(f"tip_radius: expected a positive finite number, got {tip_radius!r}")
+    return np.array([checker._penetration(c, float(tip_radius)) for c in C.reshape(-1, 3)])
 
 
 def finger_placement(

@@ -10,6 +10,8 @@ positive null vector, and a rank-deficient ``W`` always has one with ``W^T t = 0
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
@@ -48,6 +50,10 @@ def escape_twist(
     """
     Wb, scale = balance_rows(W)
     m, n = Wb.shape
+    if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") or not all(
+            isinstance(i, numbers.Integral) and not isinstance(i, bool) and 0 <= i < n
+            for i in free):
+        raise InputError(f"free: expected column indices from 0 to {n - 1}, got {free!r:.80}")
     is_free = np.zeros(n, dtype=bool)
     is_free[list(free)] = True
     nf = 3 if m == 6 else 2

@@ -167,8 +167,13 @@ def least_squeeze_batch(
 
 
 def _directions(directions: ArrayLike) -> NDArray[np.float64]:
-    Dn = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    Dn = Dn / np.linalg.norm(Dn, axis=1, keepdims=True)
+    Dn = numbers_arg(directions, "directions")
+    if Dn.ndim not in (1, 2) or Dn.shape[-1] != 3 or not Dn.size:
+        raise InputError(f"directions: expected gravity directions (3,) or (n, 3), got shape "
+                         f"{Dn.shape}")
+    Dn = Dn.reshape(-1, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Dn = Dn / np.linalg.norm(Dn, axis=1, keepdims=True)
     if not np.all(np.isfinite(Dn)):
         raise InputError("gravity directions must be finite and nonzero")
     return Dn
@@ -178,11 +183,16 @@ def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike, tor
               center_mass: ArrayLike, length: float, edges: int) -> NDArray[np.float64]:
     """The grasps' cone generators as wrenches (B, 6, k M), moment rows divided by length."""
     k = P.shape[1]
-    gam = np.broadcast_to(np.asarray(torsion, dtype=np.float64), (k,))
+    mu_a, gam = numbers_arg(mu, "mu"), numbers_arg(torsion, "torsion")
+    for name, a, shapes in (("mu", mu_a, ((), (k,), (len(P), k))), ("torsion", gam, ((), (k,)))):
+        if a.shape not in shapes or not (np.isfinite(a).all() and (a >= 0).all()):
+            raise InputError(f"{name}: expected finite numbers >= 0 of shape "
+                             f"{' or '.join(map(str, shapes))}, got {a.tolist()!r:.80}")
+    gam = np.broadcast_to(gam, (k,))
     soft = bool(np.any(gam > 0))
-    G = cone_wrenches_batch(P, N, mu, np.asarray(center_mass, dtype=np.float64), edges, gam,
+    G = cone_wrenches_batch(P, N, mu_a, center_arg(center_mass, name="center_mass"), edges, gam,
                             soft)
-    G[:, 3:] /= float(length)
+    G[:, 3:] /= length_arg(length)
     return G
 
 

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
@@ -270,11 +271,15 @@ def load_gripper(spec: str | Path) -> Gripper:
     >>> load_gripper("franka").max_opening
     0.08
     """
+    if not isinstance(spec, (str, os.PathLike)):
+        raise InputError(f"gripper (--gripper): expected a built-in gripper's name "
+                         f"({', '.join(BUILTIN_GRIPPERS)}) or a description file's path, got "
+                         f"{type(spec).__name__}")
     key = str(spec)
     path = GRIPPER_FOLDER / BUILTIN_GRIPPERS[key] if key in BUILTIN_GRIPPERS else Path(key)
     where = str(path)
     if not path.is_file():
-        raise InputError(f"--gripper: {key!r} is neither a built-in gripper "
+        raise InputError(f"gripper (--gripper): {key!r} is neither a built-in gripper "
                          f"({', '.join(BUILTIN_GRIPPERS)}) nor a description file")
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))

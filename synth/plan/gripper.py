@@ -228,8 +228,9 @@ def unit_scale(part: Any) -> float:
     import trimesh
 
     if part.units is None:
-        raise InputError("--gripper: the part's length unit is unknown (the file does not say) "
-                         "and gripper sizes are physical: give --units (mm, cm, m, in, ...)")
+        raise InputError("gripper: the part's length unit is unknown (the file does not say) "
+                         "and gripper sizes are physical: give --units (mm, cm, m, in, ...; "
+                         "Python: load_part(path, units=...))")
     return float(trimesh.units.unit_conversion("meters", part.units))
 
 

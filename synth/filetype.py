@@ -48,7 +48,7 @@ _HDF5 = b"\x89HDF\r\n\x1a\n"
 _ZIP = b"PK\x03\x04"
 #: The start of a JSON array (of objects, arrays, strings, numbers or literals), not a TOML
 #: or INI file's ``[section]`` header, which also starts with a bracket.
-_JSON_ARRAY = re.compile(rb"\[\s*(?:\[\s*)*(?:[{\"\]\-0-9]|(?:true|false|null)\b)")
+_JSON_ARRAY = re.compile(rb"\[\s*(?:\[\s*)*(?:[{\"\]\-0-9]|(?:true|false|null|NaN|Infinity)\b)")
 #: Mesh formats told by their first bytes, and their names.
 _MESH_MAGIC: tuple[tuple[bytes, str], ...] = ((b"glTF", "GLB"), (b"ply\n", "PLY"),
                                               (b"ply\r", "PLY"), (b"OFF", "OFF"))

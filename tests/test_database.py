@@ -198,6 +198,10 @@ def test_bad_sources_and_parameters_write_nothing(tmp_path: Path, mesh_dir: Path
     with pytest.raises(InputError, match="an empty file, not a grasp database synth began"):
         build_database([mesh_dir], empty, PARAMS, planner=PLANNER)
     assert empty.read_bytes() == b""
+    link = tmp_path / "link.sqlite"  # a link to a file not there yet: the file is made
+    link.symlink_to(tmp_path / "target.sqlite")
+    build_database([mesh_dir], link, PARAMS, planner=PLANNER)
+    assert (tmp_path / "target.sqlite").stat().st_size > 0
 
 
 def test_plan_cut_by_the_time_cap_is_a_failure_not_a_result(tmp_path):

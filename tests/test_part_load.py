@@ -247,6 +247,11 @@ def test_a_byte_order_mark_before_a_text_mesh_is_read_past(tmp_path: Path) -> No
         assert np.array_equal(a.mesh.vertices, b.mesh.vertices), ext
         assert np.array_equal(a.mesh.faces, b.mesh.faces), ext
         assert a.sha256 != b.sha256  # the file's own bytes, mark and all
+    # a binary STL whose free 80-byte header starts with the same three bytes is binary
+    data = bytearray(trimesh.exchange.stl.export_stl(box))
+    data[:80] = b"\xef\xbb\xbf" + b"x" * 77
+    (tmp_path / "binary.stl").write_bytes(bytes(data))
+    assert len(load_part(tmp_path / "binary.stl").mesh.faces) == 12
 
 
 def test_an_unsupported_extension_lists_the_formats_in_words(tmp_path: Path) -> None:

@@ -333,3 +333,10 @@ def test_every_measure_names_text_none_or_nan_where_numbers_belong():
     for call, message in cases:
         with pytest.raises(InputError, match=message):
             call()
+    # free columns as any iterable of whole numbers, as before (a generator was used up by the
+    # check and then read as no free column)
+    W7 = wrench_matrix(P, N)
+    want = form_closure(W7, free=[0, 1])
+    for free in ((i for i in [0, 1]), np.array([0.0, 1.0])):
+        got = form_closure(W7, free=free)
+        assert (got.d_star, got.closure, got.free) == (want.d_star, want.closure, (0, 1))

@@ -181,8 +181,8 @@ def _reader_gone() -> int:
     return EXIT_PIPE
 
 
-#: What a failed write says (no space, quota, file too large, a device error).
-_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+#: What only a failed write says (no space, quota, file too large).
+_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 def _line(e: BaseException) -> str:

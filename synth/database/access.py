@@ -149,13 +149,10 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
         is not an SQLite file or an empty file that was there before (then it is left as it
         is).
     """
-    created = False
+    # an empty file that was there before (through a link too; a dangling link is created)
+    was_empty = os.path.isfile(path) and os.path.getsize(path) == 0
     try:
-        try:  # a new file, or one that was there before (whose content is checked)
-            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
-            created = True
-        except FileExistsError:
-            fd = os.open(path, os.O_RDWR | os.O_CLOEXEC)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
     except OSError as e:
         raise DatabaseError(f"{path}: cannot open grasp database for writing: "
                             f"{e.strerror or e}") from e  # fmt: skip
@@ -168,11 +165,14 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
                 "holds it); run this build when that one has finished, or use another --out file"
             ) from None
         # an empty file is SQLite's empty database, but not one synth began: it writes its
-        # schema as soon as it holds the lock (before a checkpoint, in the -wal file alone)
-        if not created and os.fstat(fd).st_size == 0 and not (
+        # schema as soon as it holds the lock (before a checkpoint, in the -wal file alone).
+        # (Another build that has just created the file, not yet locked, looks the same: so
+        # the message does not tell to remove it.)
+        if was_empty and os.fstat(fd).st_size == 0 and not (
                 os.path.isfile(path + "-wal") and os.path.getsize(path + "-wal") > 0):
-            raise DatabaseFileError(f"{path}: an empty file, not a grasp database synth began; "
-                                    "remove it or write the database elsewhere")
+            raise DatabaseFileError(f"{path}: an empty file, not a grasp database synth "
+                                    "began (or one another build has only just created); "
+                                    "write the database to a new file, or try again")
         _read_header(path, fd)
         conn = sqlite3.connect(path, isolation_level=None)
     except sqlite3.Error as e:

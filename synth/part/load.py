@@ -108,7 +108,10 @@ def _read(path: Path) -> tuple[list[tuple[str, trimesh.Trimesh]], str, str | Non
     digest = hashlib.sha256(data).hexdigest()
     # a text file's UTF-8 byte-order mark (editors on Windows write one): trimesh took it for
     # part of the first line, and an OBJ lost its first vertex to it
-    bom = ext in ("obj", "off", "gltf", "stl", "ply") and data.startswith(_BOM)
+    # (a binary STL's free 80-byte header may start with the same bytes: only a text STL's
+    # "solid" or a PLY's "ply" after the mark is a text file's)
+    bom = data.startswith(_BOM) and (ext in ("obj", "off", "gltf") or (
+        ext == "stl" and data[3:8].lower() == b"solid") or (ext == "ply" and data[3:6] == b"ply"))
     if bom:
         data = data[len(_BOM):]
     if ext == "glb":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -58,7 +59,7 @@ def load_options(params: dict[str, Any]) -> dict[str, Any]:
         raise InputError(f"load_options: expected a dict of parameters, got "
                          f"{type(params).__name__}")
     angle = params.get("sharp_angle", 30.0)
-    if isinstance(angle, bool) or not isinstance(angle, (int, float)):
+    if isinstance(angle, bool) or not isinstance(angle, numbers.Real):
         raise InputError(f"sharp_angle: expected degrees in (0, 180), got {angle!r}")
     body = params.get("body", "largest")
     if isinstance(body, str) and body.strip().lstrip("-").isdigit():

@@ -54,12 +54,12 @@ def numbers_arg(value: Any, name: str) -> NDArray[np.float64]:
 def edges_arg(value: Any) -> int:
     """The number of edges of a linearised friction cone, an integer in
     ``MIN_EDGES..MAX_EDGES``."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, float)) or not (
-            math.isfinite(float(value)) and int(value) == value
-            and MIN_EDGES <= int(value) <= MAX_EDGES):
+    x = float(value) if isinstance(value, numbers.Real) and not isinstance(value, bool) \
+        else math.nan
+    if not (x.is_integer() and MIN_EDGES <= x <= MAX_EDGES):
         raise InputError(f"edges must be an integer from {MIN_EDGES} to {MAX_EDGES}, got "
                          f"{value!r}")
-    return int(value)
+    return int(x)
 
 
 def length_arg(value: Any, name: str = "length") -> float:

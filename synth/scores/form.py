@@ -95,12 +95,13 @@ def check_wrench(W: ArrayLike, *, name: str = "W") -> NDArray[np.float64]:
 
 def check_free(free: tuple[int, ...] | list[int], n: int) -> tuple[int, ...]:
     """Validate a list of free column indices against ``n`` columns."""
-    if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") or not all(
-            isinstance(i, numbers.Integral) and not isinstance(i, bool) for i in free):
+    items = None if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") else list(free)
+    if items is None or not all(isinstance(i, numbers.Real) and not isinstance(i, bool)
+                                and float(i).is_integer() for i in items):
         raise InputError(f"free: expected a list of column indices, got {free!r:.80}")
-    out = tuple(sorted({int(i) for i in free}))
+    out = tuple(sorted({int(i) for i in items}))
     if out and (out[0] < 0 or out[-1] >= n):
-        raise InputError(f"free columns must lie in 0..{n - 1}, got {list(free)}")
+        raise InputError(f"free columns must lie in 0..{n - 1}, got {items}")
     if len(out) == n:
         raise InputError("at least one column must be a normal (non-free) intensity")
     return out

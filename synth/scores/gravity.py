@@ -184,7 +184,8 @@ def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike, tor
     """The grasps' cone generators as wrenches (B, 6, k M), moment rows divided by length."""
     k = P.shape[1]
     mu_a, gam = numbers_arg(mu, "mu"), numbers_arg(torsion, "torsion")
-    for name, a, shapes in (("mu", mu_a, ((), (k,), (len(P), k))), ("torsion", gam, ((), (k,)))):
+    for name, a, shapes in (("mu", mu_a, ((), (1,), (k,), (len(P), k))),
+                            ("torsion", gam, ((), (1,), (k,)))):
         if a.shape not in shapes or not (np.isfinite(a).all() and (a >= 0).all()):
             raise InputError(f"{name}: expected finite numbers >= 0 of shape "
                              f"{' or '.join(map(str, shapes))}, got {a.tolist()!r:.80}")
@@ -285,7 +286,7 @@ def gravity_hold_batch(
     P, N = check_contacts_batch(points, normals)
     gam = numbers_arg(torsion, "torsion")
     mu_a = numbers_arg(mu, "mu")
-    if gam.shape not in ((), (P.shape[1],)):
+    if gam.shape not in ((), (1,), (P.shape[1],)):
         raise InputError(f"torsion: expected one number or {P.shape[1]}, got shape {gam.shape}")
     gam = np.broadcast_to(gam, (P.shape[1],))
     if not (np.all(np.isfinite(mu_a)) and np.all(mu_a >= 0) and np.all(np.isfinite(gam))

@@ -91,7 +91,7 @@ def mu_min_batch(
     B, k, _ = P.shape
     edges = edges_arg(edges)
     gam = numbers_arg(torsion, "torsion")
-    if gam.shape not in ((), (k,)) or not (np.isfinite(gam).all() and (gam >= 0).all()):
+    if gam.shape not in ((), (1,), (k,)) or not (np.isfinite(gam).all() and (gam >= 0).all()):
         raise InputError(f"torsion: expected one finite number >= 0 or {k}, got {torsion!r:.80}")
     gam = np.broadcast_to(gam, (k,))
     soft = bool(np.any(gam > 0))

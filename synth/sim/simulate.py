@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -187,7 +188,7 @@ def balanced_preload(g: SimGrasp, center_mass: NDArray[np.float64], length: floa
     center_mass = center_arg(center_mass, name="center_mass")
     length = length_arg(length)
     grip = length_arg(grip, "grip")
-    if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not 0 <= mu < float("inf"):
+    if isinstance(mu, bool) or not isinstance(mu, numbers.Real) or not 0 <= mu < float("inf"):
         raise InputError(f"mu: expected a finite number >= 0, got {mu!r}")
     f = len(g.tip_centers)
     owner = np.arange(len(g.points)) if g.contact_finger is None else g.contact_finger

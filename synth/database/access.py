@@ -146,11 +146,8 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
     DatabaseError
         Naming ``path``: the database is busy (another ``synth db build`` writes it, or a
         reader holds an immutable view of it), the file cannot be opened for writing, or it
-        is not an SQLite file or an empty file that was there before (then it is left as it
-        is).
+        is not an SQLite file (then it is left as it is).
     """
-    # an empty file that was there before (through a link too; a dangling link is created)
-    was_empty = os.path.isfile(path) and os.path.getsize(path) == 0
     try:
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
     except OSError as e:
@@ -164,15 +161,6 @@ def open_writer(path: str) -> tuple[sqlite3.Connection, int]:
                 f"{path}: database busy: another 'synth db build' is writing it (or a reader "
                 "holds it); run this build when that one has finished, or use another --out file"
             ) from None
-        # an empty file is SQLite's empty database, but not one synth began: it writes its
-        # schema as soon as it holds the lock (before a checkpoint, in the -wal file alone).
-        # (Another build that has just created the file, not yet locked, looks the same: so
-        # the message does not tell to remove it.)
-        if was_empty and os.fstat(fd).st_size == 0 and not (
-                os.path.isfile(path + "-wal") and os.path.getsize(path + "-wal") > 0):
-            raise DatabaseFileError(f"{path}: an empty file, not a grasp database synth "
-                                    "began (or one another build has only just created); "
-                                    "write the database to a new file, or try again")
         _read_header(path, fd)
         conn = sqlite3.connect(path, isolation_level=None)
     except sqlite3.Error as e:

@@ -37,7 +37,7 @@ from synth.database.progress import ProgressBar, format_duration
 from synth.database.schema import canonical_json
 from synth.database.store import GraspDatabase
 from synth.database.worker import PlanOutcome, crashed, load_planner, resolve_planner, run_one
-from synth.errors import DatabaseError, InputError
+from synth.errors import DatabaseError, DatabaseFileError, InputError
 from synth.filetype import MESH_FORMATS
 from synth.plan import LOAD_KEYS
 from synth.plan.params import BUILD_TIME, PlanParams
@@ -657,6 +657,20 @@ def _sigterm_stops_build() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _refuse_empty(out: str | os.PathLike[str]) -> None:
+    """Refuse an ``out`` that is an empty file: SQLite would take it for an empty database and
+    a build would make it one, but synth did not begin it (a build writes its schema as soon
+    as it holds the file; before a checkpoint, in the ``-wal`` file alone). Checked before the
+    database is opened, not under its lock: two builds opening a new file at once must find
+    one of them busy, not both refused."""
+    path = os.fspath(out)
+    if os.path.isfile(path) and os.path.getsize(path) == 0 and not (
+            os.path.isfile(path + "-wal") and os.path.getsize(path + "-wal") > 0):
+        raise DatabaseFileError(f"{path}: an empty file, not a grasp database synth began "
+                                "(unless another build is creating it at this moment); write "
+                                "the database to a new file")
+
+
 def build_database(
     sources: Sequence[str | os.PathLike[str]],
     out: str | os.PathLike[str],
@@ -749,6 +763,7 @@ def build_database(
 
             require_sim()
         inputs = collect_mesh_files(sources)
+        _refuse_empty(out)
         params_text = canonical_json(run_params)
         seen_workers = [n_workers]
         with GraspDatabase(out, mode="w") as db:

@@ -14,7 +14,8 @@ from numpy.typing import NDArray
 from synth.errors import InputError
 from synth.limits import MAX_EDGES, MIN_EDGES
 
-__all__ = ["center_arg", "edges_arg", "length_arg", "numbers_arg"]
+__all__ = ["center_arg", "coefficients_arg", "columns_arg", "edges_arg", "length_arg",
+           "numbers_arg"]
 
 
 def center_arg(value: Any, d: int = 3, name: str = "center") -> NDArray[np.float64]:
@@ -49,6 +50,30 @@ def numbers_arg(value: Any, name: str) -> NDArray[np.float64]:
     except (TypeError, ValueError, OverflowError):
         raise InputError(f"{name}: expected a number or an array of numbers, got "
                          f"{value!r:.80}") from None
+
+
+def coefficients_arg(value: Any, name: str, shapes: tuple[tuple[int, ...], ...]
+                     ) -> NDArray[np.float64]:
+    """Friction or torsion coefficients: finite numbers >= 0 of one of ``shapes``."""
+    a = numbers_arg(value, name)
+    if a.shape not in shapes or not (np.isfinite(a).all() and (a >= 0).all()):
+        raise InputError(f"{name}: expected finite numbers >= 0 of shape "
+                         f"{' or '.join(map(str, shapes))}, got {value!r:.80}")
+    return a
+
+
+def columns_arg(value: Any, n: int, name: str = "free") -> tuple[int, ...]:
+    """Column indices of an (m, n) matrix, any iterable of whole numbers from 0 to n - 1, as
+    a sorted tuple without repeats."""
+    items = None if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__") \
+        else list(value)
+    if items is None or not all(isinstance(i, numbers.Real) and not isinstance(i, bool)
+                                and float(i).is_integer() for i in items):
+        raise InputError(f"{name}: expected a list of column indices, got {value!r:.80}")
+    out = tuple(sorted({int(i) for i in items}))
+    if out and (out[0] < 0 or out[-1] >= n):
+        raise InputError(f"{name}: expected column indices from 0 to {n - 1}, got {items}")
+    return out
 
 
 def edges_arg(value: Any) -> int:

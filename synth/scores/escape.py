@@ -10,13 +10,12 @@ positive null vector, and a rank-deficient ``W`` always has one with ``W^T t = 0
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError
+from synth.scores.arguments import center_arg, columns_arg
 from synth.scores.wrench import balance_rows
 
 __all__ = ["escape_twist", "describe_twist"]
@@ -50,12 +49,8 @@ def escape_twist(
     """
     Wb, scale = balance_rows(W)
     m, n = Wb.shape
-    if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") or not all(
-            isinstance(i, numbers.Integral) and not isinstance(i, bool) and 0 <= i < n
-            for i in free):
-        raise InputError(f"free: expected column indices from 0 to {n - 1}, got {free!r:.80}")
     is_free = np.zeros(n, dtype=bool)
-    is_free[list(free)] = True
+    is_free[list(columns_arg(free, n))] = True
     nf = 3 if m == 6 else 2
     # a pure translation is the easiest escape to picture, so look for one first
     t_b = _separating_twist(Wb, is_free, nf)
@@ -136,7 +131,6 @@ def describe_twist(
     """
     try:
         t = np.asarray(t, dtype=np.float64)
-        o = None if center is None else np.asarray(center, dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise InputError(f"twist: expected numbers ({e})") from None
     if t.shape not in ((6,), (3,)) or not np.isfinite(t).all():
@@ -144,9 +138,7 @@ def describe_twist(
                          f"{t.shape}")
     planar = t.shape == (3,)
     d = 2 if planar else 3
-    if o is not None and (o.shape != (d,) or not np.isfinite(o).all()):
-        raise InputError(f"center: expected {d} finite numbers, got shape {o.shape}")
-    o = np.zeros(d) if o is None else o
+    o = np.zeros(d) if center is None else center_arg(center, d)
     v, w = (t[:2], t[2:]) if planar else (t[:3], t[3:])
     nv, nw = np.linalg.norm(v), np.linalg.norm(w)
     sign = "±" if both_senses else ""

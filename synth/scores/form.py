@@ -15,7 +15,6 @@ the ``c_i >= d`` rows.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass, field
 
@@ -24,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
+from synth.scores.arguments import columns_arg
 from synth.scores.escape import describe_twist, escape_twist
 from synth.scores.wrench import numerical_rank
 from synth.tolerances import D_STAR_TOL
@@ -95,13 +95,7 @@ def check_wrench(W: ArrayLike, *, name: str = "W") -> NDArray[np.float64]:
 
 def check_free(free: tuple[int, ...] | list[int], n: int) -> tuple[int, ...]:
     """Validate a list of free column indices against ``n`` columns."""
-    items = None if isinstance(free, (str, bytes)) or not hasattr(free, "__iter__") else list(free)
-    if items is None or not all(isinstance(i, numbers.Real) and not isinstance(i, bool)
-                                and float(i).is_integer() for i in items):
-        raise InputError(f"free: expected a list of column indices, got {free!r:.80}")
-    out = tuple(sorted({int(i) for i in items}))
-    if out and (out[0] < 0 or out[-1] >= n):
-        raise InputError(f"free columns must lie in 0..{n - 1}, got {items}")
+    out = columns_arg(free, n)
     if len(out) == n:
         raise InputError("at least one column must be a normal (non-free) intensity")
     return out

@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linprog
 
 from synth.errors import InputError, SolverError
-from synth.scores.arguments import center_arg, length_arg, numbers_arg
+from synth.scores.arguments import center_arg, coefficients_arg, length_arg, numbers_arg
 from synth.scores.cones import check_contacts_batch, cone_name, cone_wrenches_batch
 from synth.scores.simplex import UNVERIFIED, compiled_for, solve_batch
 
@@ -154,12 +154,33 @@ def least_squeeze_batch(
     >>> least_squeeze_batch(P, N, 0.5, 0.01, [0, 0, 0], 1.0, [[0, 0, -1.0]]).round(6).tolist()
     [[1.0]]
     """
+    P, N, mu_a, gam, cm, length = _checked(points, normals, mu, torsion, center_mass, length)
+    return _least_squeeze(P, N, mu_a, gam, cm, length, _directions(directions), edges,
+                          compiled)
+
+
+def _checked(points: ArrayLike, normals: ArrayLike, mu: ArrayLike, torsion: ArrayLike,
+             center_mass: ArrayLike, length: float
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                        NDArray[np.float64], NDArray[np.float64], float]:
+    """The arguments both public measures here take, checked: contacts (B, k, 3), mu of one,
+    k or (B, k) values, torsion (k,), the centre of mass and the length."""
     P, N = check_contacts_batch(points, normals)
+    k = P.shape[1]
+    mu_a = coefficients_arg(mu, "mu", ((), (1,), (k,), (len(P), k)))
+    gam = np.broadcast_to(coefficients_arg(torsion, "torsion", ((), (1,), (k,))), (k,))
+    return P, N, mu_a, gam, center_arg(center_mass, name="center_mass"), length_arg(length)
+
+
+def _least_squeeze(P: NDArray[np.float64], N: NDArray[np.float64], mu: NDArray[np.float64],
+                   gam: NDArray[np.float64], center_mass: NDArray[np.float64], length: float,
+                   Dn: NDArray[np.float64], edges: int, compiled: bool | None
+                   ) -> NDArray[np.float64]:
+    """:func:`least_squeeze_batch` of checked arguments and unit directions (D, 3)."""
     B = len(P)
-    Dn = _directions(directions)
     pairs = np.stack(np.meshgrid(np.arange(B), np.arange(len(Dn)), indexing="ij"),
                      -1).reshape(-1, 2)
-    G = _wrenches(P, N, mu, torsion, center_mass, length, edges)
+    G = _wrenches(P, N, mu, gam, center_mass, length, edges)
     if compiled is None:  # the route for the whole batch, not for each chunk of it
         compiled = compiled_for(len(pairs))
     return _squeeze_pairs(G, P.shape[1], Dn, pairs[:, 0], pairs[:, 1], compiled).reshape(
@@ -179,21 +200,14 @@ def _directions(directions: ArrayLike) -> NDArray[np.float64]:
     return Dn
 
 
-def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike, torsion: ArrayLike,
-              center_mass: ArrayLike, length: float, edges: int) -> NDArray[np.float64]:
-    """The grasps' cone generators as wrenches (B, 6, k M), moment rows divided by length."""
-    k = P.shape[1]
-    mu_a, gam = numbers_arg(mu, "mu"), numbers_arg(torsion, "torsion")
-    for name, a, shapes in (("mu", mu_a, ((), (1,), (k,), (len(P), k))),
-                            ("torsion", gam, ((), (1,), (k,)))):
-        if a.shape not in shapes or not (np.isfinite(a).all() and (a >= 0).all()):
-            raise InputError(f"{name}: expected finite numbers >= 0 of shape "
-                             f"{' or '.join(map(str, shapes))}, got {a.tolist()!r:.80}")
-    gam = np.broadcast_to(gam, (k,))
+def _wrenches(P: NDArray[np.float64], N: NDArray[np.float64], mu: NDArray[np.float64],
+              gam: NDArray[np.float64], center_mass: NDArray[np.float64], length: float,
+              edges: int) -> NDArray[np.float64]:
+    """The grasps' cone generators as wrenches (B, 6, k M), moment rows divided by length
+    (the arguments checked by :func:`_checked`)."""
     soft = bool(np.any(gam > 0))
-    G = cone_wrenches_batch(P, N, mu_a, center_arg(center_mass, name="center_mass"), edges, gam,
-                            soft)
-    G[:, 3:] /= length_arg(length)
+    G = cone_wrenches_batch(P, N, mu, center_mass, edges, gam, soft)
+    G[:, 3:] /= length
     return G
 
 
@@ -283,18 +297,7 @@ def gravity_hold_batch(
     >>> round(float(h.squeeze_per_weight[0]), 6)  # 1 / (2 mu)
     1.0
     """
-    P, N = check_contacts_batch(points, normals)
-    gam = numbers_arg(torsion, "torsion")
-    mu_a = numbers_arg(mu, "mu")
-    if gam.shape not in ((), (1,), (P.shape[1],)):
-        raise InputError(f"torsion: expected one number or {P.shape[1]}, got shape {gam.shape}")
-    gam = np.broadcast_to(gam, (P.shape[1],))
-    if not (np.all(np.isfinite(mu_a)) and np.all(mu_a >= 0) and np.all(np.isfinite(gam))
-            and np.all(gam >= 0)):
-        raise InputError(f"mu and torsion: expected finite numbers >= 0, got {mu!r} and "
-                         f"{torsion!r}")
-    center_arg(center_mass, name="center_mass")
-    length = length_arg(length)
+    P, N, mu_a, gam, cm, length = _checked(points, normals, mu, torsion, center_mass, length)
     if isinstance(level, bool) or not isinstance(level, numbers.Integral) \
             or not 0 <= level <= MAX_LEVEL:
         raise InputError(f"level: expected an integer from 0 to {MAX_LEVEL}, got {level!r}")
@@ -303,14 +306,14 @@ def gravity_hold_batch(
         g = np.asarray(gravity, dtype=np.float64).reshape(-1)
         if g.shape != (3,) or not np.all(np.isfinite(g)) or not np.any(g != 0):
             raise InputError(f"gravity must be a nonzero finite 3-vector, got {gravity!r}")
-        f = least_squeeze_batch(P, N, mu, gam, center_mass, length, g[None], edges,
-                                compiled)[:, 0]
+        f = _least_squeeze(P, N, mu_a, gam, cm, length, _directions(g[None]), edges,
+                           compiled)[:, 0]
         worst = np.broadcast_to(g / np.linalg.norm(g), (len(P), 3)).copy()
         return GravityHold(f, f.copy(), worst, 1, name)
     V, F, h = _icosphere(int(level))
     if not len(P):
         return GravityHold(np.zeros(0), np.zeros(0), np.zeros((0, 3)), len(V), name)
-    f = _pruned(P, N, mu, gam, center_mass, length, edges, compiled, int(level))
+    f = _pruned(P, N, mu_a, gam, cm, length, edges, compiled, int(level))
     worst = f.argmax(axis=1)
     bound = (f / _least_distance(int(level))).max(axis=1)
     return GravityHold(bound, f.max(axis=1), V[worst], len(V), name)
@@ -349,8 +352,8 @@ def _levels(level: int) -> list[tuple[int, int, NDArray[np.int64], NDArray[np.in
     return out
 
 
-def _pruned(P: NDArray[np.float64], N: NDArray[np.float64], mu: ArrayLike,
-            gam: NDArray[np.float64], center_mass: ArrayLike, length: float, edges: int,
+def _pruned(P: NDArray[np.float64], N: NDArray[np.float64], mu: NDArray[np.float64],
+            gam: NDArray[np.float64], center_mass: NDArray[np.float64], length: float, edges: int,
             compiled: bool | None, level: int) -> NDArray[np.float64]:
     """The squeeze per weight (B, V) at the icosphere's vertices wherever it can decide the
     worst value or the bound; elsewhere an upper bound below both (the maximum, its

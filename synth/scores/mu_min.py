@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from synth.errors import InputError
 from synth.limits import MAX_MU
-from synth.scores.arguments import edges_arg, numbers_arg
+from synth.scores.arguments import coefficients_arg, edges_arg, numbers_arg
 from synth.scores.cones import check_contacts_batch, cone_name
 from synth.scores.friction_batch import frictional_form_closure_batch
 
@@ -90,10 +90,7 @@ def mu_min_batch(
     P, N = check_contacts_batch(points, normals)
     B, k, _ = P.shape
     edges = edges_arg(edges)
-    gam = numbers_arg(torsion, "torsion")
-    if gam.shape not in ((), (1,), (k,)) or not (np.isfinite(gam).all() and (gam >= 0).all()):
-        raise InputError(f"torsion: expected one finite number >= 0 or {k}, got {torsion!r:.80}")
-    gam = np.broadcast_to(gam, (k,))
+    gam = np.broadcast_to(coefficients_arg(torsion, "torsion", ((), (1,), (k,))), (k,))
     soft = bool(np.any(gam > 0))
     name = cone_name(edges, soft)
     lo = np.zeros(B)

@@ -12,9 +12,11 @@ import trimesh
 
 from synth.part import load_part
 from synth.plan.picture import (
+    _BAR_CORNERS,
     VIEW_DIRECTIONS,
     GraspPicture,
     Hand,
+    _bar_corner,
     _image,
     choose_views,
     contact_visibility,
@@ -174,3 +176,27 @@ def test_a_long_title_stays_inside_the_figure(cube):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_the_scale_bar_goes_to_the_corner_that_hides_the_least():
+    """A finger drawn across the lower left corner moves the bar to the upper left; with
+    both left corners drawn over, to the upper right; on an empty view it stays lower left,
+    and where every corner is drawn over, in the one that hides the least."""
+    size, px = 360, 50.0
+    white = np.ones((size, size, 3))
+    lower_left = np.array([_BAR_CORNERS[0][0], _BAR_CORNERS[0][1]]) * size
+    assert np.allclose(_bar_corner(white, px, 40.0), lower_left)
+    img = white.copy()
+    img[300:, :120] = 0.3  # a dark finger over the lower left
+    assert np.allclose(_bar_corner(img, px, 40.0), [0.05 * size, 0.12 * size])
+    img[:80, :120] = 0.3  # and over the upper left
+    assert np.allclose(_bar_corner(img, px, 40.0), [0.95 * size - px, 0.12 * size])
+    img[:80, 240:] = 0.3  # every corner: the lower left has the fewest drawn pixels now
+    img[300:, 60:120] = 1.0
+    assert np.allclose(_bar_corner(img, px, 40.0), lower_left)
+    # a wide label counts: drawn pixels beside a short bar, under its label, move it
+    img = white.copy()
+    x0 = lower_left[0]
+    img[320:345, int(x0 + 5 + 30):int(x0 + 5 + 40)] = 0.3
+    assert np.allclose(_bar_corner(img, 5.0, 10.0), lower_left)
+    assert not np.allclose(_bar_corner(img, 5.0, 100.0), lower_left)

@@ -200,21 +200,54 @@ def _image(view: View, part: Any, hand: Hand) -> NDArray[np.float64]:
     return img
 
 
-def _scale_bar(ax: Any, view: View, unit: str, at: NDArray[np.float64]) -> None:
+def _scale_bar(ax: Any, view: View, unit: str, at: NDArray[np.float64],
+               image: NDArray[np.float64]) -> None:
     """A bar of a round length, about a fifth of the view, with its length and unit (the
-    view's top left corner at pixel ``at`` of the figure)."""
+    view's top left corner at pixel ``at`` of the figure), in the corner of the view's
+    ``image`` (size, size, 3) where it covers the least of the drawing (:func:`_bar_corner`)."""
     target = 0.2 * view.width
     exp = math.floor(math.log10(target))
     length = max((m * 10.0 ** exp for m in (1, 2, 5) if m * 10.0 ** exp <= target),
                  default=10.0 ** exp)
     px = length / view.pixel
-    x0, y0 = at + np.array([0.05, 0.94]) * view.size
+    label = f"{length:g} {unit}"
+    x0, y0 = at + _bar_corner(image, px, _LABEL_CHAR * len(label))
     ax.plot([x0, x0 + px], [y0, y0], color="black", linewidth=3, solid_capstyle="butt")
     ax.plot([x0, x0, np.nan, x0 + px, x0 + px], [y0 - 5, y0 + 5, np.nan, y0 - 5, y0 + 5],
             color="black", linewidth=1)
     # on a light box: a finger drawn across the corner must not hide the length
-    ax.text(x0 + px / 2, y0 - 8, f"{length:g} {unit}", ha="center", va="bottom", fontsize=8,
+    ax.text(x0 + px / 2, y0 - 8, label, ha="center", va="bottom", fontsize=8,
             bbox={"facecolor": "white", "alpha": 0.75, "edgecolor": "none", "pad": 1.0})
+
+
+#: Where the scale bar may go, as fractions of the view: its left end's x and its line's y
+#: (negative x: its right end at ``-x`` from the view's right side). Lower left first; the
+#: lower right holds the axes.
+_BAR_CORNERS = ((0.05, 0.94), (0.05, 0.12), (-0.05, 0.12))
+#: Pixels around the bar and its label (above it) that the choice of corner counts, and the
+#: width of one of the label's 8-point characters (at most).
+_BAR_ABOVE, _BAR_BELOW, _BAR_SIDE, _LABEL_CHAR = 26, 7, 4, 6.5
+
+
+def _bar_corner(image: NDArray[np.float64], px: float, label: float) -> NDArray[np.float64]:
+    """Where in a view's ``image`` (size, size, 3; white where nothing is drawn) a scale bar
+    ``px`` pixels long, under a label ``label`` pixels wide, goes: the left end of its line
+    (x, y) in pixels of the view, in the first of ``_BAR_CORNERS`` whose box around the bar
+    and its label covers the fewest drawn pixels."""
+    size = image.shape[0]
+    drawn: NDArray[np.bool_] = np.asarray((image < 0.98).any(axis=2))
+    half = max(px, label) / 2 + _BAR_SIDE
+    best, where = None, np.zeros(2)
+    for fx, fy in _BAR_CORNERS:
+        x0 = fx * size if fx >= 0 else (1 + fx) * size - px
+        y0 = fy * size
+        mid = x0 + px / 2
+        box = drawn[max(0, int(y0 - _BAR_ABOVE)):int(y0 + _BAR_BELOW),
+                    max(0, int(mid - half)):max(0, int(mid + half))]
+        covered = int(box.sum())
+        if best is None or covered < best:
+            best, where = covered, np.array([x0, y0])
+    return where
 
 
 def _axes_triad(ax: Any, view: View, at: NDArray[np.float64]) -> None:
@@ -331,10 +364,11 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
             at = np.array([_GAP + c * (size + _GAP),
                            top + _ROW_TITLE + 14 * lines + _VIEW_TITLE])
             view = view_along(VIEW_DIRECTIONS[j], frames[r][c][0], width, size)
-            canvas[at[1]:at[1] + size, at[0]:at[0] + size] = _image(view, part, row.hand)
+            image = _image(view, part, row.hand)
+            canvas[at[1]:at[1] + size, at[0]:at[0] + size] = image
             xy, _ = view.project(row.hand.points)
             _contacts(ax, xy + at, row.hand.point_colours, seen[:, j])
-            _scale_bar(ax, view, unit, at)
+            _scale_bar(ax, view, unit, at, image)
             _axes_triad(ax, view, at)
             count = (f": {int(seen[:, j].sum())} of {len(seen)} contacts in view"
                      if len(seen) else "")

@@ -365,3 +365,20 @@ def test_database_arguments_are_named(built: tuple[Path, Path]) -> None:
         with pytest.raises(InputError, match="^mesh: expected"):
             db.top(None, 2)  # type: ignore[arg-type]
         assert len(db.top(name, 1)) == 1
+
+
+def test_a_planner_name_without_its_function_names_where_it_came_from(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The planner's name is checked before anything is opened; the message says which of the
+    argument (the command's option and the Python keyword) and the environment variable gave
+    it."""
+    from synth.database.worker import PLANNER_ENV
+
+    meshes = make_mesh_dir(tmp_path)
+    with pytest.raises(InputError, match=r"planner 'synth\.plan' \(from --planner, Python: "
+                                         r"planner=\) must be 'module:function'"):
+        build_database(meshes, tmp_path / "a.db", planner="synth.plan")
+    monkeypatch.setenv(PLANNER_ENV, "synth.plan")
+    with pytest.raises(InputError, match=rf"\(from {PLANNER_ENV}\)"):
+        build_database(meshes, tmp_path / "b.db")
+    assert not (tmp_path / "a.db").exists() and not (tmp_path / "b.db").exists()

@@ -150,10 +150,9 @@ def resolve_planner(spec: str | None = None) -> str:
     name = spec or os.environ.get(PLANNER_ENV) or DEFAULT_PLANNER
     module, sep, func = name.partition(":")
     if not sep or not module or not func:
-        raise InputError(
-            f"planner {name!r} (from {'--planner' if spec else PLANNER_ENV}) must be "
-            "'module:function', e.g. 'synth.plan:plan_mesh_file'"
-        )
+        where = "--planner, Python: planner=" if spec else PLANNER_ENV
+        raise InputError(f"planner {name!r} (from {where}) must be 'module:function', e.g. "
+                         "'synth.plan:plan_mesh_file'")
     return name
 
 

@@ -656,9 +656,17 @@ class FingerChecker:
             verdict, tip_distance, far_mid = self._certify(centers, axis0, sweeping, r - tol, D,
                                                            near)
         far = self._object("capsule", r - tol, D - near)
-        # a finger whose first sweep is certified clear takes it (undone below for the
-        # fingers after a grasp's first failing one, which stay unchecked)
-        settled = sweeping & (verdict == _CLEAR)
+        # a sweep whose near part is certified clear has FCL decide its far part here, in
+        # one pass (the loop below would ask the same, one finger at a time)
+        far_hits = np.zeros((B, k), bool)
+        bi, ji = np.nonzero(sweeping & (verdict == _NEAR))
+        if len(bi):
+            rot_far = rot[bi, ji, first[bi, ji]]
+            far_hits[bi, ji] = [self._hits(far, rot_far[q], far_mid[b, j]) for q, (b, j)
+                                in enumerate(zip(bi.tolist(), ji.tolist(), strict=True))]
+        # a finger whose first sweep is clear takes it (undone below for the fingers after a
+        # grasp's first failing one, which stay unchecked)
+        settled = sweeping & ((verdict == _CLEAR) | ((verdict == _NEAR) & ~far_hits))
         approach[settled] = axis0[settled]
         status[settled] = OK
         todo = present & ~settled
@@ -677,9 +685,8 @@ class FingerChecker:
                 options = np.flatnonzero(usable[b, j]).tolist()
                 chosen, tip_checked = -1, False
                 for d in options:
-                    if d == first_l[q][j] and v:  # decided, or the near part is clear
-                        hit = v == _CROSSES or (v == _NEAR and self._hits(far, rot[b, j, d],
-                                                                          far_mid[b, j]))
+                    if d == first_l[q][j] and v:  # decided (its far part too, above)
+                        hit = v == _CROSSES or bool(v == _NEAR and far_hits[b, j])
                     elif others[b, j, d]:
                         hit = bool(others[b, j, d] < 0)
                     else:

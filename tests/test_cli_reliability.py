@@ -113,6 +113,10 @@ def test_plan_refuses_bad_options_before_any_work(box, tmp_path, capsys, extra, 
     (["rank", "{box}", "{c}", "--finger-radius", "0"], "--finger-radius"),
     (["rank", "{box}", "{c}", "--out", "{tmp}/ranked.csv"],
      "--out: expected a file name ending in .json"),
+    # a grip without the part's weight gives no margin: refused, not ignored
+    (["rank", "{box}", "{c}", "--grip", "10"], "--grip: a margin is the grip over the least "
+     "squeeze in newtons, which needs the part's weight: add --mass KG or --density KG/M3"),
+    (["plan", "{box}", "--grip", "10", "--no-files"], "--grip: a margin is the grip"),
 ])
 def test_rank_and_score_refuse_bad_options(box, tmp_path, capsys, argv, message):
     c = tmp_path / "c.json"

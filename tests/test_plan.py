@@ -233,6 +233,11 @@ def test_bad_parameters():
         PlanParams(mu=-1)
     with pytest.raises(InputError, match="finger_radius"):
         PlanParams(finger_radius=0.0)
+    # a grip without the part's weight would give no margin: refused rather than ignored
+    with pytest.raises(InputError, match="^grip: .* needs the part's weight: give mass or "
+                                         "density too$"):
+        PlanParams(grip=10.0)
+    assert PlanParams(grip=10.0, mass=0.2).grip == PlanParams(grip=10.0, density=1e3).grip
     # a key the planner has no parameter for is named (it was Python's TypeError)
     unknown = ("^plan_mesh_file: unknown parameter 'no_such_option'; valid: contacts, .*, "
                "units, body, sharp_angle, decimate$")

@@ -39,7 +39,7 @@ from synth.plan.params import RANK_BY, PlanParams
 
 __all__ = ["add_part_options", "add_finger_options", "add_rank_by", "add_planning_options",
            "add_friction_options", "add_grip", "add_table", "add_weight_options",
-           "check_part_options", "check_finger_options", "check_planning_options",
+           "check_part_options", "check_finger_options", "check_planning_options", "check_grip",
            "check_weight_options", "planning_params", "finger_overrides"]
 
 
@@ -213,6 +213,14 @@ def check_weight_options(args: argparse.Namespace) -> None:
                           "instead")
 
 
+def check_grip(args: argparse.Namespace) -> None:
+    """``--grip`` gives margins only with the part's weight: refused without ``--mass`` or
+    ``--density`` (it would be ignored)."""
+    if args.grip is not None and args.mass is None and args.density is None:
+        raise OptionError("--grip: a margin is the grip over the least squeeze in newtons, "
+                          "which needs the part's weight: add --mass KG or --density KG/M3")
+
+
 def check_part_options(args: argparse.Namespace) -> None:
     """The mesh options (see :func:`add_part_options`)."""
     real("--sharp-angle", args.sharp_angle, 0, 180, open_lo=True, open_hi=True, unit=" degrees")
@@ -266,6 +274,7 @@ def check_planning_options(args: argparse.Namespace) -> None:
     check_part_options(args)
     check_finger_options(args)
     check_weight_options(args)
+    check_grip(args)
 
 
 def planning_params(args: argparse.Namespace) -> dict[str, Any]:

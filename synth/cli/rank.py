@@ -16,6 +16,7 @@ from synth.cli.options import (
     add_rank_by,
     add_weight_options,
     check_finger_options,
+    check_grip,
     check_part_options,
     check_weight_options,
     finger_overrides,
@@ -133,6 +134,7 @@ def run(args: argparse.Namespace) -> int:
     check_part_options(args)
     check_finger_options(args)
     check_weight_options(args)
+    check_grip(args)
     out = None if args.out is None else output_path("--out", args.out, ".json",
                                                     [args.mesh, args.candidates])
     table = read_candidate_table(args.candidates, require_normals=False)

@@ -236,6 +236,9 @@ class PlanParams:
                 raise bad(name, f"{what}, positive and finite")
         if self.mass is not None and self.density is not None:
             raise InputError("mass, density: give one of them, not both")
+        if self.grip is not None and self.mass is None and self.density is None:
+            raise InputError("grip: a margin is the grip over the least squeeze in newtons, "
+                             "which needs the part's weight: give mass or density too")
         if not (_real(self.diversity) and 0 <= self.diversity < 1):
             raise bad("diversity", "a fraction in [0, 1)")
         integer("edges", MIN_EDGES, MAX_EDGES)

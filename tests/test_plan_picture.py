@@ -165,14 +165,20 @@ def test_a_long_title_stays_inside_the_figure(cube):
     run = "run\u00a020261126T043215Z-2ce0a0c4"
     title = ("synth: A_LONG_MESH_NAME_IN_CAPITALS_MMMWWW_0123456789.STL: Franka Hand (Franka "
              "Emika Panda) grasps   " + run)  # capitals and digits: the widest characters
-    fig = draw_grasps(cube, [], title, "no grasp")
+    # and a no-grasp message as long as a gripper plan's, in capitals and digits
+    why = ("NO GRASP: THE PART IS TOO LARGE FOR THE FRANKA HAND (FRANKA EMIKA PANDA)'S 80 MM "
+           "OPENING (THE NARROWEST WIDTH FOUND IS 97 MM) 0123456789")
+    fig = draw_grasps(cube, [], title, why)
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     head = next(t for t in fig.axes[0].texts if "Franka" in t.get_text())
     assert head.get_text().count("\n") >= 2 and run in head.get_text()
-    box = head.get_window_extent(renderer)
     width = fig.get_size_inches()[0] * fig.dpi
-    assert 0 <= box.x0 and box.x1 <= width
+    message = next(t for t in fig.axes[0].texts if "NO GRASP" in t.get_text())
+    assert message.get_text().count("\n") >= 1
+    for text in (head, message):
+        box = text.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= width, text.get_text()
     import matplotlib.pyplot as plt
 
     plt.close(fig)

@@ -342,7 +342,8 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     cols = max(len(v) for _, v, _ in plans)
     size = PIXELS
     W = cols * size + (cols + 1) * _GAP
-    titles = [_wrap(row.title, W // 7) for row, _, _ in plans]  # 9-point characters
+    # 9-point characters, capitals and digits included (a no-grasp message is long)
+    titles = [_wrap(row.title, W // 10) for row, _, _ in plans]
     heights = [_ROW_TITLE + 14 * t.count("\n") + _VIEW_TITLE + size + _GAP for t in titles]
     scale = unit if part.units else "the file's units (unknown)"
     head = _wrap(title, W // 11) + (  # 10-point characters, capitals and digits included
@@ -385,7 +386,8 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
 
 
 def _wrap(text: str, width: int = 90) -> str:
-    """``text`` in lines of at most ``width`` characters."""
+    """``text`` in lines of at most ``width`` characters (its own line breaks kept)."""
     import textwrap
 
-    return "\n".join(textwrap.wrap(text, width, break_on_hyphens=False))
+    return "\n".join(line for part in text.split("\n")
+                     for line in textwrap.wrap(part, width, break_on_hyphens=False))

@@ -71,11 +71,12 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool
     return save_png(fig, path, plan.mesh, plan.run_id, atomic)
 
 
-def run_title(mesh: dict, run_id: str, what: str = "") -> str:
+def run_title(mesh: dict, run_id: str, what: str = "", sep: str = "   ") -> str:
     """The title of a plan's picture: the mesh file's name and the run id (``what``: words
-    after the name, such as the gripper's grasps)."""
+    after the name, such as the gripper's grasps; ``sep`` between them and the run id, a
+    newline to give the run id a line of its own)."""
     name = Path(mesh.get("path") or "part").name
-    return f"synth: {name}{what}   run\u00a0{run_id}"  # "run" and its id stay on one line
+    return f"synth: {name}{what}{sep}run\u00a0{run_id}"  # "run" and its id stay on one line
 
 
 def save_png(fig, path: str | Path, mesh: dict, run_id: str,  # type: ignore[no-untyped-def]

@@ -74,7 +74,8 @@ def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 3) 
                                  _fingers(shapes, plan.gripper), _side_views(g),
                                  face_on=False))
     fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id,
-                                            f": {plan.gripper.title} grasps"), plan.message)
+                                            f": {plan.gripper.title} grasps", "\n"),
+                      plan.message)
     return save_png(fig, path, plan.mesh, plan.run_id, atomic=False)
 
 

@@ -98,3 +98,25 @@ def test_a_relative_mesh_path_is_found_next_to_the_grasp_file(tmp_path, doc):
     doc["mesh"]["path"] = "cube.stl"
     (tmp_path / "g.json").write_text(json.dumps(doc))
     assert read_grasp_file(tmp_path / "g.json").mesh_path == tmp_path / "cube.stl"
+
+
+@pytest.mark.parametrize("fmt, what", [
+    ("synth.scores", "a score file of contact sets (JSON written by synth score --out)"),
+    ("synth.ranked", "a ranking of contact sets (JSON written by synth rank --out)"),
+])
+def test_another_synth_file_is_named_as_what_it_is(tmp_path, capsys, fmt, what):
+    """A score file or a ranking of contact sets handed to synth sim was refused as "field
+    format: expected 'synth.grasps', got 'synth.scores'": the message says what the file is
+    and what synth sim takes (without mujoco: the file is read first)."""
+    from synth.cli import main
+
+    path = tmp_path / "x.json"
+    path.write_text(json.dumps({"format": fmt, "version": 1, "candidates": []}))
+    with pytest.raises(InputError) as e:
+        read_grasp_file(path)
+    assert str(e.value).startswith(f"{path}: {what}, not a plan; synth sim takes a grasp file "
+                                   "written by synth plan --out"), e.value
+    assert main(["sim", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"synth: error: {e.value}"
+    assert "expected 'synth.grasps'" not in err

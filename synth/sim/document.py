@@ -27,6 +27,14 @@ __all__ = ["SimGrasp", "GraspFile", "read_grasp_file", "read_json", "check_docum
 
 #: The format and version the simulation reads (see the README's "Output file format").
 FORMAT, VERSION = "synth.grasps", 1
+#: synth's other JSON documents, which are no plan, in words: a score file of contact sets
+#: (``synth score --out``), a ranking of contact sets (``synth rank --out``), a gripper
+#: description.
+_OTHER_DOCUMENTS: dict[str, str] = {
+    "synth.scores": "a score file of contact sets (JSON written by synth score --out)",
+    "synth.ranked": "a ranking of contact sets (JSON written by synth rank --out)",
+    "synth.gripper": "a gripper description (JSON)",
+}
 
 
 @dataclass(frozen=True)
@@ -262,6 +270,16 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
     if fmt == "synth.gripper_grasps":
         raise InputError(f"{name}: a gripper grasp file: simulate it with synth sim "
                          "GRASPS.json --mesh PART (check_jaw_document reads it)")
+    if fmt == RANKED_JAW_FORMAT:
+        raise InputError(f"{name}: a ranking of gripper poses (JSON written by synth rank "
+                         "--gripper --out), not a point-finger plan: synth sim FILE simulates "
+                         "it (Python: ranking_as_jaw_document reads it)")
+    if isinstance(fmt, str) and fmt in _OTHER_DOCUMENTS:
+        # another of synth's files, named as what it is (docs/vocabulary.md)
+        raise InputError(f"{name}: {_OTHER_DOCUMENTS[fmt]}, not a plan; synth sim takes a "
+                         "grasp file written by synth plan --out (point fingers or "
+                         "--gripper) or a ranking of gripper poses written by synth rank "
+                         "--gripper --out")
     if fmt != FORMAT:
         raise InputError(f"{_where(name, 'format')}: expected {FORMAT!r}, got {shown(fmt)} "
                          "(write grasp files with 'synth plan --out')")

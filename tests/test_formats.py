@@ -213,3 +213,44 @@ def test_a_pose_file_with_an_integer_too_long_to_read_is_bad_input(tmp_path):
     with pytest.raises(InputError, match="number too long to read") as e:
         read_gripper_poses(path)
     assert "sys." not in str(e.value)
+
+
+CUBE_SET = {"points": [[0.5, 0, 0], [-0.5, 0, 0], [0, 0.5, 0]],
+            "normals": [[-1, 0, 0], [1, 0, 0], [0, -1, 0]]}
+
+
+@pytest.mark.parametrize("doc, what", [
+    ({"format": "synth.grasps", "version": 1, "mesh": {}, "params": {}, "fingers": {},
+      "grasps": [{"rank": 1, **CUBE_SET}]},
+     "a point-finger plan (contact sets; JSON written by synth plan --out), not gripper poses; "
+     "rank it without --gripper (synth rank MESH {path})"),
+    ({"format": "synth.ranked", "version": 2, "candidates": [CUBE_SET]},
+     "a ranking of contact sets (JSON written by synth rank --out), not gripper poses; rank it "
+     "without --gripper (synth rank MESH {path})"),
+    ({"candidates": [CUBE_SET]},
+     "contact sets (a candidate file of 'points'), not gripper poses; rank it without "
+     "--gripper (synth rank MESH {path})"),
+    ([CUBE_SET, CUBE_SET],
+     "contact sets (a candidate file of 'points'), not gripper poses; rank it without "
+     "--gripper (synth rank MESH {path})"),
+    ({"format": "synth.scores", "version": 1, "candidates": []},
+     "a score file (JSON written by synth score --out): scores of contact sets, not gripper "
+     "poses"),
+])
+def test_contact_sets_given_as_gripper_poses_are_named_so(tmp_path, doc, what):
+    """A point-finger plan given to synth rank --gripper was refused with the list of its JSON
+    keys ("expected a list of 4 x 4 poses ...; found keys ['escape', 'fingers', ...]")."""
+    path = tmp_path / "cube.grasps.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as e:
+        read_gripper_poses(path)
+    assert str(e.value) == f"{path}: " + what.format(path=path)
+
+
+def test_contact_sets_in_an_npz_given_as_gripper_poses_are_named_so(tmp_path):
+    path = tmp_path / "c.npz"
+    np.savez(path, points=np.zeros((2, 7, 3)), normals=np.zeros((2, 7, 3)))
+    with pytest.raises(InputError) as e:
+        read_gripper_poses(path)
+    assert str(e.value) == (f"{path}: contact sets (arrays 'points', 'normals'), not gripper "
+                            f"poses; rank them without --gripper (synth rank MESH {path})")

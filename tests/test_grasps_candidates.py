@@ -240,3 +240,28 @@ def test_a_plan_files_grasps_carry_its_friction(tmp_path):
     path = tmp_path / "plan.json"
     path.write_text(json.dumps(doc))
     assert [c.mu for c in read_candidates(path)] == [0.5, 0.2]
+
+
+@pytest.mark.parametrize("name, head, kind, poses", [
+    ("g.h5", b"\x89HDF\r\n\x1a\n" + bytes(64), "an HDF5 file", "ACRONYM .h5"),
+    ("g.yaml", b"format: isaac_grasp\n", "a YAML file", "isaac_grasp .yaml"),
+])
+def test_a_gripper_pose_file_as_candidates_points_to_the_gripper_option(tmp_path, capsys, name,
+                                                                         head, kind,
+                                                                         poses) -> None:
+    """An ACRONYM .h5 (or an isaac_grasp .yaml) given to synth rank without --gripper was
+    named "an HDF5 file, not a candidate file (JSON or NPZ)", with no word of what to do."""
+    from pathlib import Path
+
+    from synth.cli import main
+
+    path = tmp_path / name
+    path.write_bytes(head)
+    with pytest.raises(InputError) as e:
+        read_candidate_table(path)
+    assert str(e.value) == (f"{path}: {kind}, not a candidate file (JSON or NPZ); gripper "
+                            f"poses ({poses}) are ranked with synth rank MESH {path} "
+                            "--gripper NAME|FILE")
+    mesh = str(Path(__file__).parents[1] / "meshes" / "cube.stl")
+    assert main(["rank", mesh, str(path)]) == 2
+    assert capsys.readouterr().err.strip() == f"synth: error: {e.value}"

@@ -231,3 +231,21 @@ def test_pose_files_of_text_or_of_another_place_are_refused_by_name(tmp_path, ca
     assert code == 2 and "no candidate could be used" in err and "misses the part" in err
     assert "(and 1 more unusable)" in err and "frame and unit" in err
     assert not out.exists()
+
+
+def test_a_point_finger_plan_ranked_with_a_gripper_says_what_it_is(tmp_path, capsys):
+    """synth rank MESH PLAN.json --gripper franka, the plan of point fingers: the line says it
+    is a point-finger plan to rank without --gripper (it listed the file's JSON keys)."""
+    from pathlib import Path
+
+    mesh = Path(__file__).parents[1] / "meshes" / "cube.stl"
+    plan = tmp_path / "cube.grasps.json"
+    assert main(["plan", str(mesh), "--units", "dm", "--evals", "500", "--top", "1",
+                 "--out", str(plan), "--png", str(tmp_path / "p.png"), "--glb",
+                 str(tmp_path / "p.glb"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["rank", str(mesh), str(plan), "--gripper", "franka", "--units", "dm"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"synth: error: {plan}: a point-finger plan (contact sets; JSON written by "
+                   "synth plan --out), not gripper poses; rank it without --gripper (synth "
+                   f"rank MESH {plan})"), err

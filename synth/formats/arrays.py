@@ -104,6 +104,31 @@ def unit_metres(name: Any, where: str, key: str = "units") -> float:
                          "(m, mm, cm, in, ...)") from e
 
 
+#: synth's documents of contact sets, in words: given where gripper poses belong.
+_CONTACT_DOCUMENTS: dict[str, str] = {
+    "synth.grasps": "a point-finger plan (contact sets; JSON written by synth plan --out)",
+    "synth.ranked": "a ranking of contact sets (JSON written by synth rank --out)",
+}
+
+
+def _contact_sets_hint(doc: Any, where: str) -> str | None:
+    """The message for contact sets (points, no poses) given where gripper poses belong:
+    synth's plan or ranking of point-finger grasps, a score file, or a candidate file of
+    ``points``; None for anything else."""
+    fmt = doc.get("format") if isinstance(doc, dict) else None
+    rank = f"; rank it without --gripper (synth rank MESH {where})"
+    if isinstance(fmt, str) and fmt in _CONTACT_DOCUMENTS:
+        return f"{where}: {_CONTACT_DOCUMENTS[fmt]}, not gripper poses{rank}"
+    if fmt == "synth.scores":
+        return (f"{where}: a score file (JSON written by synth score --out): scores of contact "
+                "sets, not gripper poses")
+    items = doc.get("candidates", doc.get("grasps")) if isinstance(doc, dict) else doc
+    if isinstance(items, list) and items and all(
+            isinstance(c, dict) and "points" in c and "pose" not in c for c in items):
+        return f"{where}: contact sets (a candidate file of 'points'), not gripper poses{rank}"
+    return None
+
+
 def _widths(value: Any, n: int, where: str) -> np.ndarray | None:
     return None if value is None else number_list(value, n, where, "widths")
 
@@ -113,6 +138,9 @@ def read_npz(path: str | Path) -> GripperPoses:
     where = str(path)
     arrays = load_npz(path, "'poses' (or 'transforms')[, 'widths', 'units']")
     key = "poses" if "poses" in arrays else "transforms"
+    if key not in arrays and "points" in arrays:
+        raise InputError(f"{where}: contact sets (arrays 'points', 'normals'), not gripper "
+                         f"poses; rank them without --gripper (synth rank MESH {where})")
     if key not in arrays:
         raise InputError(f"{where}: missing array 'poses' (or 'transforms') of shape (n, 4, 4); "
                          f"found {sorted(arrays)}")
@@ -134,6 +162,9 @@ def read_json_poses(path: str | Path, doc: Any) -> GripperPoses:
     where = str(path)
     widths: Any = None
     units: Any = "m"
+    contact_sets = _contact_sets_hint(doc, where)
+    if contact_sets is not None:
+        raise InputError(contact_sets)
     if isinstance(doc, dict) and doc.get("format") == "synth.gripper_grasps":
         grasps = doc.get("grasps")
         if not isinstance(grasps, list):

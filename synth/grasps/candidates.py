@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from synth.errors import CandidateError, InputError, shown
-from synth.filetype import CANDIDATES, require
+from synth.filetype import CANDIDATES, Expected, require
 from synth.limits import MAX_COORDINATE, MAX_MU
 from synth.scores.wrench import check_contacts
 from synth.tolerances import NORMAL_NORM_TOL
@@ -68,6 +68,16 @@ class Candidate:
 
     def __len__(self) -> int:
         return int(self.points.shape[0])
+
+
+#: Contact sets, with what to do about gripper pose files given in their place (an ACRONYM
+#: HDF5 file, an isaac_grasp YAML file): rank them with ``--gripper``.
+_CANDIDATE_FILE = Expected(CANDIDATES.kinds, CANDIDATES.what, {
+    **CANDIDATES.hints,
+    "hdf5": "gripper poses (ACRONYM .h5) are ranked with synth rank MESH {path} --gripper "
+            "NAME|FILE",
+    "yaml": "gripper poses (isaac_grasp .yaml) are ranked with synth rank MESH {path} "
+            "--gripper NAME|FILE"}, CANDIDATES.error)
 
 
 def min_contacts(dim: int, mu: float) -> int:
@@ -390,7 +400,7 @@ def read_candidate_table(path: str | Path, *, require_normals: bool = True) -> C
         raise InputError(f"{p}: a folder, not {CANDIDATES.what}")
     if not p.is_file():
         raise InputError(f"{p}: no such file")
-    require(p, CANDIDATES)  # a mesh, a database: named as such
+    require(p, _CANDIDATE_FILE)  # a mesh, a database, gripper poses: named as such
     if p.suffix.lower() == ".npz":
         return _read_npz(p)
     with _collector_paused():

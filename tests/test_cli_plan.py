@@ -248,3 +248,30 @@ def test_rank_reads_a_plan_whose_fingertips_touch_several_faces(tmp_path):
     assert {c["status"] for c in ranked} == {"ok"}, [c.get("reason") for c in ranked]
     assert sorted(round(c["d_star"], 9) for c in ranked) == \
         sorted(round(g["d_star"], 9) for g in doc["grasps"])
+
+
+
+def test_the_table_gives_the_squeeze_in_newtons_with_a_mass_and_the_margin_with_a_grip(capsys):
+    """--mass adds the least squeeze in newtons (N/weight times the part's weight, its mass
+    times g), --grip too the margin (the grip over that squeeze); without a mass neither."""
+    from synth.cli import main
+
+    def table(*extra):
+        assert main(["plan", str(MESHES / "cube.stl"), "--units", "dm", "--no-files",
+                     "--quiet", "--top", "3", "--evals", "3000", *extra]) == 0
+        head, *lines = capsys.readouterr().out.strip().splitlines()
+        names = head.replace("squeeze N", "squeeze_N").split()
+        return names, [dict(zip(names, line.split()[:len(names) - 2], strict=False))
+                       for line in lines if line.split()[1][0].isdigit()]  # not the summary
+
+    names, _ = table()
+    assert "squeeze_N" not in names and "margin" not in names
+    names, rows = table("--mass", "0.2")
+    assert names[5:7] == ["N/weight", "squeeze_N"] and "margin" not in names
+    for row in rows:
+        assert float(row["squeeze_N"]) == pytest.approx(
+            float(row["N/weight"]) * 0.2 * 9.81, rel=2e-3)
+    names, rows = table("--mass", "0.2", "--grip", "5")
+    assert names[5:8] == ["N/weight", "squeeze_N", "margin"]
+    for row in rows:
+        assert float(row["margin"]) == pytest.approx(5 / float(row["squeeze_N"]), rel=1e-2)

@@ -89,14 +89,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def format_plan_table(plan) -> str:
-    """Ranked table of a plan's grasps (a tolerance column when regions were computed, a
-    margin column when the part's mass and the grip are known). ``N/weight``: the least
-    force each finger must press with, in the part's weights, to hold it in every
-    orientation."""
+    """Ranked table of a plan's grasps (a tolerance column when regions were computed; with
+    the part's mass, the least squeeze in newtons, and with the grip too, the margin).
+    ``N/weight``: the least force each finger must press with, in the part's weights, to
+    hold it in every orientation; ``squeeze N`` the same in newtons."""
     show = any(g.contact_regions is not None for g in plan.grasps)
+    newtons = any(g.least_squeeze is not None for g in plan.grasps)
     margin = any(g.margin is not None for g in plan.grasps)
     lines = [f"{'#':>3}  {'d*':>8}  {'closure':<15}  {'cond':>7}  {'epsilon':>8}  "
-             f"{'N/weight':>8}  " + (f"{'margin':>7}  " if margin else "")
+             f"{'N/weight':>8}  " + (f"{'squeeze N':>9}  " if newtons else "")
+             + (f"{'margin':>7}  " if margin else "")
              + (f"{'tolerance':>10}  " if show else "") + f"{'features':<18}  regions"]
     for i, g in enumerate(plan.grasps, 1):
         feats = ", ".join(f"{g.features.count(k)} {k}" for k in ("face", "edge", "vertex")
@@ -106,10 +108,15 @@ def format_plan_table(plan) -> str:
         tol = "-" if r is None else f"{r.tolerance:.3g}" + ("" if r.certified else "~")
         lines.append(f"{i:>3}  {g.d_star:>8.5f}  {g.closure:<15}  {g.conditioning:>7.4f}  "
                      f"{g.epsilon:>8.5f}  {g.squeeze_per_weight:>8.3f}  "
-                     + (f"{g.margin:>7.2f}  " if margin and g.margin is not None else
-                        f"{'-':>7}  " if margin else "")
+                     + (_number(g.least_squeeze, ".3g", 9) if newtons else "")
+                     + (_number(g.margin, ".2f", 7) if margin else "")
                      + (f"{tol:>10}  " if show else "") + f"{feats:<18}  {regs}")
     return "\n".join(lines)
+
+
+def _number(value: float | None, spec: str, width: int) -> str:
+    """A table cell: ``value`` in ``spec``, or ``-`` where there is none."""
+    return f"{'-' if value is None else format(value, spec):>{width}}  "
 
 
 def refuse_file_names(args: argparse.Namespace) -> None:

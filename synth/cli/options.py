@@ -129,9 +129,11 @@ def add_planning_options(p: argparse.ArgumentParser, time: float,
     s.add_argument("--evals", type=int, default=d.evals, metavar="N",
                    help=f"budget of grasp evaluations, {MIN_EVALS} to {MAX_EVALS:,} "
                    f"(default {d.evals:,}); with --seed it fixes the result on any machine. "
-                   "The search ends early when every climber has converged (a default plan "
+                   "The search ends early when every climb has converged (a default plan "
                    "of a corpus part evaluates about 10,000), and each stage does a least "
-                   "amount of work, so a budget under about 2,000 evaluates 1,200 to 2,000 grasps")
+                   "amount of work, so a small budget evaluates more: about 1,200 to 2,000 "
+                   "grasps for 7 contacts without friction, about 3,000 with friction or "
+                   "another number of contacts")
     s.add_argument("--seed", type=int, default=d.seed, metavar="SEED",
                    help=f"random seed, 0 to 2**63 - 1 (default {d.seed})")
     s.add_argument("--max-squeeze", type=float, default=None, metavar="WEIGHTS",

@@ -524,7 +524,8 @@ def test_a_density_without_a_unit_is_bad_input_not_a_bug(box, capsys):
     """A density needs the part's volume in m^3, so its unit: without --units the command
     line is incomplete (exit status 2, saying what to give), never an internal error."""
     line = _refused(capsys, "plan", box, "--density", "1000", "--evals", "200", "--no-files")
-    assert "unit is unknown" in line and "--units" in line and "internal" not in line
+    assert ("needs its length unit, which STL files do not say: give --units" in line
+            and "internal" not in line)
 
 
 def test_extreme_values_in_range_print_no_numpy_warnings(box, capsys):

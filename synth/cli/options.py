@@ -210,9 +210,8 @@ def check_weight_options(args: argparse.Namespace) -> None:
     ext = Path(getattr(args, "mesh", None) or "").suffix.lower().lstrip(".")
     if args.density is not None and getattr(args, "units", None) is None \
             and ext in UNITLESS_FORMATS:
-        raise OptionError(f"--density: the part's length unit is unknown ({ext.upper()} files "
-                          "do not say it), so is its volume in m^3: give --units, or --mass "
-                          "instead")
+        raise OptionError(f"--density: the part's volume in m^3 needs its length unit, which "
+                          f"{ext.upper()} files do not say: give --units, or --mass instead")
 
 
 def check_grip(args: argparse.Namespace) -> None:

@@ -436,6 +436,85 @@ def test_rank_reports_a_malformed_candidate_and_ranks_the_rest(box, tmp_path, ca
         assert line.split()[2:5] == ["-", "-", "-"]
 
 
+def _plan_file(path, mesh, units="decimeters"):
+    """A plan file (``synth.grasps``) of CUBE_FC, made on ``mesh`` in ``units``."""
+    import hashlib
+
+    path.write_text(json.dumps({
+        "format": "synth.grasps", "version": 1,
+        "mesh": {"path": mesh.name, "sha256": hashlib.sha256(mesh.read_bytes()).hexdigest(),
+                 "units": units, "load": {"units": units, "body": "largest"}},
+        "params": {"mu": 0.0}, "grasps": [dict(CUBE_FC, rank=1)]}))
+    return path
+
+
+def test_rank_takes_the_unit_a_plan_records(box, tmp_path, capsys):
+    """A plan records its unit (mesh.units): synth rank took none and warned "length unit
+    unknown" though the file says decimetres; now it takes the plan's and says so."""
+    plan = _plan_file(tmp_path / "box.grasps.json", box)
+    out = tmp_path / "r.json"
+    code, _, err = _run(capsys, "rank", box, plan, "--out", out)
+    assert code == 0, err
+    assert f"units: decimeters, the unit {plan} records (mesh.units)" in err.splitlines()
+    assert "length unit unknown" not in err
+    assert json.loads(out.read_text())["mesh"]["units"] == "decimeters"
+    code, _, err = _run(capsys, "rank", box, plan, "--units", "dm", "--quiet")  # the same unit
+    assert code == 0 and err == "", err
+    # --density needs the part's unit: the plan's does (an STL file says none)
+    code, _, err = _run(capsys, "rank", box, plan, "--density", "1000", "--quiet")
+    assert code == 0 and err == "", err
+
+
+def test_rank_refuses_units_other_than_the_plans(box, tmp_path, capsys):
+    plan = _plan_file(tmp_path / "box.grasps.json", box)
+    line = _refused(capsys, "rank", box, plan, "--units", "mm")
+    assert line == (f"synth: error: --units mm: {plan} records its coordinates in decimeters "
+                    "(mesh.units), and a plan's coordinates are in its recorded unit: leave "
+                    "--units out, or give --units decimeters")
+
+
+def test_rank_says_a_plan_of_another_mesh_was_planned_there(box, tmp_path, capsys,
+                                                            monkeypatch):
+    """A plan of box.stl ranked on a larger box: every point misses the surface, and the line
+    said only "point 0 is 0.9327 from the surface"; now it says the file was planned on
+    another mesh, and names it (found from the plan's folder)."""
+    (tmp_path / "plans").mkdir()
+    plan = _plan_file(tmp_path / "plans" / "box.grasps.json", box)
+    doc = json.loads(plan.read_text())
+    doc["mesh"]["path"] = "../box.stl"
+    plan.write_text(json.dumps(doc))
+    big = tmp_path / "big.stl"
+    trimesh.creation.box(extents=(3, 3, 3)).export(big)
+    monkeypatch.chdir(tmp_path)
+    line = _refused(capsys, "rank", "big.stl", "plans/box.grasps.json", "--quiet")
+    digest = doc["mesh"]["sha256"]
+    assert line == (f"synth: error: plans/box.grasps.json: planned on another mesh (box.stl, "
+                    f"sha256 {digest[:12]}...), not big.stl: rank it on that mesh; no candidate "
+                    "could be used: candidate 0 (good): point 0 is 1 from the surface (more "
+                    "than 0.05196 allowed)"), line
+    # the same plan on its own mesh: no word of another
+    code, _, err = _run(capsys, "rank", "box.stl", "plans/box.grasps.json")
+    assert code == 0 and "another mesh" not in err, err
+
+
+def test_a_plan_of_another_mesh_some_of_whose_candidates_land_is_warned(box, tmp_path, capsys):
+    plan = _plan_file(tmp_path / "box.grasps.json", box)
+    doc = json.loads(plan.read_text())
+    doc["grasps"].append(dict(CUBE_FC, name="far", points=[[0.5, 9, 9]] * 7))
+    plan.write_text(json.dumps(doc))
+    data = box.read_bytes()
+    edited = tmp_path / "edited.stl"  # the same cube, another header: another sha256
+    edited.write_bytes(b"edited".ljust(80, b" ") + data[80:])
+    code, _, err = _run(capsys, "rank", edited, plan)
+    assert code == 0, err
+    assert f"warning: {plan} was planned on another mesh ({box}, sha256 " in err
+    assert f"1 of its 2 candidates miss {edited}" in err
+    copy = tmp_path / "copy.stl"  # the same bytes under another name: the same mesh
+    copy.write_bytes(data)
+    code, _, err = _run(capsys, "rank", copy, plan)
+    assert code == 0 and "another mesh" not in err, err
+
+
 def test_a_closed_pipe_ends_the_output_quietly(tmp_path):
     """``synth score ... | head``: the reader goes away; synth stops with 128 + SIGPIPE, as
     other tools do, and prints no error."""

@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import sys
+from typing import Any
 
 from synth.cli.checks import integer, output_path, real
 from synth.cli.options import (
@@ -56,7 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "by d* and print the candidates ranked. CANDIDATES is JSON (a list of {points[, name]}"
         " or an object with a 'candidates' or 'grasps' list) or NPZ; with --gripper, gripper "
         "poses: ACRONYM .h5, GraspGen .json, isaac_grasp .yaml, an NPZ or JSON of (n, 4, 4) "
-        "poses, or a synth gripper grasp file.",
+        "poses, or a synth gripper grasp file. A synth plan (or ranking) records its "
+        "length unit (mesh.units): its candidates are in it, so it is taken when --units is "
+        "not given, and another --units is refused.",
         epilog=exit_epilog("ranked (every candidate read, usable or not)", None,
                            "a malformed candidate, reported on its own line while the others "
                            "are still ranked; or no candidate could be used, the line giving "
@@ -133,7 +136,9 @@ def run(args: argparse.Namespace) -> int:
     real("--grip", args.grip, 0, MAX_LENGTH, open_lo=True, unit=" N")
     check_part_options(args)
     check_finger_options(args)
-    check_weight_options(args)
+    unit_from_file = args.units is None  # a plan records its unit: known once it is read
+    check_weight_options(argparse.Namespace(**{**vars(args), "units": "m"}) if unit_from_file
+                         else args)
     check_grip(args)
     out = None if args.out is None else output_path("--out", args.out, ".json",
                                                     [args.mesh, args.candidates])
@@ -141,6 +146,9 @@ def run(args: argparse.Namespace) -> int:
     if not table.groups:  # every candidate malformed: say so before loading the mesh
         more = f" (and {len(table.errors) - 1} more malformed)" if len(table.errors) > 1 else ""
         raise InputError(f"no candidate could be used: {table.errors[0][1]}{more}")
+    _take_recorded_unit(args, table.mesh)
+    if unit_from_file:
+        check_weight_options(args)  # --density needs a unit, the file's or --units
     part = load_part_from_args(args)
     report_part(part, args.quiet)
     fingers = default_fingers(part, **finger_overrides(args))
@@ -157,10 +165,17 @@ def run(args: argparse.Namespace) -> int:
     rows = order_rows(rows + [RankedCandidate(table.names[i], "malformed", message, index=i)
                               for i, message in table.errors], args.rank_by)
     unusable = [r for r in rows if r.status not in SCORED]
+    misses = sum(r.status == "misses the part" for r in rows)
+    other = _another_mesh(table.mesh, part.sha256, args.candidates) if misses else None
     if len(unusable) == len(rows):
         more = f" (and {len(rows) - 1} more unusable)" if len(rows) > 1 else ""
-        raise InputError(f"{args.candidates}: no candidate could be used: "
+        planned = "" if other is None else f" planned on another mesh ({other}), not " \
+            f"{args.mesh}: rank it on that mesh;"  # first: a long line is cut at its end
+        raise InputError(f"{args.candidates}:{planned} no candidate could be used: "
                          f"{unusable[0].reason}{more}")
+    if other is not None and not args.quiet:
+        print(f"warning: {args.candidates} was planned on another mesh ({other}); {misses} of "
+              f"its {len(rows)} candidates miss {args.mesh}", file=sys.stderr)
     from synth.paths import stored_mesh_path
 
     doc = {"format": "synth.ranked", "version": 2, "mesh": {
@@ -199,6 +214,66 @@ def run(args: argparse.Namespace) -> int:
         print(counts_line(len(rows), {s: sum(r.status == s for r in rows) for s in STATUSES},
                           len(shown)), file=sys.stderr)
     return 2 if table.errors else 0
+
+
+def recorded_unit(mesh: Any) -> str | None:
+    """The length unit a plan's (or a ranking's) ``mesh`` object records, as
+    :func:`synth.load_part` reads it (its ``load.units``, else its ``units``, as ``synth sim``
+    reads a plan's); None when it records none, or one that is no length unit."""
+    if not isinstance(mesh, dict):
+        return None
+    load = mesh.get("load")
+    unit = load.get("units") if isinstance(load, dict) and "units" in load else mesh.get("units")
+    if not isinstance(unit, str):
+        return None
+    from synth.part.load import length_unit
+
+    return length_unit(unit)
+
+
+def _take_recorded_unit(args: argparse.Namespace, mesh: Any) -> None:
+    """The length unit of a plan's candidates, which its file records (``mesh.units``): taken
+    when ``--units`` is not given (said unless quiet), and ``--units`` of another unit refused
+    (the plan's coordinates are in its recorded unit)."""
+    from synth.part.load import length_unit
+
+    planned = recorded_unit(mesh)
+    if planned is None:
+        return
+    if args.units is None:
+        args.units = planned
+        if not args.quiet:
+            print(f"units: {planned}, the unit {args.candidates} records (mesh.units)",
+                  file=sys.stderr)
+        return
+    given = length_unit(args.units)
+    if given is not None and given != planned:  # an unknown unit: load_part names it
+        raise InputError(f"--units {args.units}: {args.candidates} records its coordinates in "
+                         f"{planned} (mesh.units), and a plan's coordinates are in its recorded "
+                         f"unit: leave --units out, or give --units {planned}")
+
+
+def _another_mesh(mesh: Any, sha256: str | None, candidates: str) -> str | None:
+    """The mesh a plan's (or a ranking's) ``mesh`` object records, in words (its path, found
+    from the candidate file's folder, and its sha256), when its sha256 is not ``sha256``, that
+    of the mesh file given; None when it is, or the file records none."""
+    import os
+
+    recorded = mesh.get("sha256") if isinstance(mesh, dict) else None
+    if not isinstance(recorded, str) or sha256 is None or recorded == sha256:
+        return None
+    digest = f"sha256 {recorded[:12]}..."
+    path = mesh.get("path")
+    if not isinstance(path, str) or not path:
+        return digest
+    from synth.paths import resolve_mesh_path
+
+    try:
+        found = resolve_mesh_path(path, candidates)
+    except InputError:
+        return digest
+    relative = os.path.relpath(found)
+    return f"{found if relative.startswith('..') else relative}, {digest}"
 
 
 def counts_line(n: int, counts: dict[str, int], shown: int) -> str:

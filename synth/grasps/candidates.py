@@ -28,7 +28,7 @@ import re
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -122,6 +122,11 @@ class CandidateTable:
     groups : tuple of CandidateGroup
     errors : tuple of (int, str)
         Position and message of every malformed candidate, in file order.
+    mesh : dict or None
+        The ``mesh`` object the file records when it is one of synth's documents of contact
+        sets (a plan, ``synth.grasps``; a ranking, ``synth.ranked``): the mesh the
+        candidates were made on (``path``, relative to the file's folder, ``sha256``,
+        ``units``, ``load``), as written, unchecked; None for any other file.
     """
 
     source: str
@@ -129,6 +134,7 @@ class CandidateTable:
     mu: NDArray[np.float64] = field(repr=False)
     groups: tuple[CandidateGroup, ...]
     errors: tuple[tuple[int, str], ...]
+    mesh: dict[str, Any] | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
         return len(self.names)
@@ -341,6 +347,8 @@ def parse_json_file(path: str | Path, what: str) -> Any:
                          "are read)") from None
 
 
+#: synth's documents of contact sets that record the mesh they were made on (``mesh``).
+_RECORDING_MESH = ("synth.grasps", "synth.ranked")
 #: Fields of a gripper pose (``synth plan --gripper``, ``synth rank --gripper``, GraspGen,
 #: pose arrays): what tells a pose file given where contact sets belong.
 _POSE_FIELDS = ("pose", "poses", "transform", "transforms")
@@ -414,7 +422,10 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
         raise InputError(f"{p}: holds " + _POSES_HINT.format(path=p))
     wanted = "'points' and 'normals'" if require_normals else "'points'"
     planned_mu = None  # a plan's friction (its params), for grasps that do not give their own
+    mesh = None  # the mesh a synth plan or ranking records
     if isinstance(data, dict):
+        if data.get("format") in _RECORDING_MESH and isinstance(data.get("mesh"), dict):
+            mesh = data["mesh"]
         params = data.get("params")
         if isinstance(params, dict) and isinstance(params.get("mu"), (int, float)) \
                 and not isinstance(params.get("mu"), bool):
@@ -458,7 +469,8 @@ def _read_json(p: Path, require_normals: bool) -> CandidateTable:
             except (TypeError, ValueError):
                 nrm[-1] = None
         mus.append(obj.get("mu", planned_mu) if ok else None)
-    return _table(where, names, named, pts, nrm, mus, errors, frozenset(omitted))
+    table = _table(where, names, named, pts, nrm, mus, errors, frozenset(omitted))
+    return table if mesh is None else replace(table, mesh=mesh)
 
 
 def read_candidates(path: str | Path, *, require_normals: bool = True) -> list[Candidate]:

@@ -125,3 +125,11 @@ def test_unreadable_files(tmp_path, capsys):
     assert main(["score", str(npz)]) == 2
     err = capsys.readouterr().err
     assert err.count("synth: error:") == 3 and "Traceback" not in err
+
+
+def test_the_count_line_is_singular_for_one_candidate(tmp_path, capsys):
+    """"1 candidates scored" read wrong."""
+    assert main(["score", str(_write(tmp_path, [CUBE_FC]))]) == 0
+    assert capsys.readouterr().err.strip() == "1 candidate scored, 1 with closure"
+    assert main(["score", str(_write(tmp_path, [CUBE_FC, NO_TOP]))]) == 0
+    assert capsys.readouterr().err.strip() == "2 candidates scored, 1 with closure"

@@ -123,7 +123,8 @@ def run(args: argparse.Namespace) -> int:
         n_closure = int((scores.closure[order] != "force").sum())
         more = (f"; showing the best {len(rows_shown)} (--top 0 for all)"
                 if len(rows_shown) < len(order) else "")
-        print(f"{len(order)} candidates scored, {n_closure} with closure"
+        print(f"{len(order)} candidate{'s' * (len(order) != 1)} scored, {n_closure} with "
+              "closure"
               f"{f', {len(scores.errors)} malformed' if scores.errors else ''}{more}",
               file=sys.stderr)
     return 2 if scores.errors else 0

@@ -54,7 +54,9 @@ def test_corpus_mesh_plans_and_every_grasp_passes_the_independent_check(
         doc = json.loads(out)
         assert code == 1 and not doc["grasps"], err
         assert "none within the physical floor" in doc["message"]
-        assert "nearly free to rotate about" in doc["message"] and "try mu > 0" in doc["message"]
+        assert "nearly free to rotate about" in doc["message"]
+        assert ("try --mu > 0 with --contacts 3 or 4 (Python: mu=, contacts=)"
+                in doc["message"])
         code, out, err = _plan(entry, capsys, "--mu", "0.5", "--contacts", "4")
     doc = json.loads(out)
     assert code == 0, err

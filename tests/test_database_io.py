@@ -327,8 +327,8 @@ def test_an_export_named_for_another_format_and_an_order_without_its_measure(
     with GraspDatabase(db_path) as db:
         name = next(m.path for m in db.meshes() if m.n_grasps)
         assert all(g.tolerance is None for g in db.top(name, 5))
-        with pytest.raises(InputError, match=r"^rank_by \(--rank-by\) 'tolerance': .* no "
-                                             "placement tolerance"):
+        with pytest.raises(InputError, match=r"^--rank-by \(Python: rank_by=\) 'tolerance': "
+                                             ".* no placement tolerance"):
             db.top(name, 5, "tolerance")
     with pytest.raises(InputError, match=r"^workers \(--workers\): expected at least 1 with "
                                          r"the dask engine \(0, in this process: the local "

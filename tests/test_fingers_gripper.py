@@ -148,9 +148,10 @@ def test_missing_field_and_unknown_gripper(tmp_path, capsys):
     p.write_text(json.dumps(doc))
     with pytest.raises(InputError, match="missing field 'grip_force'"):
         load_gripper(p)
-    with pytest.raises(InputError, match=r"^gripper \(--gripper\): 'shadow_hand' is neither a "
-                                         "built-in gripper"):
+    with pytest.raises(InputError, match=r"^--gripper \(Python: gripper=\): 'shadow_hand' is "
+                                         "neither a built-in gripper"):
         load_gripper("shadow_hand")
-    with pytest.raises(InputError, match=r"^gripper \(--gripper\): expected a built-in"):
+    with pytest.raises(InputError, match=r"^--gripper \(Python: gripper=\): expected a "
+                                         "built-in"):
         load_gripper(None)  # was "'None' is neither a built-in gripper"
     assert set(BUILTIN_GRIPPERS) == {"franka", "robotiq_2f85", "robotiq_2f140"}

@@ -452,19 +452,18 @@ class GraspDatabase:
         orders = GRIPPER_TOP_ORDERS if gripper else TOP_ORDERS
         if rank_by not in orders:
             what = "gripper" if gripper else "point-finger"
-            raise InputError(f"rank_by (--rank-by) {rank_by!r}: {self.path}: the grasps of mesh "
-                             f"{mesh!r} "
-                             f"are {what} grasps, which rank by {', '.join(orders)}")
+            raise InputError(f"--rank-by (Python: rank_by=) {rank_by!r}: {self.path}: the "
+                             f"grasps of mesh {mesh!r} are {what} grasps, which rank by "
+                             f"{', '.join(orders)}")
         if gripper:
             return _gripper_top([GripperGraspRecord.from_row(r) for r in jaws], k, rank_by)
         from synth.plan.ranking import rank_grasps
 
         grasps = [GraspRecord.from_row(r) for r in fingers]
         if rank_by == "tolerance" and grasps and all(g.tolerance is None for g in grasps):
-            raise InputError(f"rank_by (--rank-by) 'tolerance': {self.path}: the grasps of mesh "
-                             f"{mesh!r} "
-                             "have no placement tolerance (the database was built without "
-                             "--regions)")
+            raise InputError(f"--rank-by (Python: rank_by=) 'tolerance': {self.path}: the "
+                             f"grasps of mesh {mesh!r} have no placement tolerance (the "
+                             "database was built without --regions)")
         if rank_by != "rank":
             grasps = rank_grasps(grasps, rank_by)
         return grasps[: int(k)]

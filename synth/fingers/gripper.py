@@ -272,15 +272,15 @@ def load_gripper(spec: str | Path) -> Gripper:
     0.08
     """
     if not isinstance(spec, (str, os.PathLike)):
-        raise InputError(f"gripper (--gripper): expected a built-in gripper's name "
+        raise InputError(f"--gripper (Python: gripper=): expected a built-in gripper's name "
                          f"({', '.join(BUILTIN_GRIPPERS)}) or a description file's path, got "
                          f"{type(spec).__name__}")
     key = str(spec)
     path = GRIPPER_FOLDER / BUILTIN_GRIPPERS[key] if key in BUILTIN_GRIPPERS else Path(key)
     where = str(path)
     if not path.is_file():
-        raise InputError(f"gripper (--gripper): {key!r} is neither a built-in gripper "
-                         f"({', '.join(BUILTIN_GRIPPERS)}) nor a description file")
+        raise InputError(f"--gripper (Python: gripper=): {key!r} is neither a built-in "
+                         f"gripper ({', '.join(BUILTIN_GRIPPERS)}) nor a description file")
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:

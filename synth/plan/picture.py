@@ -343,7 +343,7 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
     size = PIXELS
     W = cols * size + (cols + 1) * _GAP
     # 9-point characters, capitals and digits included (a no-grasp message is long)
-    titles = [_wrap(row.title, W // 10) for row, _, _ in plans]
+    titles = [_wrap(row.title, W // 9) for row, _, _ in plans]
     heights = [_ROW_TITLE + 14 * t.count("\n") + _VIEW_TITLE + size + _GAP for t in titles]
     scale = unit if part.units else "the file's units (unknown)"
     head = _wrap(title, W // 11) + (  # 10-point characters, capitals and digits included

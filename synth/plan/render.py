@@ -67,8 +67,15 @@ def render_png(part, plan: Plan, path: str | Path, panels: int = 3, atomic: bool
                          _finger_ends(g)) for i, g in enumerate(plan.grasps[:panels], 1)]
     surface = plan.params.get("surface")
     fig = draw_grasps(part, rows, run_title(plan.mesh, plan.run_id)
-                      + (f"   normals: {surface}" if surface else ""), plan.message)
+                      + (f"\n{_SURFACE_WORDS.get(surface, surface)}" if surface else ""),
+                      plan.message)
     return save_png(fig, path, plan.mesh, plan.run_id, atomic)
+
+
+#: How the picture's title says which normals scored the grasps (``--surface``).
+_SURFACE_WORDS = {"both": "d* with the facets' normals and the smooth surface's, the lower",
+                  "mesh": "d* with the facets' normals",
+                  "smooth": "d* with the smooth surface's normals"}
 
 
 def run_title(mesh: dict, run_id: str, what: str = "", sep: str = "   ") -> str:

@@ -46,3 +46,15 @@ def test_a_mesh_above_max_faces_loads_only_decimated(monkeypatch, tmp_path):
                for r in part.repairs)
     with pytest.raises(MeshError, match="decimate: expected a face count"):
         load_part(path, decimate=3001)
+
+
+def test_a_count_above_the_mesh_s_leaves_the_file_as_it_would_load():
+    """--decimate with more faces than the mesh has changes nothing: the same part and the
+    same report as without it (an STL's welded triangles are no repair either way)."""
+    from pathlib import Path
+
+    cube = Path(__file__).resolve().parents[1] / "meshes" / "cube.stl"
+    plain, kept = load_part(cube, units="dm"), load_part(cube, units="dm", decimate=100)
+    assert plain.repairs == kept.repairs == ()
+    assert np.array_equal(plain.mesh.faces, kept.mesh.faces)
+    assert np.array_equal(plain.mesh.vertices, kept.mesh.vertices)

@@ -588,8 +588,9 @@ def load_part(
     decimated = None
     if decimate is not None:
         n_file = sum(len(m.faces) for _, m in raw)
-        raw, soup = _decimated(raw, decimate, name, repairs), False
-        decimated = (n_file, int(decimate)) if raw[0][0] == "decimated" else None
+        raw = _decimated(raw, decimate, name, repairs)
+        if raw[0][0] == "decimated":  # one welded mesh now, whatever the file was
+            soup, decimated = False, (n_file, int(decimate))
     keyed: dict[bytes, np.ndarray] = {}
     pieces, precision, length = _pieces(raw, name, repairs, soup, keyed, decimated)
     if precision > COARSE_RTOL * length:

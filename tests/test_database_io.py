@@ -123,11 +123,29 @@ def test_export_json_round_trip(built: tuple[Path, Path], tmp_path: Path) -> Non
 
 
 def test_export_bad_format_and_missing_h5py(
-    built: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    built: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     _, db_path = built
-    with pytest.raises(InputError, match="h5, npz, json"):
+    with pytest.raises(InputError) as e:
         export_database(db_path, tmp_path / "g.csv")
+    # it read "export format must be one of h5, npz, json, got 'csv'", naming no option
+    assert str(e.value) == (f"--out {tmp_path / 'g.csv'} (Python: out=): its extension .csv "
+                            "names no export format; name it .h5 (or .hdf5), .npz or .json, or "
+                            "give --format h5, npz or json (Python: fmt=); --format acronym, "
+                            "graspgen or isaac writes a folder of files")
+    with pytest.raises(InputError, match=r"it has no extension, so it names no export format"):
+        export_database(db_path, tmp_path / "grasps")
+    with pytest.raises(InputError, match=r"^--format \(Python: fmt=\): expected one of h5, "
+                                         "npz, json, got 'csv'$"):
+        export_database(db_path, tmp_path / "g.h5", "csv")
+    from synth.cli import main
+
+    assert main(["db", "export", str(db_path), "--out", str(tmp_path / "g.csv")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"synth: error: --out {tmp_path / 'g.csv'} (Python: out=): its "
+                          "extension .csv names no export format") and "\n" not in err, err
+    assert not (tmp_path / "g.csv").exists()
     monkeypatch.setitem(sys.modules, "h5py", None)
     with pytest.raises(InputError, match=r'pip install "synth\[h5\]"'):
         export_database(db_path, tmp_path / "g.h5")
@@ -158,6 +176,25 @@ def test_lookup_by_name_stem_path_and_sha(built: tuple[Path, Path]) -> None:
         assert dup.sha256 == box.sha256 and dup.duplicate_of == box.id
         with pytest.raises(InputError, match="no mesh matching 'nothing'"):
             db.mesh("nothing")
+
+
+def test_no_match_lists_the_meshes_the_database_holds(built: tuple[Path, Path],
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """``db top DB nothere`` said only "no mesh matching 'nothere'", and no command lists a
+    database's meshes: the line names the first five and how many more."""
+    _, db_path = built
+    with GraspDatabase(db_path) as db:
+        names = [m.name for m in db.meshes()]
+    assert len(names) == 7
+    from synth.cli import main
+
+    assert main(["db", "top", str(db_path), "nothere"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"synth: error: {db_path}: no mesh matching 'nothere' (try a path, name or sha256); it "
+        f"holds 7 meshes: {', '.join(names[:5])}, and 2 more")
+    with GraspDatabase(db_path) as db:
+        with pytest.raises(InputError, match=r"no mesh matching 99 .*; it holds 7 meshes: "):
+            db.mesh(99)
 
 
 def test_ambiguous_name(tmp_path: Path) -> None:

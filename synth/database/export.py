@@ -324,8 +324,15 @@ def export_database(
     if fmt is None:
         ext = os.path.splitext(out)[1].lower().lstrip(".")
         fmt = {"hdf5": "h5"}.get(ext, ext)
+        if fmt not in EXPORT_FORMATS:
+            named = f"its extension .{ext} names" if ext else "it has no extension, so it names"
+            raise InputError(f"--out {out} (Python: out=): {named} no export format; name it "
+                             ".h5 (or .hdf5), .npz or .json, or give --format h5, npz or json "
+                             "(Python: fmt=); --format acronym, graspgen or isaac writes a "
+                             "folder of files")
     if fmt not in EXPORT_FORMATS:
-        raise InputError(f"export format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+        raise InputError(f"--format (Python: fmt=): expected one of "
+                         f"{', '.join(EXPORT_FORMATS)}, got {fmt!r}")
     ext = os.path.splitext(out)[1].lower().lstrip(".")
     if ext in EXPORT_FORMATS + ("hdf5",) and {"hdf5": "h5"}.get(ext, ext) != fmt:
         raise InputError(f"{out}: a .{ext} name for a {fmt} export; name it .{fmt}, or leave "

@@ -507,13 +507,24 @@ class GraspDatabase:
                 )
                 rows = [r for r in rows if os.path.splitext(r["name"])[0] == key]
         if not rows:
-            raise InputError(f"{self.path}: no mesh matching {key!r} (try a path, name or sha256)")
+            raise InputError(f"{self.path}: no mesh matching {key!r} (try a path, name or "
+                             f"sha256); {self._some_meshes()}")
         if len(rows) > 1:
             paths = ", ".join(r["path"] for r in rows[:5]) + (", ..." if len(rows) > 5 else "")
             raise InputError(
                 f"{self.path}: {len(rows)} meshes match {key!r} ({paths}); give a path instead"
             )
         return MeshRecord.from_row(rows[0])
+
+    def _some_meshes(self, shown: int = 5) -> str:
+        """The first ``shown`` meshes the database holds, by name, in words for a message."""
+        n = len(self)
+        if n == 0:
+            return "the database holds no mesh"
+        names = [r[0] for r in self._query("SELECT name FROM meshes ORDER BY id LIMIT ?",
+                                           (shown,))]
+        more = f", and {n - shown:,} more" if n > shown else ""
+        return f"it holds {n:,} mesh{'es' * (n != 1)}: {', '.join(names)}{more}"
 
     # -- writing (synth.database.build) ---------------------------------------------------
     def _require_write(self, migrate: bool = True) -> None:

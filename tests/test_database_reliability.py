@@ -415,12 +415,21 @@ def test_numeric_options_are_checked_up_front(
 ) -> None:
     huge = "1" * 22
     cases = [
+        # the words of every other option's check: "--top: ...", not argparse's "argument
+        # --top/-k: ..."
         (["top", str(reference), "box", "-k", huge],
-         "--top/-k: expected an integer from 0 to 1,000"),
+         "synth: error: --top: expected an integer from 0 to 1,000"),
         (["top", str(reference), "box", "--top", "-1"],
-         "--top/-k: expected an integer from 0 to 1,000"),
-        (["top", str(reference), "box", "-k", "two"], "--top/-k: expected an integer"),
+         "synth: error: --top: expected an integer from 0 to 1,000, got -1"),
+        (["top", str(reference), "box", "-k", "two"],
+         "synth: error: --top: expected an integer from 0 to 1,000, got 'two'"),
         (["build", str(mesh_dir), "--out", str(reference), "--workers", huge], "--workers"),
+        (["build", str(mesh_dir), "--out", str(reference), "--workers", "-1"],
+         "synth: error: --workers: expected an integer from 0 to 1,024, got -1"),
+        (["build", str(mesh_dir), "--out", str(reference), "--workers", "x"],
+         "synth: error: --workers: expected an integer from 0 to 1,024, got 'x'"),
+        (["build", str(mesh_dir), "--out", str(reference), "--timeout", "-1"],
+         "synth: error: --timeout: expected a number in (0, 1e+06] seconds, got '-1'"),
         (["build", str(mesh_dir), "--out", str(reference), "--seed", "-1"], "--seed"),
         (["build", str(mesh_dir), "--out", str(reference), "--timeout", "0"], "--timeout"),
         (["build", str(mesh_dir), "--out", str(reference), "--finger-radius", "nan"],
@@ -434,6 +443,7 @@ def test_numeric_options_are_checked_up_front(
         assert code == 2 and out == "", err
         _one_line(err)
         assert message in err and f"see 'synth db {argv[0]} --help'" in err
+        assert "argument " not in err, err
     assert reference.read_bytes() == data
     top_help = " ".join(_cli(["db", "top", "--help"], capsys)[1].split())
     assert "print the best N grasps, 1 to 1,000, or 0 for all" in top_help

@@ -11,7 +11,6 @@ import json
 import math
 import signal
 import sys
-from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -63,46 +62,48 @@ plan_mesh_file(path, params) -> dict returning synth's grasp document.
                   "written") + "; 130 interrupted; 143 stopped by SIGTERM"
 
 
-def _int_in(low: int, high: int) -> Callable[[str], int]:
-    """An argparse type: an integer from ``low`` to ``high``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or not low <= value <= high:
-            raise argparse.ArgumentTypeError(
-                f"expected an integer from {low} to {high:,}, got {shown(text)}"
-            )
-        return value
-
-    return parse
-
-
-def _float_in(low: float, high: float, low_open: bool = False) -> Callable[[str], float]:
-    """An argparse type: a number from ``low`` (excluded if ``low_open``) to ``high``."""
-    bounds = f"{'above' if low_open else 'from'} {low:g} to " + (
-        f"{high:,.0f}" if high < 1e7 else f"{high:g}"
-    )
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (low < value if low_open else low <= value) or not value <= high:
-            raise argparse.ArgumentTypeError(f"expected a number {bounds}, got {shown(text)}")
-        return value
-
-    return parse
-
-
-# Ranges of the database's own numeric options (shown in --help, checked as they are parsed);
-# the planning options are plan's (synth.cli.options), checked before the database opens.
+# Ranges of the database's own numeric options (shown in --help, checked once parsed, before
+# the database opens, in the words of every other option's check: synth.cli.checks); the
+# planning options are plan's (synth.cli.options).
 _WORKERS = (0, 1024)
 _TIMEOUT = (0.0, 1e6)
-_K = (0, MAX_TOP)
+
+
+def _integer(option: str, value: str | int | None, lo: int, hi: int) -> int | None:
+    """An integer option's value, parsed from its text (None: not given) and checked against
+    ``lo..hi``: a word or a number out of range is refused in one line, ``--workers: expected
+    an integer from 0 to 1,024, got 'x'``, as every option's check words it (argparse's own
+    types wrote ``argument --workers: ...``)."""
+    if value is None or isinstance(value, int):
+        number = value
+    else:
+        try:
+            number = int(value)
+        except ValueError:
+            from synth.errors import OptionError
+
+            raise OptionError(f"{option}: expected an integer from {lo:,} to {hi:,}, got "
+                              f"{shown(value)}") from None
+    from synth.cli.checks import integer
+
+    integer(option, number, lo, hi)
+    return number
+
+
+def _real(option: str, value: str | None, lo: float, hi: float, unit: str) -> float | None:
+    """A number option above ``lo`` up to ``hi`` (see :func:`_integer`)."""
+    if value is None:
+        return None
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan  # refused below, as NaN is
+    if not (math.isfinite(number) and lo < number <= hi):
+        from synth.errors import OptionError
+
+        raise OptionError(f"{option}: expected a number in ({lo:g}, {hi:g}]{unit}, got "
+                          f"{shown(value)}")  # as synth.cli.checks.real, the text as given
+    return number
 
 
 def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -131,7 +132,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--out", required=True, metavar="DB",
                    help="the database file, created or resumed (one build at a time writes it)")
     add_planning_options(b, time=BUILD_TIME, rank_by_extra=GRIPPER_RANK_BY)
-    b.add_argument("--workers", type=_int_in(*_WORKERS), default=None, metavar="N",
+    b.add_argument("--workers", default=None, metavar="N",
                    help=f"worker processes, {_WORKERS[0]} to {_WORKERS[1]} (default: all CPUs; "
                    "0 = plan in this process)")
     b.add_argument("--engine", choices=("local", "dask"), default="local",
@@ -145,7 +146,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     add_gripper_options(b)  # --gripper: gripper grasps, stored in the table gripper_grasps
     b.set_defaults(mu=None, rank_by=None)  # their defaults differ with --gripper
     b.add_argument("--retry-failed", action="store_true", help="plan failed meshes again")
-    b.add_argument("--timeout", type=_float_in(*_TIMEOUT, low_open=True), default=None,
+    b.add_argument("--timeout", default=None,
                    metavar="SECONDS",
                    help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, "
                    "before it is stopped and recorded as failed with kind 'timeout' (local engine; "
@@ -169,7 +170,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                            "that is not a synth grasp database, or a mesh it does not hold"))
     t.add_argument("database", metavar="DB", help="database file")
     t.add_argument("mesh", metavar="MESH_NAME", help="mesh name, stem, path or sha256")
-    t.add_argument("--top", "-k", type=_int_in(*_K), default=5, metavar="N",
+    t.add_argument("--top", "-k", default=5, metavar="N",
                    help=top_help("grasps", 5, listing=True) + "; -k is its old spelling")
     t.add_argument("--rank-by", choices=tuple(dict.fromkeys(("rank",) + RANK_BY
                                                             + GRIPPER_RANK_BY)),
@@ -206,6 +207,8 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _build(args: argparse.Namespace) -> int:
     from synth.database.build import build_database
 
+    args.workers = _integer("--workers", args.workers, *_WORKERS)
+    args.timeout = _real("--timeout", args.timeout, *_TIMEOUT, unit=" seconds")
     planner = args.planner
     if args.gripper is None:
         from synth.cli.gripper import refuse_gripper_options
@@ -290,6 +293,7 @@ def _top(args: argparse.Namespace) -> int:
     from synth.database.store import GraspDatabase
     from synth.errors import DatabaseFileError
 
+    args.top = _integer("--top", args.top, 0, MAX_TOP)  # as rank's and score's --top
     with GraspDatabase(args.database) as db:
         mesh = db.mesh(args.mesh)
         grasps = db.top(args.mesh, args.top or sys.maxsize, args.rank_by)  # 0: all

@@ -117,6 +117,13 @@ def test_plan_refuses_bad_options_before_any_work(box, tmp_path, capsys, extra, 
     (["rank", "{box}", "{c}", "--grip", "10"], "--grip: a margin is the grip over the least "
      "squeeze in newtons, which needs the part's weight: add --mass KG or --density KG/M3"),
     (["plan", "{box}", "--grip", "10", "--no-files"], "--grip: a margin is the grip"),
+    # an option that excludes another is refused even when the other is typed at its default
+    (["plan", "{box}", "--fingers", "3", "--contacts", "7", "--no-files"],
+     "give --fingers or --contacts, not both"),
+    (["plan", "{box}", "--gripper", "franka", "--units", "cm", "--contacts", "7", "--no-files"],
+     "--contacts applies to point-finger grasps, not to --gripper"),
+    (["plan", "{box}", "--gripper", "franka", "--units", "cm", "--evals", "50000",
+      "--no-files"], "--evals applies to point-finger grasps, not to --gripper"),
 ])
 def test_rank_and_score_refuse_bad_options(box, tmp_path, capsys, argv, message):
     c = tmp_path / "c.json"

@@ -31,9 +31,10 @@ import signal
 import sys
 import traceback
 from collections.abc import Callable, Sequence
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from synth import __version__, interrupt
+from synth.cli.checks import GIVEN
 from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError, shown
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
@@ -49,9 +50,26 @@ Runner = Callable[[argparse.Namespace], int]
 _MAX_LINE = 400
 
 
+class _Stored(argparse._StoreAction):
+    """argparse's store action, which also records the option's destination in the
+    namespace's :data:`synth.cli.checks.GIVEN` set (read by :func:`synth.cli.checks.given`)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: str | Sequence[Any] | None, option_string: str | None = None
+                 ) -> None:
+        super().__call__(parser, namespace, values, option_string)
+        setattr(namespace, GIVEN, getattr(namespace, GIVEN, frozenset()) | {self.dest})
+
+
 class _Parser(argparse.ArgumentParser):
     """An argument parser that raises :class:`InputError` on a bad command line instead of
-    printing its usage and exiting, so that ``main`` reports it as one line."""
+    printing its usage and exiting, so that ``main`` reports it as one line, and records
+    which options were given (its subcommands' parsers are of this class too)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.register("action", None, _Stored)
+        self.register("action", "store", _Stored)
 
     def error(self, message: str) -> NoReturn:
         """Raise the parse error as bad input, pointing at the command's help."""

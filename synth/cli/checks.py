@@ -16,7 +16,16 @@ from pathlib import Path
 from synth.errors import OptionError, OutputError, shown
 from synth.files import wrote_by_synth
 
-__all__ = ["integer", "real", "output_path"]
+__all__ = ["integer", "real", "output_path", "given", "GIVEN"]
+
+#: The namespace attribute where the parser records the options the command line gave.
+GIVEN = "_given"
+
+
+def given(args: object, dest: str) -> bool:
+    """Whether the command line gave the option stored in ``dest`` (even at its default
+    value: a default the user typed beside an option that excludes it is refused too)."""
+    return dest in getattr(args, GIVEN, ())
 
 
 def integer(option: str, value: int | None, lo: int, hi: int | None = None,

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from synth.cli.checks import integer, output_path, real
+from synth.cli.checks import given, integer, output_path, real
 from synth.cli.options import check_weight_options
 from synth.cli.vocabulary import check_top
 from synth.errors import OptionError
@@ -92,7 +92,7 @@ def refuse_finger_options(args: argparse.Namespace, time: float) -> None:
                 "regions": False, "finger_radius": None, "body_length": None,
                 "body_radius": None, "approach_cone": 0.0, "surface": DEFAULT_SURFACE}
     for name, default in defaults.items():
-        if getattr(args, name, default) != default:
+        if given(args, name) or getattr(args, name, default) != default:
             option = "--" + name.replace("_", "-")
             raise OptionError(f"{option} applies to point-finger grasps, not to --gripper "
                               "(a gripper plan's options: --mu, --edges, --top, --seed, "

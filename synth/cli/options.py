@@ -17,7 +17,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from synth.cli.checks import integer, real
+from synth.cli.checks import given, integer, real
 from synth.cli.vocabulary import add_top, check_top
 from synth.errors import OptionError, shown
 from synth.limits import (
@@ -259,7 +259,8 @@ def check_planning_options(args: argparse.Namespace) -> None:
     if args.contacts is not None and not lo <= args.contacts <= MAX_CONTACTS:
         raise OptionError(f"--contacts: expected an integer from {lo} to {MAX_CONTACTS} {how}, "
                           f"got {shown(args.contacts)}")
-    if _fingers(args.fingers) is not None and args.contacts != PlanParams().contacts:
+    if _fingers(args.fingers) is not None and (given(args, "contacts")
+                                                or args.contacts != PlanParams().contacts):
         raise OptionError("give --fingers or --contacts, not both (with --fingers each tip "
                           "makes one to three contacts, as the surface allows)")
     integer("--edges", args.edges, MIN_EDGES, MAX_EDGES)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from synth.cli import build_parser, main
-from synth.cli.vocabulary import QUIET_HELP
+from synth.cli.vocabulary import QUIET_HELP, QUIET_HELPS
 from synth.limits import MAX_TOP
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,9 +49,12 @@ def test_shared_options_have_one_help_text() -> None:
             text = re.sub(r"write .* to this file", "write X to this file", action.help or "")
             text = re.sub(r"print .* as one JSON", "print X as one JSON", text)
             helps.setdefault(name, set()).add(text)
-    assert helps["--quiet"] == {QUIET_HELP}
-    assert len({h.replace(" (the document --out writes)", "") for h in helps["--json"]}) == 1, \
-        helps["--json"]
+    # --quiet: one meaning, results and errors only; each command says what it silences
+    assert helps["--quiet"] == set(QUIET_HELPS.values()) and QUIET_HELPS["plan"] == QUIET_HELP
+    for h in helps["--quiet"]:
+        assert re.match(r"print (the results and )?errors only( \([^)]*\))?: no ", h), h
+    assert len({h.replace(" (the document --out writes)", "").replace("; implies --quiet", "")
+                for h in helps["--json"]}) == 1, helps["--json"]
     for name in ("--edges", "--table", "--grip", "--mass", "--density", "--sim-grip",
                  "--surface"):
         assert len({h.replace("candidate ", "grasp ") for h in helps[name]}) == 1, \
@@ -60,6 +63,31 @@ def test_shared_options_have_one_help_text() -> None:
         assert h.startswith("Coulomb friction coefficient") or h.startswith("simulate with"), h
     for h in helps["--out"]:
         assert "whole or not at all" in h or "database file" in h, h
+
+
+def test_each_quiet_says_what_its_command_silences() -> None:
+    """The --quiet help of score, rank, sim and db export was plan's, copied: "a plan's table
+    ... progress bar ... tallies of candidates by status" where there is none of them."""
+    for words in COMMANDS:
+        command = " ".join(words)
+        opts = _options(*words)
+        if "--quiet" in opts:
+            assert opts["--quiet"].help == QUIET_HELPS[command], command
+    assert "plan" not in QUIET_HELPS["score"] + QUIET_HELPS["rank"] + QUIET_HELPS["sim"]
+    assert "progress" not in QUIET_HELPS["score"] + QUIET_HELPS["rank"] + QUIET_HELPS[
+        "db export"]
+    assert "tall" not in QUIET_HELPS["score"] + QUIET_HELPS["sim"] + QUIET_HELPS["db export"]
+    assert "tally of candidates by status" in QUIET_HELPS["rank"]
+    assert "table" not in QUIET_HELPS["db export"] + QUIET_HELPS["db build"]
+
+
+def test_json_implies_quiet_only_where_there_is_one() -> None:
+    """db info and db top have no --quiet, and their --json said "implies --quiet"."""
+    for words in COMMANDS:
+        opts = _options(*words)
+        if "--json" in opts:
+            assert ("implies --quiet" in opts["--json"].help) == ("--quiet" in opts), words
+    assert "--quiet" not in _options("db", "top") and "--json" in _options("db", "top")
 
 
 def test_json_is_a_switch_everywhere() -> None:

@@ -93,7 +93,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     o = p.add_argument_group("output")
     add_out(o, "every candidate ranked")
     add_json(o, "every candidate ranked")
-    add_quiet(o)
+    add_quiet(o, "rank")
     from synth.cli.rank_gripper import add_rank_gripper_options
 
     add_rank_gripper_options(p)

@@ -61,7 +61,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     o = p.add_argument_group("output")
     add_out(o, "every candidate's score")
     add_json(o, "every candidate's score")
-    add_quiet(o)
+    add_quiet(o, "score")
     p.set_defaults(run=run)
 
 

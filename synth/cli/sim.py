@@ -129,7 +129,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     add_out(o, "the labelled grasp file", "GRASPS.json, updated in place")
     o.add_argument("--no-files", action="store_true", help="write no files, only print")
     add_json(o, "the labelled grasp file")
-    add_quiet(o)
+    add_quiet(o, "sim")
     p.set_defaults(run=run)
 
 

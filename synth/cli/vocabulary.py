@@ -3,10 +3,11 @@
 ``--quiet``, ``--json``, ``--out`` and ``--top`` mean one thing in every command that takes
 them, and every ``--help`` ends with the exit statuses:
 
-* ``--quiet``: results and errors only (a plan's table and its summary line); no progress bar,
-  no loading notes, no tallies of candidates by status, no list of files written.
+* ``--quiet``: results and errors only; no progress bar, no loading notes, no tallies of
+  candidates by status, no list of files written: each command's help says which of these it
+  has (:data:`QUIET_HELPS`).
 * ``--json``: the result as one JSON document on stdout instead of the table (the document
-  ``--out`` writes, where there is one); it implies ``--quiet``.
+  ``--out`` writes, where there is one); it implies ``--quiet`` where the command has one.
 * ``--out FILE``: the result written to FILE, checked before any work and written whole or
   not at all; the table is printed too, and a ``wrote FILE`` line unless ``--quiet``.
 * ``--top N``: the N best. Where the command finds them (``plan``, ``db build``) it keeps N,
@@ -23,29 +24,46 @@ from typing import Any
 from synth.cli.checks import integer
 from synth.limits import MAX_TOP
 
-__all__ = ["DEFAULT_ROWS", "QUIET_HELP", "add_quiet", "add_json", "add_out", "top_help", "add_top",
-           "check_top", "exit_epilog"]
+__all__ = ["DEFAULT_ROWS", "QUIET_HELP", "QUIET_HELPS", "add_quiet", "add_json", "add_out",
+           "top_help", "add_top", "check_top", "exit_epilog"]
 
 #: Rows ``synth rank`` and ``synth score`` print when ``--top`` is not given.
 DEFAULT_ROWS = 20
-#: What ``--quiet`` does, in every command that takes it.
-QUIET_HELP = ("print the results and errors only (a plan's table and its summary line): no "
-              "progress bar, no loading notes, no tallies of candidates by status, no list of "
-              "files written")
+#: What ``--quiet`` does in ``synth plan`` (point fingers and ``--gripper``).
+QUIET_HELP = ("print the results and errors only (the table of grasps and its summary line): "
+              "no progress bar, no loading notes, no list of files written")
+#: What ``--quiet`` does in each command that takes it: one meaning (results and errors
+#: only), and what the command has to silence, exactly (read from each command's code).
+QUIET_HELPS: dict[str, str] = {
+    "plan": QUIET_HELP,
+    "rank": "print the results and errors only (the table of candidates): no loading notes "
+            "(a dropped body is still said), no notes of the unit or mass taken from the "
+            "candidate file or of how gripper poses were brought to the mesh, no tally of "
+            "candidates by status, no 'wrote FILE' line",
+    "score": "print the results and errors only (the table of candidates): no count of "
+             "candidates scored, no 'wrote FILE' line",
+    "sim": "print the results and errors only (the table of grasps and its summary line): no "
+           "progress bar, no 'wrote FILE' line",
+    "db build": "print errors only: no progress bar, no summary of the meshes planned and the "
+                "grasps stored",
+    "db export": "print errors only: no line naming the files written",
+}
 
 
-def add_quiet(p: argparse.ArgumentParser | Any) -> None:
-    """``--quiet`` (see :data:`QUIET_HELP`)."""
-    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+def add_quiet(p: argparse.ArgumentParser | Any, command: str = "plan") -> None:
+    """``--quiet`` of ``command`` (see :data:`QUIET_HELPS`)."""
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELPS[command])
 
 
-def add_json(p: argparse.ArgumentParser | Any, what: str, out: bool = True) -> None:
+def add_json(p: argparse.ArgumentParser | Any, what: str, out: bool = True,
+             quiet: bool = True) -> None:
     """``--json``: print ``what`` as JSON instead of the table; ``out``: the command has an
-    ``--out`` that writes the same document. :func:`synth.cli.main` makes it imply
-    ``--quiet``."""
+    ``--out`` that writes the same document; ``quiet``: it has a ``--quiet``, which
+    :func:`synth.cli.main` makes ``--json`` imply (the help says so only then)."""
     p.add_argument("--json", action="store_true",
                    help=f"print {what} as one JSON document instead of the table"
-                   + (" (the document --out writes)" if out else "") + "; implies --quiet")
+                   + (" (the document --out writes)" if out else "")
+                   + ("; implies --quiet" if quiet else ""))
 
 
 def add_out(p: argparse.ArgumentParser | Any, what: str, default: str | None = None,

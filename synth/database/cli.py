@@ -151,7 +151,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help=f"seconds of planning per mesh, above 0 to {_TIMEOUT[1]:,.0f}, "
                    "before it is stopped and recorded as failed with kind 'timeout' (local engine; "
                    "default: none, the planner's own --time cap bounds its search)")
-    add_quiet(b)
+    add_quiet(b, "db build")
     from synth.cli.sim import add_sim_options
 
     add_sim_options(b, switch=True)  # --sim: each mesh's grasps simulated on the worker
@@ -162,7 +162,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                        description="Counts, failures and parameters of a database.",
                        epilog=reading)
     i.add_argument("database", metavar="DB", help="database file")
-    add_json(i, "the counts, failures and parameters", out=False)
+    add_json(i, "the counts, failures and parameters", out=False, quiet=False)
 
     t = sub.add_parser("top", help="best grasps of one mesh", description="Best grasps of one "
                        "mesh.", epilog=exit_epilog(
@@ -181,7 +181,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
                    "tolerance, which needs a database built with --regions: by that measure, "
                    "largest first. Gripper grasps: margin (least squeeze per weight first), "
                    "d_star, mu_min (smallest first) or epsilon (largest first)")
-    add_json(t, "the grasps", out=False)
+    add_json(t, "the grasps", out=False, quiet=False)
 
     e = sub.add_parser(
         "export", help="export a database to HDF5, NPZ or JSON, or to ACRONYM, GraspGen or "
@@ -200,7 +200,7 @@ def add_db_parser(subparsers: Any) -> argparse.ArgumentParser:
     e.add_argument("--units", default=None, metavar="UNIT",
                    help="length unit of meshes whose unit the database does not know (acronym, "
                    "graspgen, isaac: their poses are in metres)")
-    add_quiet(e)
+    add_quiet(e, "db export")
     return db  # type: ignore[no-any-return]
 
 

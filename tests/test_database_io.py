@@ -269,6 +269,10 @@ def test_cli_build_info_top_export(built: tuple[Path, Path], tmp_path: Path) -> 
         stored = [g.squeeze_per_weight for g in db.top("ico", 2)]
     head, *rows = r.stdout.splitlines()[1:3 + 1]
     column = head.split().index("N/weight")
+    # the row number is '#', as in the gripper table and docs/vocabulary.md ('rank' is a
+    # wrench matrix's rank in synth's words)
+    assert head.split()[0] == "#" and "rank" not in head.split(), head
+    assert [row.split()[0] for row in rows] == ["1", "2"]
     assert None not in stored
     assert [float(row.split()[column]) for row in rows] == pytest.approx(stored, abs=5e-4)
     r = _cli("top", str(out), "random.stl", "--json")  # a failed mesh says so, as the table does

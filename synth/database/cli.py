@@ -326,8 +326,10 @@ def _top(args: argparse.Namespace) -> int:
 
 def _point_table(points: list[Any]) -> str:
     """``db top``'s table of point-finger grasps (:class:`synth.database.schema.GraspRecord`):
-    the closure measures, the least squeeze per weight and the margin where stored, the
-    tolerance where measured, the simulation's label where simulated."""
+    each grasp's place as stored (``#``, as the gripper table's; ``rank`` in synth's words is
+    a wrench matrix's rank, docs/vocabulary.md), the closure measures, the least squeeze
+    per weight and the margin where stored, the tolerance where measured, the simulation's
+    label where simulated."""
     weight = any(g.squeeze_per_weight is not None for g in points)
     margin = any(g.margin is not None for g in points)
     show = any(g.tolerance is not None for g in points)
@@ -342,12 +344,12 @@ def _point_table(points: list[Any]) -> str:
         held = {True: "yes", False: "no", None: "error"}[g.sim.get("held")]
         return f"{held:<5}  {g.sim.get('failed_at') or '-':<9}  "
 
-    lines = [f"{'rank':>4}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
+    lines = [f"{'#':>3}  {'d*':>8}  {'cond':>8}  {'epsilon':>8}  "
              + (f"{'N/weight':>8}  " if weight else "") + (f"{'margin':>8}  " if margin else "")
              + (f"{'tolerance':>10}  " if show else "")
              + (f"{'held':<5}  {'failed at':<9}  " if sim else "") + "closure"]
     for g in points:
-        lines.append(f"{g.rank:>4}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
+        lines.append(f"{g.rank:>3}  {g.d_star:8.5f}  {g.conditioning:8.4f}  {g.epsilon:8.5f}  "
                      + (f"{value(g.squeeze_per_weight, '.3f'):>8}  " if weight else "")
                      + (f"{value(g.margin, '.2f'):>8}  " if margin else "")
                      + (f"{value(g.tolerance, '.3g'):>10}  " if show else "")

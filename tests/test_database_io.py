@@ -139,6 +139,10 @@ def test_export_bad_format_and_missing_h5py(
     with pytest.raises(InputError, match=r"^--format \(Python: fmt=\): expected one of h5, "
                                          "npz, json, got 'csv'$"):
         export_database(db_path, tmp_path / "g.h5", "csv")
+    from synth.database.export_objects import export_objects
+
+    with pytest.raises(InputError, match=r"^--format \(Python: fmt=\): expected one of acronym"):
+        export_objects(db_path, tmp_path / "objects", "csv")
     from synth.cli import main
 
     assert main(["db", "export", str(db_path), "--out", str(tmp_path / "g.csv")]) == 2
@@ -371,9 +375,9 @@ def test_an_export_named_for_another_format_and_an_order_without_its_measure(
         with pytest.raises(InputError, match=r"^--rank-by \(Python: rank_by=\) 'tolerance': "
                                              ".* no placement tolerance"):
             db.top(name, 5, "tolerance")
-    with pytest.raises(InputError, match=r"^workers \(--workers\): expected at least 1 with "
-                                         r"the dask engine \(0, in this process: the local "
-                                         r"engine only\), got 0"):
+    with pytest.raises(InputError, match=r"^--workers \(Python: workers=\): expected at least "
+                                         r"1 with the dask engine \(0, in this process: the "
+                                         r"local engine only\), got 0"):
         build_database([tmp_path], tmp_path / "d.sqlite", {}, engine="dask", workers=0)
 
 

@@ -745,12 +745,14 @@ def build_database(
             raise InputError(f"engine must be 'local' or 'dask', got {engine!r}")
         if workers is not None and (isinstance(workers, bool)
                                     or not isinstance(workers, numbers.Integral)):
-            raise InputError(f"workers (--workers): expected an integer, got {workers!r}")
+            raise InputError(f"--workers (Python: workers=): expected an integer, got "
+                             f"{workers!r}")
         n_workers = len(os.sched_getaffinity(0)) if workers is None else int(workers)
         if n_workers < 0 or (engine == "dask" and n_workers == 0):
             least = "1 with the dask engine (0, in this process: the local engine only)" \
                 if engine == "dask" else "0 (0: in this process)"
-            raise InputError(f"workers (--workers): expected at least {least}, got {workers}")
+            raise InputError(f"--workers (Python: workers=): expected at least {least}, got "
+                             f"{workers}")
         if timeout is not None and (isinstance(timeout, bool) or not isinstance(
                 timeout, numbers.Real) or not (timeout > 0 and math.isfinite(timeout))):
             raise InputError(f"timeout: expected a finite number of seconds > 0, or None, got "

@@ -122,7 +122,8 @@ def export_objects(database: str | os.PathLike[str], out: str | os.PathLike[str]
         without ``units``.
     """
     if fmt not in WRITERS:
-        raise InputError(f"export format must be one of {', '.join(WRITERS)}, got {fmt!r}")
+        raise InputError(f"--format (Python: fmt=): expected one of {', '.join(WRITERS)}, got "
+                         f"{fmt!r}")
     if fmt == "acronym":
         from synth.formats.acronym import write_acronym as write
     elif fmt == "graspgen":

@@ -639,6 +639,7 @@ def test_extreme_values_in_range_print_no_numpy_warnings(box, capsys):
     (["--fingers", "3", "--contacts", "9"], "give --fingers or --contacts, not both"),
     (["--sim-shake", "2"], "--sim-shake: the simulated hand's options apply with --sim only"),
     (["--sim-grip", "5", "--sim-hand", "saturated"], "--sim-hand, --sim-grip:"),
+    (["--sim-hand", "balanced"], "--sim-hand: the simulated hand's options"),  # the default
     (["other.stl"], "unrecognized arguments: other.stl (see 'synth plan --help')"),
 ])
 def test_options_that_would_be_ignored_are_refused(box, tmp_path, capsys, argv, words):

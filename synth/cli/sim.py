@@ -61,6 +61,7 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
 def refuse_sim_options(args: argparse.Namespace) -> None:
     """Refuse ``--sim-...`` options changed from their defaults without ``--sim`` (``synth
     plan``, ``synth db build``): they would be ignored."""
+    from synth.cli.checks import given as was_given
     from synth.errors import OptionError
     from synth.sim.settings import SimSettings
 
@@ -69,7 +70,7 @@ def refuse_sim_options(args: argparse.Namespace) -> None:
     d = SimSettings()
     given = [f"--{PREFIX}{name}" for name in ("hand", "grip", "stiffness", "size", "density",
                                               "shake")
-             if getattr(args, f"sim_{name}") != getattr(d, name)]
+             if was_given(args, f"sim_{name}") or getattr(args, f"sim_{name}") != getattr(d, name)]
     if given:
         raise OptionError(f"{', '.join(given)}: the simulated hand's options apply with --sim "
                           "only (simulate the grasps found); add --sim or leave them out")

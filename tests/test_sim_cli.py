@@ -400,3 +400,21 @@ def test_a_grasp_edited_off_the_part_is_not_held(tmp_path, capsys, edit, words):
     assert first["held"] is False and first["failed_at"] == "start", first
     assert words in first["reason"], first["reason"]
     assert second["held"] is True
+
+
+def test_the_summary_says_in_words_what_was_simulated():
+    """The summary line names the protocol's document and says what a faceted body is (it
+    read 'protocol synth.sim 3' and '1 non-convex body collided as its facets')."""
+    from synth.cli.sim import summary
+
+    doc = {"format": "synth.grasps", "grasps": [{}, {}],
+           "sim": {"held": 2, "seconds": 1.25, "faceted_bodies": 1,
+                   "settings": {**SimSettings().to_dict(), "simulator": "synth.sim 3"}}}
+    line = summary(doc)
+    assert line.startswith("2 of 2 grasps held (balanced point fingers, grip 10 N each, part "
+                           "scaled to 0.1 m; weight along +-x, +-y, +-z, shake 1 g; the "
+                           "protocol of synth.sim 3, docs/simulation.md); 1 non-convex body "
+                           "of the part simulated as thin convex slabs under the facets near "
+                           "the hand, as MuJoCo collides convex shapes; 1.2 s"), line
+    doc["sim"]["faceted_bodies"] = 0
+    assert "slabs" not in summary(doc) and (ROOT / "docs" / "simulation.md").exists()

@@ -167,12 +167,14 @@ def summary(doc: dict) -> str:
     hand = s.get("hand") if jaws else (f"{st['hand']} point fingers, grip {st['grip']:g} N "
                                        f"each, part scaled to {st['size']:g} m")
     n_f = s.get("faceted_bodies") or 0
-    dec = "" if not n_f else (f"; {n_f} non-convex bod{'y' if n_f == 1 else 'ies'} collided as "
-                              "its facets near the hand")
+    dec = "" if not n_f else (f"; {n_f} non-convex bod{'y' if n_f == 1 else 'ies'} of the part "
+                              "simulated as thin convex slabs under the facets near the hand, "
+                              "as MuJoCo collides convex shapes")
     errors = f", {s['errors']} not simulated ({s['error'] or 'see each label'})" \
         if s.get("errors") else ""
     return (f"{s['held']} of {n} grasps held{errors} ({hand}; weight along +-x, +-y, +-z, "
-            f"shake {st['shake']:g} g; protocol {st['simulator']}){dec} in {s['seconds']:.1f} s")
+            f"shake {st['shake']:g} g; the protocol of {st['simulator']}, docs/simulation.md)"
+            f"{dec}; {s['seconds']:.1f} s")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -55,6 +55,8 @@ def test_acronym_file_poses_are_brought_to_the_mesh_by_its_scale(tmp_path):
     assert np.array_equal(at.poses[:, :3, :3], T[:, :3, :3])
     assert np.allclose(at.poses[:, :3, 3], T[:, :3, 3] / 0.004, rtol=1e-15)
     assert "object scale 0.004" in at.applied
+    assert at.applied.endswith("translations multiplied by 250 into the mesh's unit, rotations "
+                               "as given")
     # a part whose unit says otherwise was not the object the poses were made for
     with pytest.raises(InputError, match="object scale.*another size"):
         poses.to_part(0.001, "mm")
@@ -83,6 +85,11 @@ def test_graspgen_json_isaac_yaml_and_arrays_read_their_documented_keys(tmp_path
     # no object scale: metres onto a part in millimetres, and refused without a unit
     mm = i.to_part(0.001, "mm")
     assert np.allclose(mm.poses[0, :3, 3], [-43.46, 67.59, 198.95])
+    assert mm.applied.endswith("translations multiplied by 1000 into the mesh's unit, "
+                               "rotations as given")
+    # metres onto a part in metres: nothing to convert, and the note says so
+    assert i.to_part(1.0, "m").applied.endswith("the same unit: translations as given, "
+                                                "rotations as given")
     with pytest.raises(InputError, match="unit is unknown.*--units"):
         i.to_part(None, None)
     np.savez(tmp_path / "p.npz", poses=T, widths=[0.01, 0.02], units="mm")

@@ -258,8 +258,9 @@ class GripperPoses:
         T = self.poses.copy()
         T[:, :3, 3] *= k
         widths = None if self.widths is None else self.widths * k
+        change = ("the same unit: translations as given" if k == 1.0 else
+                  f"translations multiplied by {k:g} into the mesh's unit")
         applied = (f"{len(T)} poses from {self.format} file {self.path}: gripper base frame "
                    f"(approach +z, closing x), translations in {self.unit_name} on {how}; "
-                   f"translations multiplied by {k:g} into mesh units, rotations kept, the "
-                   "mesh not rescaled")
+                   f"{change}, rotations as given")
         return PartPoses(T, widths, m, applied)

@@ -178,12 +178,12 @@ def add_grip(g: argparse.ArgumentParser | Any, what: str) -> None:
                    "squeeze that holds the part")
 
 
-def add_table(g: argparse.ArgumentParser | Any, hand: str = "the fingers or the gripper"
-              ) -> None:
-    """``--table``: a support plane ``hand`` (the command's hands, in words) may not cross."""
+def add_table(g: argparse.ArgumentParser | Any) -> None:
+    """``--table``: a support plane the hand may not cross (one help text wherever)."""
     g.add_argument("--table", type=float, default=None, metavar="Z",
-                   help=f"a support plane z = Z in the part's frame and units that {hand} may "
-                   f"not cross, |Z| at most {MAX_LENGTH:g} (the JSON's params.support_z)")
+                   help="a support plane z = Z in the part's frame and units that the fingers "
+                   f"or the gripper may not cross, |Z| at most {MAX_LENGTH:g} (the JSON's "
+                   "params.support_z); synth rank takes it for gripper poses only")
 
 
 def add_weight_options(p: argparse.ArgumentParser) -> None:

@@ -26,7 +26,7 @@ def add_rank_gripper_options(p: argparse.ArgumentParser) -> None:
                    help=f"rank gripper poses of a parallel-jaw gripper: "
                    f"{', '.join(BUILTIN_GRIPPERS)} or a JSON description")
     add_hold_options(g)
-    add_table(g, "the gripper (gripper poses only)")
+    add_table(g)
 
 
 def refuse_rank_gripper_options(args: argparse.Namespace) -> None:

@@ -62,8 +62,10 @@ def test_top_level_functions_name_a_wrong_argument(tmp_path):
                                                         "'nosuch'"),
         (lambda: synth.plan_part(part, synth.PlanParams(), progress="abc"), "^progress: "),
         (lambda: synth.build_database(5, out, {}), "^sources: expected folders"),
-        (lambda: synth.build_database(cube, out, {}, workers="abc"), r"^workers \(--workers\)"),
-        (lambda: synth.build_database(cube, out, {}, workers=float("inf")), "^workers"),
+        (lambda: synth.build_database(cube, out, {}, workers="abc"),
+         r"^--workers \(Python: workers=\)"),
+        (lambda: synth.build_database(cube, out, {}, workers=float("inf")),
+         r"^--workers \(Python: workers=\)"),
         (lambda: synth.build_database(cube, out, {}, timeout="abc"), "^timeout: expected"),
         (lambda: synth.build_database(cube, out, {}, planner=5), "^planner: expected"),
     ]

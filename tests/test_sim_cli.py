@@ -105,6 +105,12 @@ def test_a_gripper_grasp_file_is_simulated_with_its_pads(tmp_path, capsys):
     assert main(["sim", str(path), "--mesh", str(mesh), "--sim-shake", "0", "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "2 of 2 grasps held" in text and "Franka" in text
+    # N/weight to 3 decimals, as the plan's gripper table has it
+    lines = text.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["#", "d*"])
+    rows = [line.split() for line in lines[head + 1:head + 3]]
+    assert [r[2] for r in rows] == [f"{g['measures']['squeeze_per_weight']:.3f}"
+                                    for g in doc["grasps"]]
     got = [g["sim"] for g in json.loads(path.read_text())["grasps"]]
     want = [g["sim"] for g in simulate_jaw_document(doc, part, SimSettings(shake=0.0))[
         "grasps"]]

@@ -135,7 +135,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def format_sim_table(doc: dict) -> str:
-    """Table of a labelled document's grasps: measures beside the simulation's labels."""
+    """Table of a labelled document's grasps: measures beside the simulation's labels, in
+    the plan tables' decimals (conditioning to 4, N/weight to 3)."""
     jaws = doc.get("format") == "synth.gripper_grasps"  # its measures are kept apart
     lines = [f"{'#':>3}  {'d*':>8}  {'cond' if not jaws else 'N/weight':>8}  {'held':<5}  "
              f"{'failed at':<11}  motion"]
@@ -152,7 +153,8 @@ def format_sim_table(doc: dict) -> str:
         what = s.get("motion_at") or s.get("failed_at") or "-"
         detail = s["motion_words"] or s.get("reason") or ""
         lines.append(f"{i:>3}  {num(m.get('d_star'), '>8.5f', 8)}  "
-                     f"{num(second, '>8.4f', 8)}  {held:<5}  {what:<11}  {detail or '-'}"
+                     f"{num(second, '>8.3f' if jaws else '>8.4f', 8)}  {held:<5}  {what:<11}  "
+                     f"{detail or '-'}"
                      + ("" if s.get("escape_cos") is None else
                         f" (cos {s['escape_cos']:+.2f} to the predicted escape)"))
     return "\n".join(lines)

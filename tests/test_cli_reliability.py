@@ -462,11 +462,14 @@ def test_rank_takes_the_unit_a_plan_records(box, tmp_path, capsys):
     out = tmp_path / "r.json"
     code, _, err = _run(capsys, "rank", box, plan, "--out", out)
     assert code == 0, err
-    assert f"units: decimeters, the unit {plan} records (mesh.units)" in err.splitlines()
+    assert f"units: decimeters, the unit {plan} records" in err.splitlines()
     assert "length unit unknown" not in err
     assert json.loads(out.read_text())["mesh"]["units"] == "decimeters"
     code, _, err = _run(capsys, "rank", box, plan, "--units", "dm", "--quiet")  # the same unit
     assert code == 0 and err == "", err
+    for same in ("decimeter", "Decimeters", "decimetres"):  # in other words: the same length
+        code, _, err = _run(capsys, "rank", box, plan, "--units", same, "--quiet")
+        assert code == 0 and err == "", (same, err)
     # --density needs the part's unit: the plan's does (an STL file says none)
     code, _, err = _run(capsys, "rank", box, plan, "--density", "1000", "--quiet")
     assert code == 0 and err == "", err
@@ -475,9 +478,9 @@ def test_rank_takes_the_unit_a_plan_records(box, tmp_path, capsys):
 def test_rank_refuses_units_other_than_the_plans(box, tmp_path, capsys):
     plan = _plan_file(tmp_path / "box.grasps.json", box)
     line = _refused(capsys, "rank", box, plan, "--units", "mm")
-    assert line == (f"synth: error: --units mm: {plan} records its coordinates in decimeters "
-                    "(mesh.units), and a plan's coordinates are in its recorded unit: leave "
-                    "--units out, or give --units decimeters")
+    assert line == (f"synth: error: --units mm: {plan} records its coordinates in decimeters, "
+                    "and a plan's coordinates are in its recorded unit: leave --units out, or "
+                    "give --units decimeters")
 
 
 def test_rank_says_a_plan_of_another_mesh_was_planned_there(box, tmp_path, capsys,
@@ -502,6 +505,12 @@ def test_rank_says_a_plan_of_another_mesh_was_planned_there(box, tmp_path, capsy
     # the same plan on its own mesh: no word of another
     code, _, err = _run(capsys, "rank", "box.stl", "plans/box.grasps.json")
     assert code == 0 and "another mesh" not in err, err
+    # a recorded path no file can have (a NUL in it) is left out, not an internal error
+    doc["mesh"]["path"] = "a\u0000b.stl"
+    plan.write_text(json.dumps(doc))
+    line = _refused(capsys, "rank", "big.stl", "plans/box.grasps.json", "--quiet")
+    assert line.startswith(f"synth: error: plans/box.grasps.json: planned on another mesh "
+                           f"(sha256 {digest[:12]}...), not big.stl"), line
 
 
 def test_a_plan_of_another_mesh_some_of_whose_candidates_land_is_warned(box, tmp_path, capsys):

@@ -235,6 +235,8 @@ def _take_recorded_unit(args: argparse.Namespace, mesh: Any) -> None:
     """The length unit of a plan's candidates, which its file records (``mesh.units``): taken
     when ``--units`` is not given (said unless quiet), and ``--units`` of another unit refused
     (the plan's coordinates are in its recorded unit)."""
+    from trimesh import units as trimesh_units
+
     from synth.part.load import length_unit
 
     planned = recorded_unit(mesh)
@@ -243,14 +245,16 @@ def _take_recorded_unit(args: argparse.Namespace, mesh: Any) -> None:
     if args.units is None:
         args.units = planned
         if not args.quiet:
-            print(f"units: {planned}, the unit {args.candidates} records (mesh.units)",
+            print(f"units: {planned}, the unit {args.candidates} records",
                   file=sys.stderr)
         return
     given = length_unit(args.units)
-    if given is not None and given != planned:  # an unknown unit: load_part names it
+    # the same length in other words ('decimeter', 'dm', 'Decimeters') is the same unit
+    if given is not None and not math.isclose(trimesh_units.to_inch(given),
+                                              trimesh_units.to_inch(planned), rel_tol=1e-12):
         raise InputError(f"--units {args.units}: {args.candidates} records its coordinates in "
-                         f"{planned} (mesh.units), and a plan's coordinates are in its recorded "
-                         f"unit: leave --units out, or give --units {planned}")
+                         f"{planned}, and a plan's coordinates are in its recorded unit: leave "
+                         f"--units out, or give --units {planned}")
 
 
 def _another_mesh(mesh: Any, sha256: str | None, candidates: str) -> str | None:
@@ -270,9 +274,9 @@ def _another_mesh(mesh: Any, sha256: str | None, candidates: str) -> str | None:
 
     try:
         found = resolve_mesh_path(path, candidates)
-    except InputError:
+        relative = os.path.relpath(found)
+    except (InputError, ValueError, OSError):  # a path no file can have (a NUL in it)
         return digest
-    relative = os.path.relpath(found)
     return f"{found if relative.startswith('..') else relative}, {digest}"
 
 

@@ -475,6 +475,25 @@ def test_rank_takes_the_unit_a_plan_records(box, tmp_path, capsys):
     assert code == 0 and err == "", err
 
 
+def test_rank_loads_the_part_as_the_plan_records_it_was_loaded(box, tmp_path, capsys):
+    """A plan's mesh.load (body, sharp angle, decimation) is how its part was loaded: rank
+    loads it so where the command line does not say otherwise, says so, and records it."""
+    plan = _plan_file(tmp_path / "box.grasps.json", box)
+    doc = json.loads(plan.read_text())
+    doc["mesh"]["load"].update(body="all", sharp_angle=40.0)
+    plan.write_text(json.dumps(doc))
+    out = tmp_path / "r.json"
+    code, _, err = _run(capsys, "rank", box, plan, "--out", out)
+    assert code == 0, err
+    assert f"load: --body all, --sharp-angle 40.0, as {plan} records its part was loaded" in err
+    load = json.loads(out.read_text())["mesh"]["load"]
+    assert load["body"] == "all" and load["sharp_angle"] == pytest.approx(40.0)
+    # an option given on the command line wins, even at its default value
+    code, _, err = _run(capsys, "rank", box, plan, "--sharp-angle", "30", "--out", out)
+    assert code == 0 and f"load: --body all, as {plan} records" in err, err
+    assert json.loads(out.read_text())["mesh"]["load"]["sharp_angle"] == pytest.approx(30.0)
+
+
 def test_rank_refuses_units_other_than_the_plans(box, tmp_path, capsys):
     plan = _plan_file(tmp_path / "box.grasps.json", box)
     line = _refused(capsys, "rank", box, plan, "--units", "mm")

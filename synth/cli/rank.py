@@ -147,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
         more = f" (and {len(table.errors) - 1} more malformed)" if len(table.errors) > 1 else ""
         raise InputError(f"no candidate could be used: {table.errors[0][1]}{more}")
     _take_recorded_unit(args, table.mesh)
+    _take_recorded_load(args, table.mesh)
     if unit_from_file:
         check_weight_options(args)  # --density needs a unit, the file's or --units
     part = load_part_from_args(args)
@@ -177,10 +178,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {args.candidates} was planned on another mesh ({other}); {misses} of "
               f"its {len(rows)} candidates miss {args.mesh}", file=sys.stderr)
     from synth.paths import stored_mesh_path
+    from synth.plan.result import load_record
 
     doc = {"format": "synth.ranked", "version": 2, "mesh": {
            "path": stored_mesh_path(part.source, out),
-           "sha256": part.sha256, "units": part.units, "length": part.length},
+           "sha256": part.sha256, "units": part.units, "load": load_record(part),
+           "length": part.length},
            "mu": args.mu, "edges": args.edges, "surface": args.surface,
            "fingers": fingers.to_dict(),
            "candidates": [r.to_dict() for r in rows]}
@@ -255,6 +258,30 @@ def _take_recorded_unit(args: argparse.Namespace, mesh: Any) -> None:
         raise InputError(f"--units {args.units}: {args.candidates} records its coordinates in "
                          f"{planned}, and a plan's coordinates are in its recorded unit: leave "
                          f"--units out, or give --units {planned}")
+
+
+def _take_recorded_load(args: argparse.Namespace, mesh: Any) -> None:
+    """The other options a plan's part was loaded with (``mesh.load``: ``body``,
+    ``sharp_angle``, ``decimate``), taken where the command line does not give them, so
+    that the candidates are ranked on the part they were planned on; said unless quiet."""
+    load = mesh.get("load") if isinstance(mesh, dict) else None
+    if not isinstance(load, dict):
+        return
+    from synth.cli.checks import given
+    from synth.sim.document import load_keywords
+
+    load_keywords(mesh, str(args.candidates))  # the recorded values, checked
+    taken = []
+    for dest, option, default in (("body", "--body", "largest"),
+                                  ("sharp_angle", "--sharp-angle", 30.0),
+                                  ("decimate", "--decimate", None)):
+        value = load.get(dest, default)
+        if not given(args, dest) and value != getattr(args, dest):
+            setattr(args, dest, value)
+            taken.append(f"{option} {value}")
+    if taken and not args.quiet:
+        print(f"load: {', '.join(taken)}, as {args.candidates} records its part was loaded",
+              file=sys.stderr)
 
 
 def _another_mesh(mesh: Any, sha256: str | None, candidates: str) -> str | None:

@@ -46,7 +46,8 @@ def add_sim_options(p: argparse.ArgumentParser, switch: bool = False) -> None:
                    f"{d.grip:g}); a gripper presses with its rated force")
     g.add_argument("--sim-stiffness", type=float, default=d.stiffness, metavar="N/M",
                    help=f"gain of each finger's position servo, N/m, {rng('stiffness')} "
-                   f"(default {d.stiffness:g})")
+                   f"(default {d.stiffness:g}); the time step goes as one over its square root, "
+                   "so a stiffer servo costs more: 1e9 takes about 40 s a grasp")
     g.add_argument("--sim-size", type=float, default=d.size, metavar="M",
                    help="a point-finger part's bounding-box diagonal in the simulation, m, "
                    f"{rng('size')} (default {d.size:g}); gripper parts keep their real size")

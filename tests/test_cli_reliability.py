@@ -729,3 +729,24 @@ def test_a_full_disk_under_stdout_is_said_as_such(tmp_path):
     assert run.returncode == 1
     assert run.stderr.splitlines()[-1] == ("synth: error: cannot write the output: No space "
                                            "left on device")
+
+
+@pytest.mark.parametrize(("message", "said"), [
+    ("--workers (Python: workers=): expected an integer", "--workers: expected an integer"),
+    ("planner 'x' (from --planner, Python: planner=) must be", "planner 'x' (from --planner) "
+     "must be"),
+    ("decimate it on loading (--decimate N, Python: load_part(path, decimate=N); the surface "
+     "error is reported) or first", "decimate it on loading (--decimate N; the surface error "
+     "is reported) or first"),
+    ("give --units (mm, cm, m, in, ...; Python: load_part(path, units=...))",
+     "give --units (mm, cm, m, in, ...)"),
+    ("--out g.csv (Python: out=): no format; give --format h5 (Python: fmt=); or a folder",
+     "--out g.csv: no format; give --format h5; or a folder"),
+    ("a message with (parentheses) and no Python words", "a message with (parentheses) and no "
+     "Python words"),
+])
+def test_the_command_line_leaves_out_the_python_keywords(message, said):
+    """An API error names the option and the keyword; the command line says the option."""
+    from synth.cli import command_words
+
+    assert command_words(message) == said

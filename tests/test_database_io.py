@@ -147,7 +147,7 @@ def test_export_bad_format_and_missing_h5py(
 
     assert main(["db", "export", str(db_path), "--out", str(tmp_path / "g.csv")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"synth: error: --out {tmp_path / 'g.csv'} (Python: out=): its "
+    assert err.startswith(f"synth: error: --out {tmp_path / 'g.csv'}: its "
                           "extension .csv names no export format") and "\n" not in err, err
     assert not (tmp_path / "g.csv").exists()
     monkeypatch.setitem(sys.modules, "h5py", None)

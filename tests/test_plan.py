@@ -63,7 +63,7 @@ def test_surfaces_of_revolution(name):
     assert plan.grasps == ()
     assert "rotate about" in plan.message and plan.escape
     # the options to change, and their Python keywords (it read "try mu > 0 with 3 or 4 ...")
-    assert "try --mu > 0 with --contacts 3 or 4 (Python: mu=, contacts=)" in plan.message
+    assert "try --mu > 0 with --contacts 3 or 4" in plan.message
     # no number of contacts stops the turn: a larger budget is offered only if it is not one
     assert "if it is not, a budget above --evals 3000 may find one" in plan.message
     assert "contacts; a budget" not in plan.message

@@ -37,8 +37,8 @@ from synth import __version__, interrupt
 from synth.cli.checks import GIVEN
 from synth.errors import InputError, InternalError, OptionError, SolverError, SynthError, shown
 
-__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERNAL",
-           "EXIT_PIPE"]
+__all__ = ["main", "build_parser", "command_words", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT",
+           "EXIT_INTERNAL", "EXIT_PIPE"]
 
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 #: The reader of the output went away (``| head``): 128 + SIGPIPE, as a tool SIGPIPE ends.
@@ -204,10 +204,46 @@ _WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 def _line(e: BaseException) -> str:
-    """An error message as one line: line breaks become spaces, and it is cut to
-    ``_MAX_LINE`` characters."""
-    text = " ".join(str(e).split())
+    """An error message as one line: the Python API's names left out (:func:`command_words`),
+    line breaks made spaces, and cut to ``_MAX_LINE`` characters."""
+    text = " ".join(command_words(str(e)).split())
     return text if len(text) <= _MAX_LINE else text[: _MAX_LINE - 3] + "..."
+
+
+def command_words(message: str) -> str:
+    """``message`` without the words meant for a Python caller: an API error names the
+    option and its keyword, ``--units (Python: units=)`` or ``(--decimate N, Python:
+    decimate=N)``; on the command line only the option is said.
+
+    Examples
+    --------
+    >>> command_words("--workers (Python: workers=): expected an integer")
+    '--workers: expected an integer'
+    >>> command_words("give --units (mm, m; Python: load_part(path, units=...)) first")
+    'give --units (mm, m) first'
+    """
+    out = message
+    while True:
+        at = min((i for i in (out.find(" (Python: "), out.find(", Python: "),
+                              out.find("; Python: ")) if i >= 0), default=-1)
+        if at < 0:
+            return out
+        own = out.startswith(" (", at)  # a group of its own, else the end of an open one
+        depth, end = (1 if own else 0), at + 2
+        while end < len(out):
+            if out[end] == ";" and depth == 0 and not own:  # the open group's next clause
+                break
+            if out[end] == "(":
+                depth += 1
+            elif out[end] == ")":
+                if depth == 0:  # the open group's end: kept
+                    break
+                depth -= 1
+                if depth == 0 and own:
+                    end += 1  # its own closing parenthesis goes too
+                    break
+            end += 1
+        out = out[:at] + out[end:]
 
 
 def _internal(e: BaseException) -> int:

@@ -286,9 +286,8 @@ def _pieces(raw: list[tuple[str, trimesh.Trimesh]], name: str, repairs: list[str
     if n_faces > MAX_FACES:
         raise _fail(name, f"{n_faces:,} triangles, more than the {MAX_FACES:,} synth loads (a "
                     f"1.3M-triangle mesh takes about 3.5 s and 0.9 GB to load); decimate it on "
-                    f"loading (Python: load_part(path, decimate=N); the surface error is "
-                    f"reported) or "
-                    f"first, e.g. with Blender's Decimate")
+                    f"loading (--decimate N, Python: load_part(path, decimate=N); the "
+                    f"surface error is reported) or first, e.g. with Blender's Decimate")
     if not np.isfinite(allv).all():
         bad = int((~np.isfinite(allv).all(axis=1)).sum())
         raise _fail(name, f"{bad} vertices have NaN or infinite coordinates")

@@ -413,8 +413,7 @@ def _revolution_note(prm: PlanParams, escape: str | None) -> str:
     """The hint for a frictionless search whose best candidate (nearly) turns freely."""
     if prm.mu == 0 and escape and "rotate about" in escape:
         return (". If the part is a surface of revolution (sphere, cylinder, torus), no number "
-                "of frictionless contacts stops that turn: try --mu > 0 with --contacts 3 or 4 "
-                "(Python: mu=, contacts=)")
+                "of frictionless contacts stops that turn: try --mu > 0 with --contacts 3 or 4")
     return ""
 
 

@@ -269,9 +269,28 @@ def test_the_table_gives_the_squeeze_in_newtons_with_a_mass_and_the_margin_with_
     names, rows = table("--mass", "0.2")
     assert names[5:7] == ["N/weight", "squeeze_N"] and "margin" not in names
     for row in rows:
+        # to the cells' rounding: 0.005 N for two decimals, 0.0005 weights times 1.96 N
         assert float(row["squeeze_N"]) == pytest.approx(
-            float(row["N/weight"]) * 0.2 * 9.81, rel=2e-3)
+            float(row["N/weight"]) * 0.2 * 9.81, abs=0.005 + 0.0005 * 0.2 * 9.81)
     names, rows = table("--mass", "0.2", "--grip", "5")
     assert names[5:8] == ["N/weight", "squeeze_N", "margin"]
     for row in rows:
         assert float(row["margin"]) == pytest.approx(5 / float(row["squeeze_N"]), rel=1e-2)
+
+
+
+def test_a_gripper_table_shows_the_margin_and_squeeze_with_a_mass_only(capsys):
+    """A gripper plan without the part's mass has no margin nor squeeze in newtons: no
+    columns of dashes, nor 'margin -' in the picture's titles; with a mass, both columns."""
+    from synth.cli.gripper import format_gripper_table
+    from synth.part import load_part
+    from synth.plan.gripper import GripperParams, plan_gripper
+
+    part = load_part(MESHES / "cube.stl", units="cm")
+    light = plan_gripper(part, GripperParams(samples=60, top=2))
+    weighed = plan_gripper(part, GripperParams(samples=60, top=2, mass=0.02))
+    head = format_gripper_table(light.grasps, 10.0).splitlines()[0].split()
+    assert "margin" not in head and "squeeze" not in head and "N/weight" in head
+    head, *rows = format_gripper_table(weighed.grasps, 10.0).splitlines()
+    assert head.split()[3:6] == ["margin", "squeeze", "N"]
+    assert [float(r.split()[2]) for r in rows] == [round(g.margin, 2) for g in weighed.grasps]

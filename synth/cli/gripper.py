@@ -120,14 +120,19 @@ def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
     :class:`synth.database.schema.GripperGraspRecord`: ``width``, ``margin``,
     ``least_squeeze``, ``squeeze_per_weight``, ``mu_min``, ``epsilon``, ``d_star``,
     ``points``); with simulation ``labels`` (one per grasp, None where not simulated),
-    whether each held and where it failed; ``ranks`` numbers the rows (default 1, 2, ...)."""
+    whether each held and where it failed; ``ranks`` numbers the rows (default 1, 2, ...).
+    The margin and squeeze columns are shown when the part's mass gave them."""
     sim = labels is not None and any(lab is not None for lab in labels)
-    lines = [f"{'#':>3}  {'width mm':>8}  {'margin':>7}  {'squeeze N':>9}  {'N/weight':>8}  "
-             f"{'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  "
+    # the margin and the squeeze in newtons need the part's mass: no columns of dashes
+    weighed = any(g.least_squeeze is not None for g in grasps)
+    lines = [f"{'#':>3}  {'width mm':>8}  "
+             + (f"{'margin':>7}  {'squeeze N':>9}  " if weighed else "")
+             + f"{'N/weight':>8}  {'mu_min':>8}  {'epsilon':>8}  {'d*':>6}  "
              + (f"{'held':<4}  {'failed at':<9}  " if sim else "") + "contacts"]
     for i, g in enumerate(grasps):
         margin = "-" if g.margin is None else f"{g.margin:.2f}"
         squeeze = "-" if g.least_squeeze is None else f"{g.least_squeeze:.2f}"
+        newtons = f"{margin:>7}  {squeeze:>9}  " if weighed else ""
         mu_min = "-" if g.mu_min is None else f"{g.mu_min:.2g}"
         pts = "  ".join("(" + ", ".join(f"{c:.4g}" for c in p) + ")" for p in g.points)
         held = ""
@@ -136,7 +141,7 @@ def format_gripper_table(grasps: Sequence[Any], mm_per_unit: float,
             held = (f"{'-':<4}  {'-':<9}  " if lab is None else
                     f"{'yes' if lab['held'] else 'no':<4}  {lab['failed_at'] or '-':<9}  ")
         rank = i + 1 if ranks is None else ranks[i]
-        lines.append(f"{rank:>3}  {g.width * mm_per_unit:>8.1f}  {margin:>7}  {squeeze:>9}  "
+        lines.append(f"{rank:>3}  {g.width * mm_per_unit:>8.1f}  {newtons}"
                      f"{g.squeeze_per_weight:>8.3f}  {mu_min:>8}  {g.epsilon:>8.4f}  "
                      f"{g.d_star:>6.3f}  {held}{pts}")
     return "\n".join(lines)

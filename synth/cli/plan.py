@@ -108,7 +108,7 @@ def format_plan_table(plan) -> str:
         tol = "-" if r is None else f"{r.tolerance:.3g}" + ("" if r.certified else "~")
         lines.append(f"{i:>3}  {g.d_star:>8.5f}  {g.closure:<15}  {g.conditioning:>7.4f}  "
                      f"{g.epsilon:>8.5f}  {g.squeeze_per_weight:>8.3f}  "
-                     + (_number(g.least_squeeze, ".3g", 9) if newtons else "")
+                     + (_number(g.least_squeeze, ".2f", 9) if newtons else "")
                      + (_number(g.margin, ".2f", 7) if margin else "")
                      + (f"{tol:>10}  " if show else "") + f"{feats:<18}  {regs}")
     return "\n".join(lines)

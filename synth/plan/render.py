@@ -137,9 +137,11 @@ def _measures(g) -> str:  # type: ignore[no-untyped-def]
     r = g.contact_regions
     tol = "" if r is None else (f", tolerance {r.tolerance:.3g}"
                                 + ("" if r.certified else " (sampled)"))
+    newtons = "" if g.least_squeeze is None else f", squeeze {g.least_squeeze:.2f} N"
     margin = "" if g.margin is None else f", margin {g.margin:.2f}"
     return (f"d* {g.d_star:.5f} ({g.closure} closure), conditioning {g.conditioning:.4f}, "
-            f"epsilon {g.epsilon:.5f}, N/weight {g.squeeze_per_weight:.3f}{margin}{tol}")
+            f"epsilon {g.epsilon:.5f}, N/weight {g.squeeze_per_weight:.3f}{newtons}{margin}"
+            f"{tol}")
 
 
 def _finger_ends(g) -> np.ndarray:  # type: ignore[no-untyped-def]

@@ -67,8 +67,8 @@ def render_gripper_png(part: Any, plan: Any, path: str | Path, panels: int = 3) 
         tris = np.concatenate([np.asarray(m.triangles) for m in shapes])
         hand = Hand(tris, np.tile(_HAND_RGB, (len(tris), 1)), np.asarray(g.points),
                     np.asarray(g.normals), _PAD_RGB, opacity=0.55)
-        margin = "-" if g.margin is None else f"{g.margin:.2f}"
-        rows.append(GraspPicture(hand, f"#{i}  width {g.width * mm:.1f} mm, margin {margin}, "
+        margin = "" if g.margin is None else f"margin {g.margin:.2f}, "  # with a mass only
+        rows.append(GraspPicture(hand, f"#{i}  width {g.width * mm:.1f} mm, {margin}"
                                  f"N/weight {g.squeeze_per_weight:.3f}, mu_min "
                                  f"{g.mu_min:.2g}, d* {g.d_star:.3f}",
                                  _fingers(shapes, plan.gripper), _side_views(g),

@@ -427,3 +427,13 @@ def test_a_planner_name_without_its_function_names_where_it_came_from(
     with pytest.raises(InputError, match=rf"\(from {PLANNER_ENV}\)"):
         build_database(meshes, tmp_path / "b.db")
     assert not (tmp_path / "a.db").exists() and not (tmp_path / "b.db").exists()
+
+
+def test_the_build_summary_counts_in_words(tmp_path):
+    """'1 mesh file', not '1 mesh files'."""
+    import trimesh
+
+    trimesh.creation.box().export(tmp_path / "one.stl")
+    report = build_database([tmp_path / "one.stl"], tmp_path / "g.sqlite", PARAMS,
+                            planner=PLANNER, workers=0)
+    assert ": 1 mesh file, 1 planned" in report.summary()

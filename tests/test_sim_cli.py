@@ -424,3 +424,19 @@ def test_the_summary_says_in_words_what_was_simulated():
                            "the hand, as MuJoCo collides convex shapes; 1.2 s"), line
     doc["sim"]["faceted_bodies"] = 0
     assert "slabs" not in summary(doc) and (ROOT / "docs" / "simulation.md").exists()
+
+
+def test_grasps_left_out_by_top_are_said(tmp_path, capsys):
+    """--top 1 of a file of two grasps: one simulated, and a line says one more was left
+    without a label (the summary said only '1 of 1 grasps held')."""
+    path = write_grasps(tmp_path, write_cube(tmp_path), *CUBE7)
+    doc = json.loads(path.read_text())
+    doc["grasps"].append(dict(doc["grasps"][0], rank=2))
+    path.write_text(json.dumps(doc))
+    assert main(["sim", str(path), "--top", "1", "--sim-shake", "0"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "1 more grasp of the file left without a label (--top 1)" in lines
+    assert "sim" not in json.loads(path.read_text())["grasps"][1]
+    assert main(["sim", str(path), "--sim-shake", "0"]) == 0  # all of them: no such line
+    assert not any("left without a label" in line
+                   for line in capsys.readouterr().out.splitlines())

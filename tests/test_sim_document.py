@@ -88,9 +88,12 @@ def test_files_that_are_not_grasp_files(tmp_path):
     (tmp_path / "bad.json").write_text("{not json")
     with pytest.raises(InputError, match="bad.json: not JSON"):
         read_grasp_file(tmp_path / "bad.json")
-    (tmp_path / "list.json").write_text("[]")
-    with pytest.raises(InputError, match="expected a synth.grasps JSON object"):
+    (tmp_path / "list.json").write_text("[]")  # a candidate list, named so
+    with pytest.raises(InputError, match="a list of candidates"):
         read_grasp_file(tmp_path / "list.json")
+    (tmp_path / "number.json").write_text("3")
+    with pytest.raises(InputError, match="expected a synth.grasps JSON object, got int"):
+        read_grasp_file(tmp_path / "number.json")
 
 
 def test_a_relative_mesh_path_is_found_next_to_the_grasp_file(tmp_path, doc):
@@ -120,3 +123,13 @@ def test_another_synth_file_is_named_as_what_it_is(tmp_path, capsys, fmt, what):
     err = capsys.readouterr().err.strip()
     assert err == f"synth: error: {e.value}"
     assert "expected 'synth.grasps'" not in err
+
+
+def test_a_list_of_candidates_is_named_so(tmp_path):
+    """A candidate list (synth rank's and synth score's input) read "expected a synth.grasps
+    JSON object, got list"."""
+    path = tmp_path / "sets.json"
+    path.write_text(json.dumps([{"points": [[0, 0, 0]] * 7}]))
+    with pytest.raises(InputError, match=r"sets\.json: a list of candidates \(for synth rank or "
+                                         r"synth score\), not a plan; synth sim takes"):
+        read_grasp_file(path)

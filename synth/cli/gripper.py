@@ -28,7 +28,8 @@ def add_hold_options(g: argparse._ArgumentGroup) -> None:
     ``synth rank --gripper``; checked by :func:`gripper_params`)."""
     g.add_argument("--torsion", type=float, default=None, metavar="GAMMA",
                    help="torsional friction of the pads, a length in the mesh's units, in [0, "
-                   f"{MAX_LENGTH:g}] (default 5 mm, MuJoCo's default torsional coefficient)")
+                   f"{MAX_LENGTH:g}] (default: 5 mm in the mesh's units, MuJoCo's default "
+                   "torsional coefficient)")
     g.add_argument("--gravity", default=None, metavar="X,Y,Z",
                    help="hold against gravity in this direction of the part's frame only "
                    "(default: in every orientation)")

@@ -63,7 +63,8 @@ def add_part_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--decimate", type=int, default=None, metavar="N",
                    help=f"reduce the mesh to about N faces on loading, 4 to {MAX_FACES:,} (quadric "
                    "decimation with fast-simplification; the surface error it makes is "
-                   "reported): for meshes too large to plan, above that limit (default: no)")
+                   f"reported): for meshes of more than {MAX_FACES:,} faces, which load only "
+                   "so (default: no)")
     g.add_argument("--surface", choices=SURFACES, default=DEFAULT_SURFACE,
                    help="which normals a grasp must hold with: 'both' (default) the mesh's "
                    "own facets and the smooth surface they may approximate, d* the smaller; "

@@ -80,7 +80,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
     add_grip(p, "candidate")
     from synth.plan.gripper_params import GRIPPER_RANK_BY
 
-    add_rank_by(p, "candidates (tolerance computes the regions)", extra=GRIPPER_RANK_BY)
+    add_rank_by(p, "candidates; tolerance computes the regions", extra=GRIPPER_RANK_BY)
     p.add_argument("--min-tolerance", type=float, default=0.0, metavar="R",
                    help="give collision-free candidates whose placement tolerance is below R "
                    f"(mesh units, in [0, {MAX_LENGTH:g}]) the status 'tolerance', ranked "

@@ -219,17 +219,20 @@ def run(args: argparse.Namespace) -> int:
         labelled, mesh = _simulate_jaws(args, {**doc, "grasps": doc["grasps"][:first]},
                                         settings)
         _relabel(doc, "grasps", range(len(labelled["grasps"])), labelled)
-        _write(args, doc, out, mesh, shown=labelled)
+        _write(args, doc, out, mesh, shown=labelled,
+               left=len(doc["grasps"]) - len(labelled["grasps"]))
         return 0
     if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
         # a ranking of poses from elsewhere: the candidates that landed get their labels
         jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
+        left = max(0, len(jaws["grasps"]) - (first or len(jaws["grasps"])))
         jaws["grasps"], rows = jaws["grasps"][:first], rows[:first]
         labelled, mesh = _simulate_jaws(args, jaws, settings)
         _relabel(doc, "candidates", rows, labelled)
-        _write(args, doc, out, mesh, shown=labelled)
+        _write(args, doc, out, mesh, shown=labelled, left=left)
         return 0
     file = check_document(doc, str(args.grasps))
+    left = max(0, len(file.grasps) - (first or len(file.grasps)))
     file = replace(file, grasps=file.grasps[:first])
     if args.mesh is not None:
         file = replace(file, mesh_path=Path(args.mesh))
@@ -246,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
         bar.close()
     labelled = labelled_document(file, report)
     _write(args, labelled, out, file.mesh_path,
-           shown={**labelled, "grasps": labelled["grasps"][:len(report.labels)]})
+           shown={**labelled, "grasps": labelled["grasps"][:len(report.labels)]}, left=left)
     return 0
 
 
@@ -351,11 +354,12 @@ def _gripper_file(doc: dict, grasps: Path) -> Path | None:
 
 
 def _write(args: argparse.Namespace, doc: dict, out: Path | None, mesh: Path,
-           shown: dict | None = None) -> None:
+           shown: dict | None = None, left: int = 0) -> None:
     """Write the labelled document to ``out`` and print the table of ``shown`` (default
-    ``doc``), or the JSON. The written file names ``mesh``, the mesh simulated, relative to
-    its own folder (:func:`synth.paths.stored_mesh_path`), so that it resolves wherever the
-    file was written."""
+    ``doc``) and how many grasps ``--top`` ``left`` unsimulated, or the JSON. The written
+    file names ``mesh``, the mesh simulated, relative to its own folder
+    (:func:`synth.paths.stored_mesh_path`), so that it resolves wherever the file was
+    written."""
     from synth.files import write_atomic
     from synth.paths import stored_mesh_path
 
@@ -373,5 +377,8 @@ def _write(args: argparse.Namespace, doc: dict, out: Path | None, mesh: Path,
     else:
         print(format_sim_table(shown or doc))
         print(summary(shown or doc))
+        if left and not args.quiet:
+            print(f"{left} more grasp{'s' * (left > 1)} of the file left without a label "
+                  f"(--top {args.top})")
         if out is not None and not args.quiet:
             print(f"wrote {out}")

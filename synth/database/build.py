@@ -164,7 +164,8 @@ class BuildReport:
     def summary(self) -> str:
         """A few readable lines for the end of a run."""
         lines = [
-            f"{self.database}: {self.found} mesh files, {self.planned} planned "
+            f"{self.database}: {self.found} mesh file{'s' * (self.found != 1)}, "
+            f"{self.planned} planned "
             f"({self.done} done, {self.failed} failed), {self.skipped} already recorded, "
             f"{self.duplicates} duplicates; {self.grasps} grasps stored in "
             f"{format_duration(self.elapsed_s)} ({self.engine}, "

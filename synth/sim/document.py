@@ -262,6 +262,9 @@ def check_document(doc: Any, name: str = "<document>") -> GraspFile:
     >>> check_document({"format": "other"}, "g.json")  # doctest: +SKIP
     synth.errors.InputError: g.json: field format: expected 'synth.grasps', got 'other'
     """
+    if isinstance(doc, list):  # the candidate files of synth rank and synth score are lists
+        raise InputError(f"{name}: a list of candidates (for synth rank or synth score), not a "
+                         "plan; synth sim takes a grasp file written by synth plan --out")
     if not isinstance(doc, dict):
         raise InputError(f"{name}: expected a synth.grasps JSON object, got "
                          f"{type(doc).__name__}")

@@ -249,3 +249,34 @@ def test_a_point_finger_plan_ranked_with_a_gripper_says_what_it_is(tmp_path, cap
     assert err == (f"synth: error: {plan}: a point-finger plan (contact sets; JSON written by "
                    "synth plan --out), not gripper poses; rank it without --gripper (synth "
                    f"rank MESH {plan})"), err
+
+
+def test_the_gripper_an_acronym_file_names_is_told(tmp_path, capsys):
+    """ACRONYM names its gripper (``gripper/type``; ``panda`` in its own files): given without
+    --gripper, the line says which --gripper to give; with another built-in gripper, a warning
+    says the poses were made for the one the file names (every pose may then collide)."""
+    h5py = pytest.importorskip("h5py")
+    from pathlib import Path
+
+    from synth.fingers.builtin import builtin_named
+
+    assert [builtin_named(n) for n in ("panda", "Franka", "robotiq-2f-85", "robotiq_2f140",
+                                       "shadow", None, 3)] == [
+        "franka", "franka", "robotiq_2f85", "robotiq_2f140", None, None, None]
+    mesh = Path(__file__).resolve().parents[1] / "meshes" / "corpus" / "robosuite_bread.stl"
+    h5 = tmp_path / "obj.h5"
+    with h5py.File(h5, "w") as f:
+        f["grasps/transforms"] = np.stack([_from_above((0.0, 0.0, 0.05))] * 2)
+        f["object/scale"] = 1.0
+        f["gripper/type"] = "panda"
+    assert main(["rank", str(mesh), str(h5), "--units", "m"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"synth: error: {h5}: gripper poses (ACRONYM .h5) of the franka gripper (its "
+                   f"gripper/type is 'panda'), not contact sets: rank them with synth rank MESH "
+                   f"{h5} --gripper franka"), err
+    warning = (f"warning: {h5} holds poses of the franka gripper (its gripper/type is 'panda'), "
+               "ranked here as the robotiq_2f85's")
+    main(["rank", str(mesh), str(h5), "--units", "m", "--gripper", "robotiq_2f85"])
+    assert warning in capsys.readouterr().err.splitlines()
+    main(["rank", str(mesh), str(h5), "--units", "m", "--gripper", "franka"])
+    assert "warning" not in capsys.readouterr().err

@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
@@ -142,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
     check_grip(args)
     out = None if args.out is None else output_path("--out", args.out, ".json",
                                                     [args.mesh, args.candidates])
+    _refuse_named_gripper_poses(args.candidates)
     table = read_candidate_table(args.candidates, require_normals=False)
     if not table.groups:  # every candidate malformed: say so before loading the mesh
         more = f" (and {len(table.errors) - 1} more malformed)" if len(table.errors) > 1 else ""
@@ -258,6 +260,23 @@ def _take_recorded_unit(args: argparse.Namespace, mesh: Any) -> None:
         raise InputError(f"--units {args.units}: {args.candidates} records its coordinates in "
                          f"{planned}, and a plan's coordinates are in its recorded unit: leave "
                          f"--units out, or give --units {planned}")
+
+
+def _refuse_named_gripper_poses(candidates: str) -> None:
+    """An ACRONYM file of poses given as contact sets: when it names one of the built-in
+    grippers (``gripper/type``), the line says which ``--gripper`` to give (the candidate
+    reader's own line says to give one)."""
+    if Path(candidates).suffix.lower() not in (".h5", ".hdf5"):
+        return
+    from synth.fingers.builtin import builtin_named
+    from synth.formats.acronym import recorded_gripper
+
+    named = recorded_gripper(candidates)
+    hand = builtin_named(named)
+    if hand is not None:
+        raise InputError(f"{candidates}: gripper poses (ACRONYM .h5) of the {hand} gripper (its "
+                         f"gripper/type is {named!r}), not contact sets: rank them with synth "
+                         f"rank MESH {candidates} --gripper {hand}")
 
 
 def _take_recorded_load(args: argparse.Namespace, mesh: Any) -> None:

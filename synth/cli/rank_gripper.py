@@ -66,6 +66,17 @@ def format_table(rows: list[Any], mm: float) -> str:
     return "\n".join(lines)
 
 
+def _warn_other_gripper(args: argparse.Namespace, named: str | None) -> None:
+    """A warning (not refused: the poses may be tried on another hand on purpose) when the pose
+    file names a built-in gripper other than ``--gripper``'s."""
+    from synth.fingers.builtin import builtin_named
+
+    theirs, ours = builtin_named(named), builtin_named(args.gripper)
+    if theirs is not None and ours is not None and theirs != ours:
+        print(f"warning: {args.candidates} holds poses of the {theirs} gripper (its "
+              f"gripper/type is {named!r}), ranked here as the {ours}'s", file=sys.stderr)
+
+
 def run_rank_gripper(args: argparse.Namespace) -> int:
     """Run ``synth rank --gripper``; exit status 2 when a candidate was malformed (the others
     are ranked), or none could be read or none meets the part (nothing is written then)."""
@@ -99,6 +110,7 @@ def run_rank_gripper(args: argparse.Namespace) -> int:
                                                     [args.mesh, args.candidates, args.gripper])
     require(args.candidates, POSES)  # a mesh, a database: named as such
     poses = read_gripper_poses(args.candidates)
+    _warn_other_gripper(args, poses.gripper)
     if len(poses.errors) == len(poses.poses):
         more = f" (and {len(poses.errors) - 1} more malformed)" if len(poses.errors) > 1 else ""
         first = poses.errors[0][1] if poses.errors else f"{args.candidates}: no poses"

@@ -34,7 +34,7 @@ from synth.errors import InputError
 from synth.formats.objects import ObjectGrasps
 from synth.formats.poses import GripperPoses
 
-__all__ = ["read_acronym", "write_acronym", "LABEL"]
+__all__ = ["read_acronym", "write_acronym", "recorded_gripper", "LABEL"]
 
 #: Where ACRONYM's loader reads its success label.
 LABEL = "grasps/qualities/flex/object_in_gripper"
@@ -51,6 +51,32 @@ def _h5py() -> Any:
 
 def _text(value: Any) -> str:
     return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+
+def recorded_gripper(path: str | Path) -> str | None:
+    """The gripper an ACRONYM file names (``gripper/type``), or None: no such dataset, no
+    text there, no h5py, or no HDF5 file (the callers' own reading says what is wrong)."""
+    try:
+        h5py = _h5py()
+        with h5py.File(str(path), "r") as f:
+            return _name(f, "gripper/type")
+    except (InputError, OSError):
+        return None
+
+
+def _name(f: Any, key: str) -> str | None:
+    """The text of the dataset ``key`` of an open HDF5 file, None where there is none."""
+    import h5py
+
+    item = f.get(key)
+    if not isinstance(item, h5py.Dataset):
+        return None
+    try:
+        value = item[()]
+        return value.decode("utf-8") if isinstance(value, bytes) else (
+            value if isinstance(value, str) else None)
+    except (TypeError, ValueError, OSError):  # not text, or not readable as it
+        return None
 
 
 def _numbers(f: Any, key: str, where: str) -> np.ndarray:
@@ -122,13 +148,14 @@ def read_acronym(path: str | Path) -> GripperPoses:
             raise InputError(f"{where}: dataset 'grasps/widths' has shape {widths.shape}, "
                              f"expected ({len(T)},)")
         obj = _text(f["object/file"][()]) if "object/file" in f else None
+        gripper = _name(f, "gripper/type")
         mass = None
         if "object/mass" in f:  # NaN where synth's own export had no mass: none
             m = _numbers(f, "object/mass", where).reshape(-1)
             mass = float(m[0]) if m.size == 1 and np.isfinite(m[0]) and m[0] > 0 else None
     poses = GripperPoses(where, "acronym", T, tuple(str(i) for i in range(len(T))), 1.0, "m",
                          scale, obj, widths, labels, LABEL if labels is not None else None,
-                         object_mass=mass)
+                         object_mass=mass, gripper=gripper)
     return poses.with_checks("grasps/transforms[{i}]")
 
 

@@ -183,6 +183,8 @@ class GripperPoses:
         Where ``labels`` come from (``grasps/qualities/flex/object_in_gripper``, ...).
     object_mass : float or None
         The object's mass in kg, when the file gives one (ACRONYM's ``object/mass``).
+    gripper : str or None
+        The gripper the file names (ACRONYM's ``gripper/type``), as written.
     errors : tuple of (int, str)
         ``(index, message)`` of every malformed pose; the message names the file and the field.
     """
@@ -200,6 +202,7 @@ class GripperPoses:
     label_name: str | None = None
     errors: tuple[tuple[int, str], ...] = ()
     object_mass: float | None = None
+    gripper: str | None = None
 
     def with_checks(self, pose_field: str) -> GripperPoses:
         """The same poses with every malformed pose (:func:`check_poses`) in ``errors``,

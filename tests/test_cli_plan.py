@@ -294,3 +294,25 @@ def test_a_gripper_table_shows_the_margin_and_squeeze_with_a_mass_only(capsys):
     head, *rows = format_gripper_table(weighed.grasps, 10.0).splitlines()
     assert head.split()[3:6] == ["margin", "squeeze", "N"]
     assert [float(r.split()[2]) for r in rows] == [round(g.margin, 2) for g in weighed.grasps]
+
+
+def test_every_malformed_candidate_of_rank_has_its_own_line(tmp_path, capsys):
+    """A NaN (the reader's) and a set of six contacts (the ranking's) are both malformed:
+    each gets its own error line, in file order, and the exit status is 2 (the six-contact
+    set was in the table only, with exit status 0 when it was the only one)."""
+    from synth.cli import main
+
+    seven = [[0.5, 0.1, 0.1], [-0.5, 0.1, 0.1], [0.1, 0.5, 0.1], [0.1, -0.5, 0.1],
+             [0.1, 0.1, 0.5], [0.1, 0.1, -0.5], [0.5, -0.2, -0.2]]
+    f = tmp_path / "c.json"
+    f.write_text(json.dumps([{"name": "six", "points": seven[:6]},
+                             {"name": "good", "points": seven}]))
+    assert main(["rank", str(MESHES / "cube.stl"), str(f), "--units", "dm", "--quiet"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"synth: error: {f}: candidate 0 (six): 6 contacts are too few: closure takes at "
+        "least 7 without friction, 3 with it (--mu)"]
+    broken = json.dumps({"name": "nan", "points": seven[:6] + [[0.5, -0.2, "NaN"]]})
+    f.write_text(f.read_text()[:-1] + ", " + broken.replace('"NaN"', "NaN") + "]")
+    assert main(["rank", str(MESHES / "cube.stl"), str(f), "--units", "dm", "--quiet"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(": ")[3] for line in lines] == ["candidate 0 (six)", "candidate 2 (nan)"]

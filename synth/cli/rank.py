@@ -211,14 +211,20 @@ def run(args: argparse.Namespace) -> int:
                   f"{_cell(r.epsilon, '.5f', 8)}  {_cell(r.squeeze_per_weight, '.3f', 8)}  "
                   + (f"{_cell(math.nan if r.margin is None else r.margin, '.2f', 7)}  "
                      if margin else "") + (f"{tol:>10}  " if show else "") + status)
-    for _, message in table.errors:
-        print(f"synth: error: {message}", file=sys.stderr)
+    # every malformed candidate on a line of its own, in file order: the reader's (a NaN, a
+    # missing field) and the ranking's (too few contacts, 2-D points)
+    malformed = sorted((r for r in rows if r.status == "malformed"),
+                       key=lambda r: -1 if r.index is None else r.index)
+    for r in malformed:
+        reason = r.reason or ""
+        where = "" if reason.startswith(f"{args.candidates}: ") else f"{args.candidates}: "
+        print(f"synth: error: {where}{reason}", file=sys.stderr)
     if out is not None and not args.quiet:
         print(f"wrote {out}")
     if not args.quiet:
         print(counts_line(len(rows), {s: sum(r.status == s for r in rows) for s in STATUSES},
                           len(shown)), file=sys.stderr)
-    return 2 if table.errors else 0
+    return 2 if malformed else 0
 
 
 def recorded_unit(mesh: Any) -> str | None:

@@ -182,7 +182,9 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
         m = c.mu if c.mu is not None else mu
         if m == 0 and len(P) < 7 or m > 0 and len(P) < 3:
             rows.append(RankedCandidate(c.name, "malformed",
-                                        f"{label}: {len(P)} contacts are too few", index=i))
+                                        f"{label}: {len(P)} contacts are too few: closure "
+                                        "takes at least 7 without friction, 3 with it (--mu)",
+                                        index=i))
             continue
         both = surface_scores(P[None], N[None], S[None], surface, center, L, m, edges)
         graded = []  # per reading of the normals: (closure?, d*, closure class)

@@ -132,6 +132,7 @@ def test_rank_end_to_end(tmp_path):
     ranked = json.loads(out.read_text())["candidates"]
     assert [c["status"] for c in ranked] == ["ok", "ok", "misses the part"]
     assert "candidate 2 (far): point 0 is" in ranked[2]["reason"]
+    assert " mesh units from the surface" in ranked[2]["reason"]  # the file says no unit
     assert ranked[0]["d_star"] == doc["grasps"][0]["d_star"] or abs(
         ranked[0]["d_star"] - doc["grasps"][0]["d_star"]) < 1e-7
     bad = tmp_path / "bad.json"

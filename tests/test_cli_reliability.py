@@ -519,7 +519,7 @@ def test_rank_says_a_plan_of_another_mesh_was_planned_there(box, tmp_path, capsy
     digest = doc["mesh"]["sha256"]
     assert line == (f"synth: error: plans/box.grasps.json: planned on another mesh (box.stl, "
                     f"sha256 {digest[:12]}...), not big.stl: rank it on that mesh; no candidate "
-                    "could be used: candidate 0 (good): point 0 is 1 from the surface (more "
+                    "could be used: candidate 0 (good): point 0 is 1 dm from the surface (more "
                     "than 0.05196 allowed)"), line
     # the same plan on its own mesh: no word of another
     code, _, err = _run(capsys, "rank", "box.stl", "plans/box.grasps.json")

@@ -134,6 +134,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     """
     from synth.fingers import check_fingers, tip_sinks
     from synth.part.resolve import closest_points
+    from synth.plan.picture import unit_symbol
     from synth.robust import contact_regions
     from synth.scores import form_closure, frictional_form_closure
     from synth.scores.hold import finger_hold_batch
@@ -143,6 +144,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
     rows: list[RankedCandidate] = []
     center, L = part.center_mass, part.length
     several = len(part.bodies) > 1
+    unit = unit_symbol(part.units) if part.units else "mesh units"
 
     def conditioning_of(P: np.ndarray, mu: float, n: np.ndarray) -> float:
         return float(conditioning(grasp_wrenches(P, n, center, L, mu, edges)))
@@ -162,7 +164,7 @@ def rank_candidates(part, cands, mu: float, fingers, max_distance: float, *,
             j = int(far[0])
             rows.append(RankedCandidate(
                 c.name, "misses the part",
-                f"{label}: point {j} is {dist[j]:.4g} from the surface (more than "
+                f"{label}: point {j} is {dist[j]:.4g} {unit} from the surface (more than "
                 f"{max_distance:.4g} allowed)", index=i))
             continue
         con = part.resolve(closest, snap=True)

@@ -12,11 +12,10 @@ import trimesh
 
 from synth.part import load_part
 from synth.plan.picture import (
-    _BAR_CORNERS,
     VIEW_DIRECTIONS,
     GraspPicture,
     Hand,
-    _bar_corner,
+    _corners,
     _image,
     choose_views,
     contact_visibility,
@@ -184,25 +183,40 @@ def test_a_long_title_stays_inside_the_figure(cube):
     plt.close(fig)
 
 
-def test_the_scale_bar_goes_to_the_corner_that_hides_the_least():
-    """A finger drawn across the lower left corner moves the bar to the upper left; with
-    both left corners drawn over, to the upper right; on an empty view it stays lower left,
-    and where every corner is drawn over, in the one that hides the least."""
-    size, px = 360, 50.0
+def test_the_scale_bar_and_the_axes_go_to_the_corners_that_hide_the_least():
+    """On an empty view the bar is lower left and the axes lower right; a finger drawn across
+    the lower left moves the bar to the upper left; one across the lower right moves the axes
+    up; with the right half drawn over, both go left, to distinct corners; a wide label counts
+    beside a short bar."""
+    size, px, label = 360, 50.0, 40.0
     white = np.ones((size, size, 3))
-    lower_left = np.array([_BAR_CORNERS[0][0], _BAR_CORNERS[0][1]]) * size
-    assert np.allclose(_bar_corner(white, px, 40.0), lower_left)
+    lower_left_bar = np.array([0.05, 0.94]) * size
+    lower_right_axes = np.array([0.88, 0.88]) * size
+    bar, axes = _corners(white, px, label)
+    assert np.allclose(bar, lower_left_bar) and np.allclose(axes, lower_right_axes)
     img = white.copy()
     img[300:, :120] = 0.3  # a dark finger over the lower left
-    assert np.allclose(_bar_corner(img, px, 40.0), [0.05 * size, 0.12 * size])
-    img[:80, :120] = 0.3  # and over the upper left
-    assert np.allclose(_bar_corner(img, px, 40.0), [0.95 * size - px, 0.12 * size])
-    img[:80, 240:] = 0.3  # every corner: the lower left has the fewest drawn pixels now
-    img[300:, 60:120] = 1.0
-    assert np.allclose(_bar_corner(img, px, 40.0), lower_left)
+    bar, axes = _corners(img, px, label)
+    assert np.allclose(bar, [0.05 * size, 0.12 * size]) and np.allclose(axes, lower_right_axes)
+    img = white.copy()
+    img[260:, 240:] = 0.3  # over the lower right: the axes go to the upper right
+    bar, axes = _corners(img, px, label)
+    assert np.allclose(bar, lower_left_bar) and np.allclose(axes, [0.88 * size, 0.12 * size])
+    img = white.copy()
+    img[:, 200:] = 0.3  # the whole right half: the bar and the axes share the left
+    bar, axes = _corners(img, px, label)
+    assert bar[0] < size / 2 and axes[0] < size / 2 and abs(bar[1] - axes[1]) > size / 2
+    # the axes' box, drawn over by a bar-sized stroke, is never under the bar's
+    for _ in range(20):
+        rng = np.random.default_rng(_)
+        img = white.copy()
+        y, x = rng.integers(0, size - 60, 2)
+        img[y:y + 60, x:x + 60] = 0.3
+        bar, axes = _corners(img, px, label)
+        assert np.linalg.norm(bar - axes) > 0.4 * size
     # a wide label counts: drawn pixels beside a short bar, under its label, move it
     img = white.copy()
-    x0 = lower_left[0]
+    x0 = lower_left_bar[0]
     img[320:345, int(x0 + 5 + 30):int(x0 + 5 + 40)] = 0.3
-    assert np.allclose(_bar_corner(img, 5.0, 10.0), lower_left)
-    assert not np.allclose(_bar_corner(img, 5.0, 100.0), lower_left)
+    assert np.allclose(_corners(img, 5.0, 10.0)[0], lower_left_bar)
+    assert not np.allclose(_corners(img, 5.0, 100.0)[0], lower_left_bar)

@@ -200,59 +200,76 @@ def _image(view: View, part: Any, hand: Hand) -> NDArray[np.float64]:
     return img
 
 
-def _scale_bar(ax: Any, view: View, unit: str, at: NDArray[np.float64],
-               image: NDArray[np.float64]) -> None:
-    """A bar of a round length, about a fifth of the view, with its length and unit (the
-    view's top left corner at pixel ``at`` of the figure), in the corner of the view's
-    ``image`` (size, size, 3) where it covers the least of the drawing (:func:`_bar_corner`)."""
+def _bar_length(view: View) -> tuple[float, float]:
+    """The scale bar's length, a round number about a fifth of the view, in the part's units
+    and in pixels."""
     target = 0.2 * view.width
     exp = math.floor(math.log10(target))
     length = max((m * 10.0 ** exp for m in (1, 2, 5) if m * 10.0 ** exp <= target),
                  default=10.0 ** exp)
-    px = length / view.pixel
-    label = f"{length:g} {unit}"
-    x0, y0 = at + _bar_corner(image, px, _LABEL_CHAR * len(label))
+    return length, length / view.pixel
+
+
+def _scale_bar(ax: Any, view: View, unit: str, start: NDArray[np.float64]) -> None:
+    """The scale bar, its line's left end at pixel ``start`` of the figure, with its length
+    and unit (:func:`_corners` places it)."""
+    length, px = _bar_length(view)
+    x0, y0 = start
     ax.plot([x0, x0 + px], [y0, y0], color="black", linewidth=3, solid_capstyle="butt")
     ax.plot([x0, x0, np.nan, x0 + px, x0 + px], [y0 - 5, y0 + 5, np.nan, y0 - 5, y0 + 5],
             color="black", linewidth=1)
     # on a light box: a finger drawn across the corner must not hide the length
-    ax.text(x0 + px / 2, y0 - 8, label, ha="center", va="bottom", fontsize=8,
+    ax.text(x0 + px / 2, y0 - 8, f"{length:g} {unit}", ha="center", va="bottom", fontsize=8,
             bbox={"facecolor": "white", "alpha": 0.75, "edgecolor": "none", "pad": 1.0})
 
 
-#: Where the scale bar may go, as fractions of the view: its left end's x and its line's y
-#: (negative x: its right end at ``-x`` from the view's right side). Lower left first; the
-#: lower right holds the axes.
-_BAR_CORNERS = ((0.05, 0.94), (0.05, 0.12), (-0.05, 0.12))
-#: Pixels around the bar and its label (above it) that the choice of corner counts, and the
-#: width of one of the label's 8-point characters (at most).
-_BAR_ABOVE, _BAR_BELOW, _BAR_SIDE, _LABEL_CHAR = 26, 7, 4, 6.5
+#: The view's corners, as fractions of it: lower left, upper left, upper right, lower right.
+#: For each, where the scale bar's line is (its left end's x, or with a negative x its right
+#: end at -x from the right side, and its y), and where the axes' origin is.
+_BAR_AT = ((0.05, 0.94), (0.05, 0.12), (-0.05, 0.12), (-0.05, 0.94))
+_TRIAD_AT = ((0.12, 0.88), (0.12, 0.12), (0.88, 0.12), (0.88, 0.88))
+#: Each corner's rank for the bar and for the axes where corners hide as much: the bar lower
+#: left, the axes lower right, as drawn before any corner was chosen.
+_BAR_RANK, _TRIAD_RANK = (0, 1, 2, 3), (2, 3, 1, 0)
+#: Pixels around the bar and its label (above it) that the choice of corner counts, the width
+#: of one of the label's 8-point characters (at most), and the half-width of the axes' box
+#: as a fraction of the view (arrows of 0.07, their letters at 1.35 times that).
+_BAR_ABOVE, _BAR_BELOW, _BAR_SIDE, _LABEL_CHAR, _TRIAD_REACH = 26, 7, 4, 6.5, 0.11
 
 
-def _bar_corner(image: NDArray[np.float64], px: float, label: float) -> NDArray[np.float64]:
-    """Where in a view's ``image`` (size, size, 3; white where nothing is drawn) a scale bar
-    ``px`` pixels long, under a label ``label`` pixels wide, goes: the left end of its line
-    (x, y) in pixels of the view, in the first of ``_BAR_CORNERS`` whose box around the bar
-    and its label covers the fewest drawn pixels."""
+def _corners(image: NDArray[np.float64], px: float, label: float
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where the scale bar (``px`` pixels long, under a label ``label`` pixels wide) and the
+    axes go in a view's ``image`` (size, size, 3; white where nothing is drawn): two distinct
+    corners whose boxes, about the bar and its label and about the axes, cover the fewest
+    drawn pixels between them (ties: by ``_BAR_RANK`` and ``_TRIAD_RANK``). Returns the bar
+    line's left end and the axes' origin (x, y), in pixels of the view."""
     size = image.shape[0]
     drawn: NDArray[np.bool_] = np.asarray((image < 0.98).any(axis=2))
+
+    def covered(x0: float, x1: float, y0: float, y1: float) -> int:
+        return int(drawn[max(0, int(y0)):max(0, int(y1)), max(0, int(x0)):max(0, int(x1))].sum())
+
     half = max(px, label) / 2 + _BAR_SIDE
-    best, where = None, np.zeros(2)
-    for fx, fy in _BAR_CORNERS:
+    bars = []
+    for fx, fy in _BAR_AT:
         x0 = fx * size if fx >= 0 else (1 + fx) * size - px
         y0 = fy * size
         mid = x0 + px / 2
-        box = drawn[max(0, int(y0 - _BAR_ABOVE)):int(y0 + _BAR_BELOW),
-                    max(0, int(mid - half)):max(0, int(mid + half))]
-        covered = int(box.sum())
-        if best is None or covered < best:
-            best, where = covered, np.array([x0, y0])
-    return where
+        bars.append((np.array([x0, y0]),
+                     covered(mid - half, mid + half, y0 - _BAR_ABOVE, y0 + _BAR_BELOW)))
+    reach = _TRIAD_REACH * size
+    triads = [(np.array([fx, fy]) * size,
+               covered(fx * size - reach, fx * size + reach, fy * size - reach,
+                       fy * size + reach)) for fx, fy in _TRIAD_AT]
+    b, t = min(((b, t) for b in range(4) for t in range(4) if b != t),
+               key=lambda bt: (bars[bt[0]][1] + triads[bt[1]][1],
+                               _BAR_RANK[bt[0]] + _TRIAD_RANK[bt[1]], _BAR_RANK[bt[0]]))
+    return bars[b][0], triads[t][0]
 
 
-def _axes_triad(ax: Any, view: View, at: NDArray[np.float64]) -> None:
-    """The part's x, y and z axes as seen, in the view's lower right corner."""
-    origin = at + np.array([0.88, 0.88]) * view.size
+def _axes_triad(ax: Any, view: View, origin: NDArray[np.float64]) -> None:
+    """The part's x, y and z axes as seen, from pixel ``origin`` of the figure."""
     for axis, name, colour in zip(np.eye(3), "xyz", ("#c0392b", "#27ae60", "#2e6fd0"),
                                   strict=True):
         d = np.array([axis @ view.right, -(axis @ view.up)]) * 0.07 * view.size
@@ -369,8 +386,10 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
             canvas[at[1]:at[1] + size, at[0]:at[0] + size] = image
             xy, _ = view.project(row.hand.points)
             _contacts(ax, xy + at, row.hand.point_colours, seen[:, j])
-            _scale_bar(ax, view, unit, at, image)
-            _axes_triad(ax, view, at)
+            length, px = _bar_length(view)
+            bar, origin = _corners(image, px, _LABEL_CHAR * len(f"{length:g} {unit}"))
+            _scale_bar(ax, view, unit, at + bar)
+            _axes_triad(ax, view, at + origin)
             count = (f": {int(seen[:, j].sum())} of {len(seen)} contacts in view"
                      if len(seen) else "")
             texts.append((at[0] + size / 2, at[1] - _VIEW_TITLE / 2,

@@ -2,6 +2,6 @@
 
 import sys
 
-from synth.cli import main
+from synth.interrupt import run
 
-sys.exit(main())
+sys.exit(run())

@@ -15,7 +15,7 @@ import signal
 import threading
 from typing import Any
 
-__all__ = ["install", "check", "pending", "clear"]
+__all__ = ["install", "check", "pending", "clear", "run"]
 
 _pending = False
 
@@ -51,3 +51,17 @@ def check() -> None:
     """Raise ``KeyboardInterrupt`` again if an interrupt arrived and was swallowed."""
     if _pending:
         raise KeyboardInterrupt
+
+
+def run() -> int:
+    """The ``synth`` console command: :func:`synth.cli.main`, loaded here so that a Ctrl-C
+    while the command line's modules load (the first tens of milliseconds) ends it with
+    "synth: interrupted" and exit status 130, as later, not with Python's traceback."""
+    import sys
+
+    try:
+        from synth.cli import main
+    except KeyboardInterrupt:
+        print("synth: interrupted", file=sys.stderr)
+        return 130
+    return main()

@@ -49,3 +49,26 @@ def test_an_interrupt_while_the_parser_is_built_is_one_line(monkeypatch, capsys)
     monkeypatch.setattr(interrupt, "install", cut)  # before _main's own try
     assert main(["plan", "meshes/cube.stl"]) == 130
     assert capsys.readouterr().err == "synth: interrupted\n"
+
+
+def test_an_interrupt_while_the_command_line_loads_is_one_line(monkeypatch, capsys):
+    """The console command loads synth.cli inside interrupt.run: a Ctrl-C there (the first
+    tens of milliseconds of every command) ends it in one line with status 130, not with
+    Python's traceback; and the command then runs as synth.cli.main does."""
+    import builtins
+
+    real = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "synth.cli":
+            raise KeyboardInterrupt
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert interrupt.run() == 130
+    assert capsys.readouterr().err == "synth: interrupted\n"
+    monkeypatch.setattr(builtins, "__import__", real)
+    monkeypatch.setattr("sys.argv", ["synth", "--version"])
+    with pytest.raises(SystemExit) as e:  # argparse's --version exits after printing
+        interrupt.run()
+    assert e.value.code == 0 and capsys.readouterr().out.startswith("synth ")

@@ -105,9 +105,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         previous = interrupt.install()
         return _main(argv)
-    except KeyboardInterrupt:  # between the handler and _main's own try
-        print("synth: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt:  # Ctrl-C anywhere in the command
+        return _interrupted()
     finally:
         interrupt.clear()
         if previous is not None:
@@ -134,9 +133,6 @@ def _main(argv: Sequence[str] | None) -> int:
     except InputError as e:
         print(f"synth: error: {_line(e)}", file=sys.stderr)
         return EXIT_INPUT
-    except KeyboardInterrupt:
-        print("synth: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:
         return _reader_gone()
     except (InternalError, SolverError) as e:
@@ -150,9 +146,14 @@ def _main(argv: Sequence[str] | None) -> int:
         return EXIT_FAILED
     except Exception as e:  # anything else is a bug in synth: one line, never a traceback
         if interrupt.pending():  # an import cut short by Ctrl-C failing later: interrupted
-            print("synth: interrupted", file=sys.stderr)
-            return 130
+            return _interrupted()
         return _internal(e)
+
+
+def _interrupted() -> int:
+    """Report a Ctrl-C (exit status 130, as a shell reports SIGINT)."""
+    print("synth: interrupted", file=sys.stderr)
+    return 130
 
 
 def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:

@@ -6,7 +6,6 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 from typing import Any
 
 from synth.cli.checks import integer, output_path, real
@@ -272,7 +271,9 @@ def _refuse_named_gripper_poses(candidates: str) -> None:
     """An ACRONYM file of poses given as contact sets: when it names one of the built-in
     grippers (``gripper/type``), the line says which ``--gripper`` to give (the candidate
     reader's own line says to give one)."""
-    if Path(candidates).suffix.lower() not in (".h5", ".hdf5"):
+    from synth.filetype import kind_of
+
+    if kind_of(candidates) != "hdf5":  # by its first bytes, as the candidate reader tells
         return
     from synth.fingers.builtin import builtin_named
     from synth.formats.acronym import recorded_gripper

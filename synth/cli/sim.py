@@ -219,20 +219,19 @@ def run(args: argparse.Namespace) -> int:
         labelled, mesh = _simulate_jaws(args, {**doc, "grasps": doc["grasps"][:first]},
                                         settings)
         _relabel(doc, "grasps", range(len(labelled["grasps"])), labelled)
-        _write(args, doc, out, mesh, shown=labelled,
-               left=len(doc["grasps"]) - len(labelled["grasps"]))
+        _write(args, doc, out, mesh, shown=labelled, left=_left(len(doc["grasps"]), first))
         return 0
     if isinstance(doc, dict) and doc.get("format") == RANKED_JAW_FORMAT:
         # a ranking of poses from elsewhere: the candidates that landed get their labels
         jaws, rows = ranking_as_jaw_document(doc, str(args.grasps))
-        left = max(0, len(jaws["grasps"]) - (first or len(jaws["grasps"])))
+        left = _left(len(jaws["grasps"]), first)
         jaws["grasps"], rows = jaws["grasps"][:first], rows[:first]
         labelled, mesh = _simulate_jaws(args, jaws, settings)
         _relabel(doc, "candidates", rows, labelled)
         _write(args, doc, out, mesh, shown=labelled, left=left)
         return 0
     file = check_document(doc, str(args.grasps))
-    left = max(0, len(file.grasps) - (first or len(file.grasps)))
+    left = _left(len(file.grasps), first)
     file = replace(file, grasps=file.grasps[:first])
     if args.mesh is not None:
         file = replace(file, mesh_path=Path(args.mesh))
@@ -251,6 +250,11 @@ def run(args: argparse.Namespace) -> int:
     _write(args, labelled, out, file.mesh_path,
            shown={**labelled, "grasps": labelled["grasps"][:len(report.labels)]}, left=left)
     return 0
+
+
+def _left(n: int, first: int | None) -> int:
+    """How many of ``n`` grasps ``--top`` (``first``; None: all) leaves without a label."""
+    return max(0, n - first) if first else 0
 
 
 def _relabel(doc: dict[str, Any], key: str, rows: Sequence[int],

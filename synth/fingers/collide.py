@@ -67,6 +67,7 @@ from synth.fingers.model import (
 from synth.native import bvh_model, mesh_problem
 from synth.part.closest import BoxTree, DistanceBound
 from synth.part.tolerances import bounds
+from synth.scores.arguments import length_arg
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -964,9 +965,7 @@ def tip_sinks(part: Any, centers: np.ndarray, tip_radius: float) -> np.ndarray:
         C = np.zeros(0)
     if C.ndim not in (1, 2) or C.shape[-1] != 3 or not np.isfinite(C).all():
         raise InputError(f"centers: expected finite fingertip centres (f, 3), got {centers!r:.80}")
-    if isinstance(tip_radius, bool) or not isinstance(tip_radius, numbers.Real) or not (
-            0 < tip_radius < math.inf):
-        raise InputError(f"tip_radius: expected a positive finite number, got {tip_radius!r}")
+    length_arg(tip_radius, "tip_radius")
     return np.array([checker._penetration(c, float(tip_radius)) for c in C.reshape(-1, 3)])
 
 

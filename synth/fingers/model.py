@@ -30,13 +30,13 @@ SHARED_TIP_FIT_RTOL
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 
 from synth.errors import InputError
+from synth.scores.arguments import length_arg
 from synth.tolerances import NORMAL_NORM_TOL
 
 __all__ = [
@@ -363,9 +363,7 @@ def tip_centers(
     >>> c[0, 0].tolist()
     [0.0, 0.0, 2.0]
     """
-    if isinstance(tip_radius, bool) or not isinstance(tip_radius, numbers.Real) or not (
-            0 < tip_radius < math.inf):
-        raise InputError(f"tip_radius: expected a positive finite number, got {tip_radius!r}")
+    length_arg(tip_radius, "tip_radius")
     if not (isinstance(points, np.ndarray) and isinstance(normals, np.ndarray)
             and points.ndim == 3 and points.shape[2] == 3 and normals.shape == points.shape):
         raise InputError(f"points and normals: expected two (B, k, 3) arrays, got "

@@ -210,16 +210,15 @@ def _bar_length(view: View) -> tuple[float, float]:
     return length, length / view.pixel
 
 
-def _scale_bar(ax: Any, view: View, unit: str, start: NDArray[np.float64]) -> None:
-    """The scale bar, its line's left end at pixel ``start`` of the figure, with its length
-    and unit (:func:`_corners` places it)."""
-    length, px = _bar_length(view)
+def _scale_bar(ax: Any, px: float, label: str, start: NDArray[np.float64]) -> None:
+    """The scale bar, ``px`` pixels long, its line's left end at pixel ``start`` of the
+    figure, under ``label``, its length and unit (:func:`_corners` places it)."""
     x0, y0 = start
     ax.plot([x0, x0 + px], [y0, y0], color="black", linewidth=3, solid_capstyle="butt")
     ax.plot([x0, x0, np.nan, x0 + px, x0 + px], [y0 - 5, y0 + 5, np.nan, y0 - 5, y0 + 5],
             color="black", linewidth=1)
     # on a light box: a finger drawn across the corner must not hide the length
-    ax.text(x0 + px / 2, y0 - 8, f"{length:g} {unit}", ha="center", va="bottom", fontsize=8,
+    ax.text(x0 + px / 2, y0 - 8, label, ha="center", va="bottom", fontsize=8,
             bbox={"facecolor": "white", "alpha": 0.75, "edgecolor": "none", "pad": 1.0})
 
 
@@ -387,8 +386,9 @@ def draw_grasps(part: Any, rows: list[GraspPicture], title: str, empty: str = ""
             xy, _ = view.project(row.hand.points)
             _contacts(ax, xy + at, row.hand.point_colours, seen[:, j])
             length, px = _bar_length(view)
-            bar, origin = _corners(image, px, _LABEL_CHAR * len(f"{length:g} {unit}"))
-            _scale_bar(ax, view, unit, at + bar)
+            label = f"{length:g} {unit}"
+            bar, origin = _corners(image, px, _LABEL_CHAR * len(label))
+            _scale_bar(ax, px, label, at + bar)
             _axes_triad(ax, view, at + origin)
             count = (f": {int(seen[:, j].sum())} of {len(seen)} contacts in view"
                      if len(seen) else "")
